@@ -1,0 +1,23 @@
+"""move_base_local.launch of the lab: move_base with the lab's costmap and planner configuration."""
+
+from simplebot_navigation.launch.description import Node, Remap, RosParam
+
+CONFIG = "$(find simplebot_navigation)/config"
+
+LAUNCH = [
+    # The main node that starts the navigation stack
+    Node(pkg="move_base", type="move_base", name="move_base", output="screen", respawn=False, params=[
+        # common configuration for both global and local costmaps
+        RosParam(file=f"{CONFIG}/costmap_common.yaml", command="load", ns="global_costmap"),
+        RosParam(file=f"{CONFIG}/costmap_common.yaml", command="load", ns="local_costmap"),
+        # the configuration that is separate for the global and local cost maps
+        RosParam(file=f"{CONFIG}/costmap_global_odom.yaml", command="load"),
+        RosParam(file=f"{CONFIG}/costmap_local.yaml", command="load"),
+        # the configuration of the planners
+        RosParam(file=f"{CONFIG}/teb_local_planner.yaml", command="load"),
+        RosParam(file=f"{CONFIG}/global_planner.yaml", command="load"),
+    ], remaps=[
+        # The velocity command that is sent to the robot controller
+        Remap("cmd_vel", "/simplebot_controller/cmd_vel"),
+    ]),
+]

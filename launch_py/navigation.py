@@ -1,0 +1,37 @@
+"""navigation.launch: the simulated simplebot plus move_base_local.launch, all on simulated time."""
+
+from simplebot_navigation.launch.description import Arg, Group, Include, Node, Param, Remap, RosParam
+
+CONFIG = "$(find simplebot_navigation)/config"
+ROUND = "$(eval robot == 'round')"
+
+LAUNCH = [
+    Arg("world", default="lab", doc="built-in world name (lab, doors, clutter, empty) or a world/map YAML path"),
+    Arg("robot", default="box", choices=("box", "round"), doc="robot body: the lab's 0.9 x 0.6 m box, or round"),
+    Arg("radius", default="0.3", doc="radius of the round body in metres"),
+    Arg("rtf", default="1.0", doc="real-time factor of the simulation (0: as fast as the nodes allow)"),
+    Arg("viewer", default="false", doc="also start the browser viewer on http://127.0.0.1:8765"),
+
+    # Every node runs on the simulator's clock.
+    Param("/use_sim_time", True),
+
+    Node(pkg="simplebot_navigation", type="simulator", name="simulator", output="screen", params=[
+        Param("world", "$(arg world)"),
+        Param("robot", "$(arg robot)"),
+        Param("radius", "$(arg radius)"),
+        Param("real_time_factor", "$(arg rtf)"),
+    ]),
+
+    # The lab's TEB config reads odometry from /odom; the simulated diff-drive controller
+    # publishes it on /simplebot_controller/odom, as the lab's Gazebo controller did.
+    Group(remaps=[Remap("/odom", "/simplebot_controller/odom")], children=[
+        Include(file="$(find simplebot_navigation)/launch_py/move_base_local.py"),
+    ]),
+
+    # The round body: a circular footprint for both costmaps and TEB, loaded over the lab's files.
+    RosParam(file=f"{CONFIG}/round/costmap_common.yaml", ns="move_base/global_costmap", if_=ROUND),
+    RosParam(file=f"{CONFIG}/round/costmap_common.yaml", ns="move_base/local_costmap", if_=ROUND),
+    RosParam(file=f"{CONFIG}/round/teb_local_planner.yaml", ns="move_base", if_=ROUND),
+
+    Node(pkg="simplebot_navigation", type="viewer", name="viewer", output="screen", if_="$(arg viewer)"),
+]

@@ -1,0 +1,217 @@
+"""Start the nodes of a launch config: each in its own process (default) or all under one executor."""
+
+from __future__ import annotations
+
+import importlib
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from dataclasses import dataclass, field
+
+import yaml
+
+from simplebot_navigation.launch.loader import LaunchConfig, NodeSpec
+from simplebot_navigation.launch.nodes import Executable, ExecutableNotFound, resolve_executable
+
+SHUTDOWN_GRACE_S = 5.0
+
+
+def ros_args(spec: NodeSpec, params_file: str) -> list[str]:
+    args = ["--ros-args", "-r", f"__node:={spec.name}", "-r", f"__ns:={spec.namespace}",
+            "--params-file", params_file]
+    for src, dst in spec.remaps:
+        args += ["-r", f"{src}:={dst}"]
+    return args
+
+
+def write_params_file(spec: NodeSpec, folder: str) -> str:
+    path = os.path.join(folder, f"{spec.full_name.strip('/').replace('/', '__') or 'root'}.params.yaml")
+    with open(path, "w", encoding="utf-8") as handle:
+        yaml.safe_dump({spec.full_name: {"ros__parameters": spec.parameters}}, handle, sort_keys=False)
+    return path
+
+
+def _log(message: str) -> None:
+    print(f"[launch] {message}", flush=True)
+
+
+@dataclass
+class _Process:
+    spec: NodeSpec
+    command: list[str]
+    popen: subprocess.Popen | None = None
+    exit_code: int | None = None
+    respawns: int = 0
+    restart_at: float | None = None
+    log_file: str | None = None
+    threads: list[threading.Thread] = field(default_factory=list)
+
+
+class ProcessLauncher:
+    """roslaunch's process monitor: prefixed output, respawn, required nodes, clean shutdown."""
+
+    def __init__(self, config: LaunchConfig, run_dir: str | None = None):
+        self.config = config
+        self.run_dir = run_dir or tempfile.mkdtemp(prefix="simplebot_launch_")
+        self.processes: list[_Process] = []
+        self.missing: list[str] = []
+        self._stop = threading.Event()
+        self._print_lock = threading.Lock()
+
+    def _prepare(self) -> None:
+        for spec in self.config.nodes:
+            try:
+                exe = resolve_executable(spec.pkg, spec.type)
+            except ExecutableNotFound as err:
+                self.missing.append(f"{spec.full_name}: {err}")
+                continue
+            params_file = write_params_file(spec, self.run_dir)
+            command = [sys.executable, "-u", "-m", exe.module, *ros_args(spec, params_file)]
+            self.processes.append(_Process(spec, command))
+
+    def _pump(self, proc: _Process, stream, sink) -> None:
+        prefix = f"[{proc.spec.name}] "
+        for raw in iter(stream.readline, b""):
+            line = raw.decode("utf-8", "replace").rstrip("\n")
+            with self._print_lock:
+                if sink is not None:
+                    sink.write(line + "\n")
+                    sink.flush()
+                else:
+                    print(prefix + line, flush=True)
+        stream.close()
+
+    def _start(self, proc: _Process) -> None:
+        sink = None
+        if proc.spec.output == "log":
+            proc.log_file = os.path.join(self.run_dir, f"{proc.spec.name}.log")
+            sink = open(proc.log_file, "a", encoding="utf-8")  # noqa: SIM115 - closed with the pump
+        proc.popen = subprocess.Popen(proc.command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                      stdin=subprocess.DEVNULL, start_new_session=True)
+        proc.exit_code = None
+        proc.restart_at = None
+        thread = threading.Thread(target=self._pump, args=(proc, proc.popen.stdout, sink), daemon=True)
+        thread.start()
+        proc.threads = [thread]
+        where = f", output in {proc.log_file}" if proc.log_file else ""
+        _log(f"started {proc.spec.full_name} ({proc.spec.pkg}/{proc.spec.type}) pid {proc.popen.pid}{where}")
+
+    def request_stop(self, *_args) -> None:
+        self._stop.set()
+
+    def run(self) -> int:
+        """Run until Ctrl-C/SIGTERM or until every process has ended; the exit code says what failed."""
+        self._prepare()
+        for message in self.missing:
+            _log(f"NOT STARTED {message}")
+        if not self.processes:
+            _log("no node of this launch file can be started")
+            return 2
+        previous = {sig: signal.signal(sig, self.request_stop) for sig in (signal.SIGINT, signal.SIGTERM)}
+        failed: list[str] = []
+        try:
+            for proc in self.processes:
+                self._start(proc)
+            while not self._stop.is_set():
+                alive = 0
+                for proc in self.processes:
+                    if proc.restart_at is not None:
+                        alive += 1
+                        if time.monotonic() >= proc.restart_at:
+                            proc.respawns += 1
+                            self._start(proc)
+                        continue
+                    if proc.popen is None or proc.exit_code is not None:
+                        continue
+                    code = proc.popen.poll()
+                    if code is None:
+                        alive += 1
+                        continue
+                    proc.exit_code = code
+                    for thread in proc.threads:
+                        thread.join(timeout=1.0)
+                    _log(f"process {proc.spec.full_name} (pid {proc.popen.pid}) ended with exit code {code}")
+                    if proc.spec.respawn:
+                        _log(f"respawning {proc.spec.full_name} in {proc.spec.respawn_delay:.1f} s")
+                        proc.restart_at = time.monotonic() + proc.spec.respawn_delay
+                        alive += 1
+                    elif code != 0:
+                        failed.append(f"{proc.spec.full_name} (exit code {code})")
+                        if proc.spec.required:
+                            _log(f"required node {proc.spec.full_name} ended: shutting down")
+                            self._stop.set()
+                if alive == 0:
+                    break
+                self._stop.wait(0.1)
+        finally:
+            self.shutdown()
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
+        if failed:
+            _log("failed: " + ", ".join(failed))
+            return 1
+        return 0
+
+    def shutdown(self) -> None:
+        """SIGINT to every process group, then SIGTERM, then SIGKILL: no orphans."""
+        running = [p for p in self.processes if p.popen is not None and p.popen.poll() is None]
+        for sig, grace in ((signal.SIGINT, SHUTDOWN_GRACE_S), (signal.SIGTERM, 2.0), (signal.SIGKILL, 1.0)):
+            for proc in running:
+                try:
+                    os.killpg(proc.popen.pid, sig)
+                except ProcessLookupError:
+                    pass
+            deadline = time.monotonic() + grace
+            while running and time.monotonic() < deadline:
+                running = [p for p in running if p.popen.poll() is None]
+                time.sleep(0.05)
+            if not running:
+                break
+            _log(f"{', '.join(p.spec.full_name for p in running)} still running after {sig.name}")
+        for proc in self.processes:
+            for thread in proc.threads:
+                thread.join(timeout=1.0)
+
+
+def run_single_process(config: LaunchConfig) -> int:
+    """All nodes in this process under one executor (for debugging and profiling)."""
+    import rclpy
+    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+
+    run_dir = tempfile.mkdtemp(prefix="simplebot_launch_")
+    classes: list[tuple[NodeSpec, type]] = []
+    for spec in config.nodes:
+        try:
+            exe: Executable = resolve_executable(spec.pkg, spec.type)
+        except ExecutableNotFound as err:
+            _log(f"NOT STARTED {spec.full_name}: {err}")
+            continue
+        if exe.node_class is None:
+            _log(f"NOT STARTED {spec.full_name}: {exe.module} runs only as its own process")
+            continue
+        classes.append((spec, getattr(importlib.import_module(exe.module), exe.node_class)))
+    if not classes:
+        _log("no node of this launch file can be started")
+        return 2
+    rclpy.init()
+    executor = SingleThreadedExecutor()
+    nodes = []
+    try:
+        for spec, cls in classes:
+            node = cls(cli_args=ros_args(spec, write_params_file(spec, run_dir)), use_global_arguments=False)
+            nodes.append(node)
+            executor.add_node(node)
+            _log(f"started {spec.full_name} in this process")
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        for node in nodes:
+            node.destroy_node()
+        if rclpy.ok():
+            rclpy.shutdown()
+    return 0
