@@ -90,4 +90,114 @@ class Costmap2D:
 
     def resize_map(self, size_x: int, size_y: int, resolution: float,
                    origin_x: float, origin_y: float) -> None:
-        self.__init__(size_x, size_y, resolution, origin_x, origin_y, self.default_value)
+        Costmap2D.__init__(self, size_x, size_y, resolution, origin_x, origin_y, self.default_value)
+
+    def reset_maps(self) -> None:
+        self.costmap.fill(self.default_value)
+
+    # -- windows ----------------------------------------------------------------
+    def window(self, x0: int, y0: int, xn: int, yn: int) -> np.ndarray:
+        """Copy of the cells [x0, xn) x [y0, yn), row-major as in OccupancyGridUpdate."""
+        return self.costmap[y0:yn, x0:xn].copy()
+
+    def copy(self) -> "Costmap2D":
+        other = Costmap2D.__new__(Costmap2D)
+        other.__dict__.update(self.__dict__)
+        other.costmap = self.costmap.copy()
+        return other
+
+    # -- rolling window ---------------------------------------------------------
+    def update_origin(self, new_origin_x: float, new_origin_y: float) -> None:
+        """Move the origin by whole cells (truncated toward zero), keeping the overlapping block.
+
+        Newly exposed cells get the default value; the origin stays grid-aligned with the old one.
+        """
+        cell_ox = int((new_origin_x - self.origin_x) / self.resolution)
+        cell_oy = int((new_origin_y - self.origin_y) / self.resolution)
+        if cell_ox == 0 and cell_oy == 0:
+            return
+        sx, sy = self.size_x, self.size_y
+        lx, ly = min(max(cell_ox, 0), sx), min(max(cell_oy, 0), sy)
+        ux, uy = min(max(cell_ox + sx, 0), sx), min(max(cell_oy + sy, 0), sy)
+        kept = self.costmap[ly:uy, lx:ux].copy()
+        self.costmap.fill(self.default_value)
+        self.origin_x += cell_ox * self.resolution
+        self.origin_y += cell_oy * self.resolution
+        tx, ty = lx - cell_ox, ly - cell_oy
+        self.costmap[ty:ty + kept.shape[0], tx:tx + kept.shape[1]] = kept
+
+    # -- raytracing -------------------------------------------------------------
+    def raytrace_cells(self, x0, y0, x1, y1, max_length: float = math.inf):
+        """Cells visited by costmap_2d's Bresenham raytrace from (x0, y0) to each (x1, y1).
+
+        Vectorised over rays: x0/y0 and x1/y1 broadcast against each other. Each ray visits
+        ``end = min(int(scale * major), major)`` steps (scale shortens rays longer than
+        max_length cells) and then once more the cell it stopped on, so the start cell and
+        the final cell are both included. Returns (mx, my) int64 arrays, rays concatenated
+        in order, each ray's cells from start to end.
+        """
+        x0, y0, x1, y1 = np.broadcast_arrays(*(np.asarray(v, dtype=np.int64) for v in (x0, y0, x1, y1)))
+        x0, y0, x1, y1 = (v.ravel() for v in (x0, y0, x1, y1))
+        dx, dy = x1 - x0, y1 - y0
+        adx, ady = np.abs(dx), np.abs(dy)
+        x_major = adx >= ady
+        major = np.where(x_major, adx, ady)
+        minor = np.where(x_major, ady, adx)
+        dist = np.hypot(dx, dy)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            scale = np.where(dist == 0.0, 1.0, np.minimum(1.0, max_length / np.where(dist == 0.0, 1.0, dist)))
+        end = np.minimum((scale * major).astype(np.int64), major)
+        counts = end + 1
+        ray = np.repeat(np.arange(len(x0)), counts)
+        first = np.cumsum(counts) - counts
+        k = np.arange(int(counts.sum()), dtype=np.int64) - first[ray]
+        major_r = major[ray]
+        # Bresenham's error term starts at major // 2 and steps the minor axis each time it reaches major.
+        minor_steps = (major_r // 2 + k * minor[ray]) // np.maximum(major_r, 1)
+        along, across = k, minor_steps
+        xm = x_major[ray]
+        sgx = np.where(dx > 0, 1, -1)[ray]
+        sgy = np.where(dy > 0, 1, -1)[ray]
+        mx = x0[ray] + sgx * np.where(xm, along, across)
+        my = y0[ray] + sgy * np.where(xm, across, along)
+        return mx, my
+
+    def raytrace_line(self, x0: int, y0: int, x1: int, y1: int, max_length: float = math.inf):
+        """Cells of one raytrace as a list of (mx, my), start to end."""
+        mx, my = self.raytrace_cells(x0, y0, x1, y1, max_length)
+        return list(zip(mx.tolist(), my.tolist()))
+
+    # -- polygons ---------------------------------------------------------------
+    def polygon_outline_cells(self, polygon_cells) -> tuple[np.ndarray, np.ndarray]:
+        """Raytraced edges of a closed polygon given in map cells (N x 2)."""
+        p = np.asarray(polygon_cells, dtype=np.int64).reshape(-1, 2)
+        q = np.roll(p, -1, axis=0)
+        return self.raytrace_cells(p[:, 0], p[:, 1], q[:, 0], q[:, 1])
+
+    def convex_fill_cells(self, polygon_cells) -> tuple[np.ndarray, np.ndarray]:
+        """Cells filling a convex polygon: every column of the outline, from its lowest to its highest cell."""
+        p = np.asarray(polygon_cells, dtype=np.int64).reshape(-1, 2)
+        if len(p) < 3:
+            return np.empty(0, np.int64), np.empty(0, np.int64)
+        ox, oy = self.polygon_outline_cells(p)
+        x_lo = int(ox.min())
+        width = int(ox.max()) - x_lo + 1
+        low = np.full(width, np.iinfo(np.int64).max)
+        high = np.full(width, np.iinfo(np.int64).min)
+        np.minimum.at(low, ox - x_lo, oy)
+        np.maximum.at(high, ox - x_lo, oy)
+        counts = high - low + 1
+        col = np.repeat(np.arange(width), counts)
+        first = np.cumsum(counts) - counts
+        fy = low[col] + np.arange(int(counts.sum())) - first[col]
+        return col + x_lo, fy
+
+    def set_convex_polygon_cost(self, polygon_world, cost_value: int) -> bool:
+        """Fill a convex polygon given in world coordinates; does nothing and returns False if any vertex is off the map."""
+        p = np.asarray(polygon_world, dtype=float).reshape(-1, 2)
+        mx, my, valid = self.world_to_map_array(p[:, 0], p[:, 1])
+        if not valid.all():
+            return False
+        fx, fy = self.convex_fill_cells(np.stack([mx, my], axis=1))
+        self.costmap[fy, fx] = cost_value
+        return True

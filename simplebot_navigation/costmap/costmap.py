@@ -1,0 +1,123 @@
+"""Costmap: everything Costmap2DROS does except talking to ROS.
+
+The ROS shell owns subscriptions, TF and publishing; it calls this class with plain data:
+
+    cm = Costmap("local_costmap", params, parents=[("/move_base", move_base_params)], clock=node_seconds)
+    for layer, source in cm.observation_sources(): subscribe to source.topic ...
+    cm.add_laser_scan("front_laser", ranges, angle_min, angle_increment, range_min, range_max,
+                      sensor_pose=(x, y, z, yaw), stamp=t)         # pose in cm.config.global_frame
+    cm.update_map(x, y, yaw)                                       # robot pose in the global frame
+    cm.master.costmap, cm.update_window, cm.is_current(), cm.stale_sources()
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .costmap_2d import Costmap2D
+from .footprint import pad_footprint, transform_footprint
+from .layered_costmap import LayeredCostmap
+from .obstacle_layer import (Observation, ObservationSource, ObstacleLayer, laser_scan_to_observation,
+                             point_cloud_to_observation)
+from .params import CostmapConfig, resolve_costmap_params
+from .plugins import create_layer
+
+
+class Costmap:
+    def __init__(self, name: str, params: dict, parents=(), clock=time.monotonic):
+        self.name = name
+        self.config: CostmapConfig = resolve_costmap_params(params, name, parents)
+        #: messages for the shell to log once at start-up
+        self.warnings: list[str] = list(self.config.warnings)
+        c = self.config
+        period = 1.0 / c.update_frequency if c.update_frequency > 0 else 0.0
+        self.layered = LayeredCostmap(c.rolling_window, c.track_unknown_space, c.size_x, c.size_y,
+                                      c.resolution, c.origin_x, c.origin_y, clock=clock, update_period=period)
+        for plugin in c.plugins:
+            self.layered.add_plugin(create_layer(plugin.name, plugin.type, plugin.params))
+        self.unpadded_footprint = c.footprint
+        self.set_unpadded_footprint(c.footprint)
+
+    # -- observations -------------------------------------------------------------
+    def observation_sources(self) -> list[tuple[str, ObservationSource]]:
+        """(layer name, source) for every observation source, in configuration order."""
+        return [(layer.name, buffer.source) for layer in self.layered.plugins if isinstance(layer, ObstacleLayer)
+                for buffer in layer.buffers.values()]
+
+    def _find_source(self, source: str) -> tuple[ObstacleLayer, ObservationSource]:
+        """A source by name, or by '<layer>/<source>' when several obstacle layers share a name."""
+        layer_name, _, source_name = source.rpartition("/")
+        matches = [(layer, buffer.source) for layer in self.layered.plugins if isinstance(layer, ObstacleLayer)
+                   for name, buffer in layer.buffers.items()
+                   if name == source_name and layer_name in ("", layer.name)]
+        if len(matches) != 1:
+            known = [f"{layer}/{src.name}" for layer, src in self.observation_sources()]
+            reason = "is ambiguous" if matches else "is unknown"
+            raise KeyError(f"costmap {self.name!r}: observation source {source!r} {reason}; sources are {known}")
+        return matches[0]
+
+    def add_observation(self, source: str, observation: Observation) -> None:
+        layer, src = self._find_source(source)
+        layer.add_observation(src.name, observation)
+
+    def add_laser_scan(self, source: str, ranges, angle_min: float, angle_increment: float, range_min: float,
+                       range_max: float, sensor_pose, stamp: float) -> None:
+        """A LaserScan whose sensor pose (x, y, z, yaw) is in the costmap's global frame."""
+        layer, src = self._find_source(source)
+        observation = laser_scan_to_observation(ranges, angle_min, angle_increment, range_min, range_max,
+                                                sensor_pose, stamp, src.obstacle_range, src.raytrace_range,
+                                                src.inf_is_valid)
+        layer.add_observation(src.name, observation)
+
+    def add_point_cloud(self, source: str, points_xyz, sensor_origin, stamp: float) -> None:
+        """Cloud points and sensor origin already in the costmap's global frame."""
+        layer, src = self._find_source(source)
+        layer.add_observation(src.name, point_cloud_to_observation(points_xyz, sensor_origin, stamp,
+                                                                   src.obstacle_range, src.raytrace_range))
+
+    # -- updates ------------------------------------------------------------------
+    def update_map(self, robot_x: float, robot_y: float, robot_yaw: float) -> None:
+        self.layered.update_map(robot_x, robot_y, robot_yaw)
+
+    @property
+    def master(self) -> Costmap2D:
+        return self.layered.costmap
+
+    @property
+    def update_window(self) -> tuple[int, int, int, int] | None:
+        """Cells [x0, xn) x [y0, yn) rewritten by the last update_map (for costmap_updates)."""
+        return self.layered.update_window
+
+    def is_current(self) -> bool:
+        return self.layered.is_current()
+
+    def stale_sources(self) -> list[str]:
+        return self.layered.stale_sources()
+
+    def reset_layers(self) -> None:
+        """The clear_costmaps service: master to its default, every layer reset."""
+        self.layered.reset_layers()
+
+    # -- footprint ----------------------------------------------------------------
+    def set_unpadded_footprint(self, points) -> None:
+        """New footprint (e.g. from the footprint topic); padding is applied here."""
+        self.unpadded_footprint = np.asarray(points, dtype=float).reshape(-1, 2)
+        self.layered.set_footprint(pad_footprint(self.unpadded_footprint, self.config.footprint_padding))
+
+    @property
+    def footprint(self) -> np.ndarray:
+        """Padded footprint in the robot frame."""
+        return self.layered.footprint
+
+    def oriented_footprint(self, x: float, y: float, yaw: float) -> np.ndarray:
+        return transform_footprint(self.layered.footprint, x, y, yaw)
+
+    @property
+    def inscribed_radius(self) -> float:
+        return self.layered.inscribed_radius
+
+    @property
+    def circumscribed_radius(self) -> float:
+        return self.layered.circumscribed_radius

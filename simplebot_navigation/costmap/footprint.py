@@ -1,0 +1,86 @@
+"""Robot footprint: parsing, padding, radius polygons and the inscribed/circumscribed radii (REFERENCE §2.2).
+
+A footprint is an (N, 2) float array of vertices in the robot base frame, in order around the outline.
+"""
+
+from __future__ import annotations
+
+import ast
+import math
+
+import numpy as np
+
+
+def parse_footprint(value, name: str = "footprint") -> np.ndarray:
+    """Footprint from a string "[[x, y], ...]" or a list of [x, y] pairs; at least three points.
+
+    An empty string or "[]" means "no footprint" and returns an empty (0, 2) array, so the
+    caller falls back to robot_radius as costmap_2d does.
+    """
+    if isinstance(value, str):
+        text = value.strip()
+        if text in ("", "[]"):
+            return np.empty((0, 2))
+        try:
+            value = ast.literal_eval(text)
+        except (ValueError, SyntaxError) as exc:
+            raise ValueError(f"{name}: cannot parse footprint string {text!r} "
+                             f"(expected [[x1, y1], [x2, y2], ...]): {exc}") from None
+    if not isinstance(value, (list, tuple)):
+        raise ValueError(f"{name}: footprint must be a list of [x, y] points, got {value!r}")
+    if len(value) == 0:
+        return np.empty((0, 2))
+    if len(value) < 3:
+        raise ValueError(f"{name}: a footprint needs at least three points, got {len(value)}: {value!r}")
+    points = []
+    for i, point in enumerate(value):
+        if not isinstance(point, (list, tuple)) or len(point) != 2:
+            raise ValueError(f"{name}: point {i} must be a pair [x, y], got {point!r}")
+        for coord in point:
+            if isinstance(coord, bool) or not isinstance(coord, (int, float)) or not math.isfinite(coord):
+                raise ValueError(f"{name}: point {i} must contain two finite numbers, got {point!r}")
+        points.append((float(point[0]), float(point[1])))
+    return np.array(points)
+
+
+def footprint_from_radius(radius: float) -> np.ndarray:
+    """The 16-gon costmap_2d uses for a round robot (vertices on the circle)."""
+    angles = np.arange(16) * 2.0 * math.pi / 16
+    return np.stack([np.cos(angles) * radius, np.sin(angles) * radius], axis=1)
+
+
+def pad_footprint(footprint: np.ndarray, padding: float) -> np.ndarray:
+    """Push each vertex outward by `padding` along each axis separately (sign0 rule: 0 stays 0)."""
+    fp = np.asarray(footprint, dtype=float).reshape(-1, 2)
+    return fp + np.sign(fp) * padding
+
+
+def _distance_to_segment(p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
+    """Distance from the robot centre to each segment p0[i]-p1[i]."""
+    d = p1 - p0
+    len_sq = np.einsum("ij,ij->i", d, d)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.einsum("ij,ij->i", -p0, d) / len_sq
+    t = np.where(np.isnan(t), 0.0, np.clip(t, 0.0, 1.0))
+    closest = p0 + t[:, None] * d
+    return np.hypot(closest[:, 0], closest[:, 1])
+
+
+def footprint_radii(footprint: np.ndarray) -> tuple[float, float]:
+    """(inscribed, circumscribed): nearest edge to the centre and farthest vertex from it.
+
+    Fewer than three points gives (inf, 0), as costmap_2d leaves its initial values.
+    """
+    fp = np.asarray(footprint, dtype=float).reshape(-1, 2)
+    if len(fp) <= 2:
+        return math.inf, 0.0
+    vertex = np.hypot(fp[:, 0], fp[:, 1])
+    edge = _distance_to_segment(fp, np.roll(fp, -1, axis=0))
+    return float(min(vertex.min(), edge.min())), float(max(vertex.max(), edge.max()))
+
+
+def transform_footprint(footprint: np.ndarray, x: float, y: float, yaw: float) -> np.ndarray:
+    """Footprint placed at the pose (x, y, yaw) in the global frame."""
+    fp = np.asarray(footprint, dtype=float).reshape(-1, 2)
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.stack([x + fp[:, 0] * c - fp[:, 1] * s, y + fp[:, 0] * s + fp[:, 1] * c], axis=1)

@@ -1,0 +1,127 @@
+"""Layer interface and the grid-backed CostmapLayer with costmap_2d's combination rules (REFERENCE §2.3)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .cost_values import INSCRIBED_INFLATED_OBSTACLE, NO_INFORMATION
+from .costmap_2d import Costmap2D
+
+
+@dataclass
+class Bounds:
+    """World-frame update bounds that layers may only grow (an empty box starts at +-1e30)."""
+    min_x: float = 1e30
+    min_y: float = 1e30
+    max_x: float = -1e30
+    max_y: float = -1e30
+
+    def touch(self, x: float, y: float) -> None:
+        self.min_x = min(self.min_x, x)
+        self.min_y = min(self.min_y, y)
+        self.max_x = max(self.max_x, x)
+        self.max_y = max(self.max_y, y)
+
+    def touch_points(self, xs: np.ndarray, ys: np.ndarray) -> None:
+        if len(xs):
+            self.touch(float(np.min(xs)), float(np.min(ys)))
+            self.touch(float(np.max(xs)), float(np.max(ys)))
+
+    def as_tuple(self) -> tuple[float, float, float, float]:
+        return (self.min_x, self.min_y, self.max_x, self.max_y)
+
+
+class Layer:
+    """One plugin of a LayeredCostmap. Subclasses override the hooks they need."""
+
+    def __init__(self, name: str):
+        self.name = name
+        self.enabled = True
+        self.current = True
+        self.layered_costmap = None
+
+    def initialize(self, layered_costmap) -> None:
+        self.layered_costmap = layered_costmap
+        self.on_initialize()
+
+    def on_initialize(self) -> None:
+        pass
+
+    def update_bounds(self, robot_x: float, robot_y: float, robot_yaw: float, bounds: Bounds) -> None:
+        pass
+
+    def update_costs(self, master: Costmap2D, x0: int, y0: int, xn: int, yn: int) -> None:
+        pass
+
+    def reset(self) -> None:
+        pass
+
+    def is_current(self) -> bool:
+        return self.current
+
+    def on_footprint_changed(self) -> None:
+        pass
+
+    def match_size(self) -> None:
+        pass
+
+    @property
+    def footprint(self) -> np.ndarray:
+        return self.layered_costmap.footprint
+
+
+class CostmapLayer(Layer, Costmap2D):
+    """A layer that keeps its own grid, aligned with the master, and merges it into a window of the master."""
+
+    def __init__(self, name: str, default_value: int = 0):
+        Layer.__init__(self, name)
+        Costmap2D.__init__(self, 0, 0, 1.0, 0.0, 0.0, default_value)
+        self._extra = None
+
+    def match_size(self) -> None:
+        master = self.layered_costmap.costmap
+        self.resize_map(master.size_x, master.size_y, master.resolution, master.origin_x, master.origin_y)
+
+    def add_extra_bounds(self, min_x: float, min_y: float, max_x: float, max_y: float) -> None:
+        """Ask for a region to be updated on the next cycle (e.g. after clearing part of this layer)."""
+        if self._extra is None:
+            self._extra = Bounds()
+        self._extra.touch(min_x, min_y)
+        self._extra.touch(max_x, max_y)
+
+    def use_extra_bounds(self, bounds: Bounds) -> None:
+        if self._extra is not None:
+            bounds.touch(self._extra.min_x, self._extra.min_y)
+            bounds.touch(self._extra.max_x, self._extra.max_y)
+            self._extra = None
+
+    def reset(self) -> None:
+        self.reset_maps()
+
+    # -- combination with the master grid, over [x0, xn) x [y0, yn) ----------------
+    def update_with_true_overwrite(self, master: Costmap2D, x0: int, y0: int, xn: int, yn: int) -> None:
+        master.costmap[y0:yn, x0:xn] = self.costmap[y0:yn, x0:xn]
+
+    def update_with_overwrite(self, master: Costmap2D, x0: int, y0: int, xn: int, yn: int) -> None:
+        layer = self.costmap[y0:yn, x0:xn]
+        dst = master.costmap[y0:yn, x0:xn]
+        known = layer != NO_INFORMATION
+        dst[known] = layer[known]
+
+    def update_with_max(self, master: Costmap2D, x0: int, y0: int, xn: int, yn: int) -> None:
+        """A known layer value replaces an unknown master cell, even FREE; otherwise the larger wins."""
+        layer = self.costmap[y0:yn, x0:xn]
+        dst = master.costmap[y0:yn, x0:xn]
+        take = (layer != NO_INFORMATION) & ((dst == NO_INFORMATION) | (dst < layer))
+        dst[take] = layer[take]
+
+    def update_with_addition(self, master: Costmap2D, x0: int, y0: int, xn: int, yn: int) -> None:
+        layer = self.costmap[y0:yn, x0:xn]
+        dst = master.costmap[y0:yn, x0:xn]
+        summed = np.minimum(dst.astype(np.int32) + layer, INSCRIBED_INFLATED_OBSTACLE - 1).astype(np.uint8)
+        result = np.where(dst == NO_INFORMATION, layer, summed)
+        known = layer != NO_INFORMATION
+        dst[known] = result[known]
+

@@ -1,0 +1,121 @@
+"""StaticLayer: costs from an OccupancyGrid map (REFERENCE §2.4).
+
+The ROS shell hands over the grid as an int8 array [height, width] plus its geometry; in a rolling
+costmap it also sets `global_to_map`, the (x, y, yaw) transform taking global-frame points into the
+map frame.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .cost_values import FREE_SPACE, LETHAL_OBSTACLE, NO_INFORMATION
+from .layer import Bounds, CostmapLayer
+
+
+class StaticLayer(CostmapLayer):
+    def __init__(self, name: str, map_topic: str = "map", first_map_only: bool = False,
+                 subscribe_to_updates: bool = False, track_unknown_space: bool = True,
+                 use_maximum: bool = False, lethal_cost_threshold: int = 100, unknown_cost_value: int = -1,
+                 trinary_costmap: bool = True, enabled: bool = True):
+        super().__init__(name)
+        self.map_topic = map_topic
+        self.first_map_only = bool(first_map_only)
+        self.subscribe_to_updates = bool(subscribe_to_updates)
+        self.track_unknown_space = bool(track_unknown_space)
+        self.use_maximum = bool(use_maximum)
+        self.lethal_threshold = max(min(int(lethal_cost_threshold), 100), 0)
+        self.unknown_cost_value = int(unknown_cost_value) & 0xFF   # stored as unsigned char
+        self.trinary_costmap = bool(trinary_costmap)
+        self.enabled = bool(enabled)
+        self.map_received = False
+        self.has_updated_data = False
+        self.map_frame = ""
+        self.global_to_map: tuple[float, float, float] | None = None
+        self._window = (0, 0, 0, 0)
+
+    def match_size(self) -> None:
+        if not self.layered_costmap.rolling_window:
+            super().match_size()
+
+    def interpret_values(self, data) -> np.ndarray:
+        """OccupancyGrid values (int8) -> costs, with unknown, lethal threshold and trinary rules."""
+        v = np.asarray(data).astype(np.int8).view(np.uint8)
+        if self.lethal_threshold == 0:
+            scaled = np.zeros(v.shape, dtype=np.uint8)
+        else:
+            scaled = (v.astype(float) / self.lethal_threshold * LETHAL_OBSTACLE).astype(np.uint8)
+        graded = np.full(v.shape, FREE_SPACE, np.uint8) if self.trinary_costmap else scaled
+        out = np.where(v >= self.lethal_threshold, np.uint8(LETHAL_OBSTACLE), graded)
+        unknown = NO_INFORMATION if self.track_unknown_space else FREE_SPACE
+        return np.where(v == self.unknown_cost_value, np.uint8(unknown), out).astype(np.uint8)
+
+    def incoming_map(self, data, resolution: float, origin_x: float, origin_y: float, frame_id: str = "") -> None:
+        """A full map: int8 array shaped [height, width] (row-major as in nav_msgs/OccupancyGrid)."""
+        grid = np.asarray(data)
+        if grid.ndim != 2:
+            raise ValueError(f"static layer {self.name!r}: map data must be 2-D [height, width], got {grid.shape}")
+        size_y, size_x = grid.shape
+        layered = self.layered_costmap
+        master = layered.costmap
+        geometry = (size_x, size_y, float(resolution), float(origin_x), float(origin_y))
+        if not layered.rolling_window and geometry != (master.size_x, master.size_y, master.resolution,
+                                                       master.origin_x, master.origin_y):
+            layered.resize_map(*geometry, size_locked=True)
+        elif geometry != (self.size_x, self.size_y, self.resolution, self.origin_x, self.origin_y):
+            self.resize_map(*geometry)
+        self.costmap[:, :] = self.interpret_values(grid)
+        self.map_frame = frame_id.lstrip("/")
+        self._window = (0, 0, self.size_x, self.size_y)
+        self.map_received = True
+        self.has_updated_data = True
+
+    def incoming_update(self, x: int, y: int, data) -> None:
+        """An OccupancyGridUpdate: int8 array [height, width] placed at cell (x, y)."""
+        patch = np.asarray(data)
+        h, w = patch.shape
+        if x < 0 or y < 0 or x + w > self.size_x or y + h > self.size_y:
+            raise ValueError(f"static layer {self.name!r}: update {w}x{h} at ({x}, {y}) does not fit "
+                             f"the {self.size_x}x{self.size_y} map")
+        self.costmap[y:y + h, x:x + w] = self.interpret_values(patch)
+        self._window = (x, y, w, h)
+        self.has_updated_data = True
+
+    def update_bounds(self, robot_x: float, robot_y: float, robot_yaw: float, bounds: Bounds) -> None:
+        if not self.layered_costmap.rolling_window:
+            if not self.map_received or not (self.has_updated_data or self._extra is not None):
+                return
+        self.use_extra_bounds(bounds)
+        x, y, w, h = self._window
+        bounds.touch(*self.map_to_world(x, y))
+        bounds.touch(*self.map_to_world(x + w, y + h))
+        self.has_updated_data = False
+
+    def update_costs(self, master, x0: int, y0: int, xn: int, yn: int) -> None:
+        if not self.map_received:
+            return
+        if not self.layered_costmap.rolling_window:
+            if self.use_maximum:
+                self.update_with_max(master, x0, y0, xn, yn)
+            else:
+                self.update_with_true_overwrite(master, x0, y0, xn, yn)
+            return
+        if self.global_to_map is None:
+            raise RuntimeError(f"static layer {self.name!r}: a rolling costmap needs global_to_map "
+                               f"(transform from the global frame to {self.map_frame or 'the map frame'})")
+        tx, ty, yaw = self.global_to_map
+        ii, jj = np.meshgrid(np.arange(x0, xn), np.arange(y0, yn))
+        wx, wy = master.origin_x + (ii + 0.5) * master.resolution, master.origin_y + (jj + 0.5) * master.resolution
+        c, s = math.cos(yaw), math.sin(yaw)
+        mx, my, inside = self.world_to_map_array(tx + c * wx - s * wy, ty + s * wx + c * wy)
+        values = self.costmap[my[inside], mx[inside]]
+        dst = master.costmap[y0:yn, x0:xn]
+        dst[inside] = np.maximum(values, dst[inside]) if self.use_maximum else values
+
+    def reset(self) -> None:
+        """costmap_2d re-reads the map unless first_map_only; here the held map is re-applied in full."""
+        self.has_updated_data = True
+        if not self.first_map_only:
+            self._window = (0, 0, self.size_x, self.size_y)
