@@ -1,0 +1,133 @@
+"""The launcher as a user runs it: processes start with their parameters, respawn, stop cleanly."""
+
+import os
+import re
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import pytest
+
+REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def write_launch(tmp_path, nodes: str) -> str:
+    path = tmp_path / "test_launch.py"
+    path.write_text(textwrap.dedent("""
+        from simplebot_navigation.launch.description import Node, Param
+        LAUNCH = [
+        """) + textwrap.indent(textwrap.dedent(nodes), "    ") + "]\n")
+    return str(path)
+
+
+def start(launch_file: str) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "simplebot_navigation.launch", launch_file], cwd=REPO,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
+
+
+def read_until(proc: subprocess.Popen, pattern: str, timeout: float = 30.0, lines: list | None = None) -> list[str]:
+    lines = [] if lines is None else lines
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        line = proc.stdout.readline()
+        if not line:
+            break
+        lines.append(line.rstrip("\n"))
+        if re.search(pattern, line):
+            return lines
+    raise AssertionError(f"{pattern!r} not seen; output so far:\n" + "\n".join(lines))
+
+
+def alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
+def child_pids(lines: list[str]) -> list[int]:
+    return [int(m.group(1)) for line in lines for m in [re.search(r"started .* pid (\d+)", line)] if m]
+
+
+def test_nodes_get_their_params_and_stop_on_sigint(tmp_path):
+    launch = write_launch(tmp_path, """
+        Node(pkg="python", type="tests.launch.dummy_node", name="alpha", params=[Param("greeting", "hi")]),
+        Node(pkg="python", type="tests.launch.dummy_node", name="beta", ns="robot"),
+    """)
+    proc = start(launch)
+    try:
+        lines = read_until(proc, r"\[alpha\] /alpha says hi")
+        read_until(proc, r"\[beta\] /robot/beta says hello", lines=lines)
+        pids = child_pids(lines)
+        assert len(pids) == 2
+        proc.send_signal(signal.SIGINT)
+        out, _ = proc.communicate(timeout=20)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert proc.returncode == 0, out
+    assert not any(alive(pid) for pid in pids), "a node outlived the launcher"
+
+
+def test_respawn_restarts_a_dying_node(tmp_path):
+    launch = write_launch(tmp_path, """
+        Node(pkg="python", type="tests.launch.dummy_node", name="phoenix", respawn=True, respawn_delay=0.2,
+             params=[Param("exit_after", 0.3), Param("exit_code", 3)]),
+    """)
+    proc = start(launch)
+    try:
+        lines = read_until(proc, r"respawning /phoenix")
+        read_until(proc, r"started /phoenix", lines=lines)
+        read_until(proc, r"respawning /phoenix", lines=lines)
+        proc.send_signal(signal.SIGTERM)
+        proc.communicate(timeout=20)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert proc.returncode == 0
+    assert not any(alive(pid) for pid in child_pids(lines))
+
+
+def test_failed_node_sets_the_exit_code(tmp_path):
+    launch = write_launch(tmp_path, """
+        Node(pkg="python", type="tests.launch.dummy_node", name="fails",
+             params=[Param("exit_after", 0.2), Param("exit_code", 4)]),
+    """)
+    proc = start(launch)
+    out, _ = proc.communicate(timeout=60)
+    assert proc.returncode == 1
+    assert re.search(r"process /fails \(pid \d+\) ended with exit code 4", out)
+    assert "failed: /fails (exit code 4)" in out
+
+
+def test_missing_executable_is_reported_not_a_traceback(tmp_path):
+    launch = write_launch(tmp_path, """
+        Node(pkg="python", type="tests.launch.no_such_node", name="ghost"),
+    """)
+    proc = start(launch)
+    out, _ = proc.communicate(timeout=60)
+    assert proc.returncode == 2
+    assert "NOT STARTED /ghost" in out and "module tests.launch.no_such_node does not exist" in out
+    assert "Traceback" not in out
+
+
+@pytest.mark.parametrize("argv, expected", [
+    (["--list"], "navigation"),
+    (["navigation", "--help"], "robot:=VALUE"),
+])
+def test_cli_help_and_list(argv, expected):
+    out = subprocess.run([sys.executable, "-m", "simplebot_navigation.launch", *argv], cwd=REPO,
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0 and expected in out.stdout
+
+
+def test_cli_rejects_a_bad_argument_with_one_line():
+    out = subprocess.run([sys.executable, "-m", "simplebot_navigation.launch", "navigation", "robot:=tank"],
+                         cwd=REPO, capture_output=True, text=True, timeout=60)
+    assert out.returncode == 2
+    assert out.stderr.strip().splitlines() == [
+        "[launch] error: " + os.path.join(REPO, "launch_py", "navigation.py")
+        + ": argument robot='tank' is not one of box, round"]
