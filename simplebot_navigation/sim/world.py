@@ -1,0 +1,336 @@
+"""Simulator worlds: the YAML world format, its strict loader, and geometry queries on it.
+
+World file shape (more top-level keys are allowed and kept in ``World.extra``)::
+
+    name: lab
+    walls:     [{from: [x1, y1], to: [x2, y2], thickness: 0.1, height: 1.0}]
+    boxes:     [{center: [x, y], size: [sx, sy], yaw: 0.0, height: 1.0}]
+    cylinders: [{center: [x, y], radius: 0.075, height: 1.0}]
+    start: {x: 0.0, y: 0.0, yaw: 0.0}
+    goals: [{x: 5.0, y: 2.0, yaw: 0.0, name: kitchen}]
+
+A wall is the box of its thickness around the segment from -> to and ends exactly at the end points,
+so the gap between two collinear walls is the clear width of the door between them. Every entry may
+carry a ``name`` (a label); any other unknown key in an entry is an error, because a misspelt
+``thicknes`` would otherwise silently fall back to the default. ``--world path/to/map.yaml`` (a
+map_server map) is accepted too, see map_import.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any, Iterator, Mapping
+
+import numpy as np
+import yaml
+
+from simplebot_description import builtin_worlds, world_path
+
+DEFAULT_HEIGHT = 1.0
+DEFAULT_THICKNESS = 0.1
+
+
+@dataclass(frozen=True)
+class Pose2D:
+    x: float
+    y: float
+    yaw: float = 0.0
+    name: str | None = None
+
+
+@dataclass(frozen=True)
+class Box:
+    center: tuple[float, float]
+    size: tuple[float, float]
+    yaw: float = 0.0
+    height: float = DEFAULT_HEIGHT
+    name: str | None = None
+
+
+@dataclass(frozen=True)
+class Wall:
+    start: tuple[float, float]
+    end: tuple[float, float]
+    thickness: float = DEFAULT_THICKNESS
+    height: float = DEFAULT_HEIGHT
+    name: str | None = None
+
+    def as_box(self) -> Box:
+        (x1, y1), (x2, y2) = self.start, self.end
+        length = math.hypot(x2 - x1, y2 - y1)
+        return Box(((x1 + x2) / 2, (y1 + y2) / 2), (length, self.thickness),
+                   math.atan2(y2 - y1, x2 - x1), self.height, self.name)
+
+
+@dataclass(frozen=True)
+class Cylinder:
+    center: tuple[float, float]
+    radius: float
+    height: float = DEFAULT_HEIGHT
+    name: str | None = None
+
+
+@dataclass(frozen=True)
+class World:
+    name: str
+    walls: tuple[Wall, ...] = ()
+    boxes: tuple[Box, ...] = ()
+    cylinders: tuple[Cylinder, ...] = ()
+    start: Pose2D = Pose2D(0.0, 0.0, 0.0)
+    goals: tuple[Pose2D, ...] = ()
+    source: str = "<generated>"
+    extra: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
+
+    def obstacles(self) -> Iterator[tuple[str, Box | Cylinder]]:
+        """Every solid with the entry label used in messages ("walls[3]"); walls come as boxes."""
+        for i, wall in enumerate(self.walls):
+            yield f"walls[{i}]", wall.as_box()
+        for i, box in enumerate(self.boxes):
+            yield f"boxes[{i}]", box
+        for i, cyl in enumerate(self.cylinders):
+            yield f"cylinders[{i}]", cyl
+
+    def goal(self, name: str) -> Pose2D:
+        """The goal a scenario asks for by name (e.g. "door_1.5x" in the doors world)."""
+        for goal in self.goals:
+            if goal.name == name:
+                return goal
+        names = [g.name for g in self.goals if g.name]
+        raise ValueError(f"{self.source}: no goal named {name!r}; goals: {', '.join(names) or 'none named'}")
+
+    def distance(self, points) -> np.ndarray:
+        """Distance from each (x, y) point to the nearest obstacle (0 inside one; inf if none)."""
+        dist, _ = self._nearest(np.asarray(points, dtype=float).reshape(-1, 2))
+        return dist
+
+    def nearest_obstacle(self, x: float, y: float) -> tuple[float, str | None]:
+        """(distance, entry label) of the obstacle nearest to a point, for messages and checks."""
+        dist, label = self._nearest(np.array([[x, y]], dtype=float))
+        return float(dist[0]), label[0]
+
+    def bounds(self) -> tuple[float, float, float, float]:
+        """(xmin, ymin, xmax, ymax) of all obstacles, the start and the goals."""
+        xs, ys = [self.start.x], [self.start.y]
+        for g in self.goals:
+            xs.append(g.x)
+            ys.append(g.y)
+        for _, shape in self.obstacles():
+            cx, cy = shape.center
+            if isinstance(shape, Cylinder):
+                xs += [cx - shape.radius, cx + shape.radius]
+                ys += [cy - shape.radius, cy + shape.radius]
+                continue
+            c, s = math.cos(shape.yaw), math.sin(shape.yaw)
+            hx, hy = shape.size[0] / 2, shape.size[1] / 2
+            ex, ey = abs(c * hx) + abs(s * hy), abs(s * hx) + abs(c * hy)
+            xs += [cx - ex, cx + ex]
+            ys += [cy - ey, cy + ey]
+        return min(xs), min(ys), max(xs), max(ys)
+
+    def to_dict(self) -> dict:
+        """The world in file shape (what write_world dumps)."""
+        def named(d, obj):
+            return {**d, "name": obj.name} if obj.name else d
+
+        data = {"name": self.name, **dict(self.extra)}
+        data["walls"] = [named({"from": list(w.start), "to": list(w.end), "thickness": w.thickness,
+                                "height": w.height}, w) for w in self.walls]
+        data["boxes"] = [named({"center": list(b.center), "size": list(b.size), "yaw": b.yaw,
+                                "height": b.height}, b) for b in self.boxes]
+        data["cylinders"] = [named({"center": list(c.center), "radius": c.radius,
+                                    "height": c.height}, c) for c in self.cylinders]
+        data["start"] = {"x": self.start.x, "y": self.start.y, "yaw": self.start.yaw}
+        data["goals"] = [named({"x": g.x, "y": g.y, "yaw": g.yaw}, g) for g in self.goals]
+        return data
+
+    def _nearest(self, pts: np.ndarray):
+        best = np.full(len(pts), np.inf)
+        label = np.full(len(pts), None, dtype=object)
+        for name, shape in self.obstacles():
+            d = _shape_distance(shape, pts)
+            closer = d < best
+            best[closer] = d[closer]
+            label[closer] = name
+        return best, label
+
+
+def _shape_distance(shape: Box | Cylinder, pts: np.ndarray) -> np.ndarray:
+    rel = pts - np.asarray(shape.center)
+    if isinstance(shape, Cylinder):
+        return np.maximum(np.hypot(rel[:, 0], rel[:, 1]) - shape.radius, 0.0)
+    c, s = math.cos(shape.yaw), math.sin(shape.yaw)
+    local = np.abs(np.column_stack((c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1])))
+    outside = np.maximum(local - np.asarray(shape.size) / 2, 0.0)
+    return np.hypot(outside[:, 0], outside[:, 1])
+
+
+def load_world(name_or_path: str | Path, robot_radius: float = 0.0) -> World:
+    """Load a built-in world by name, a world YAML file, or a map_server map.yaml.
+
+    ``robot_radius`` is the clearance the start and the goals need from every obstacle (pass the
+    robot's inscribed radius, or 0 to check only that they are not inside an obstacle).
+    Raises ValueError naming the file and the entry for anything malformed.
+    """
+    if isinstance(robot_radius, bool) or not isinstance(robot_radius, (int, float)) \
+            or not math.isfinite(robot_radius) or robot_radius < 0:
+        raise ValueError(f"robot_radius must be a finite number >= 0; got {robot_radius!r}")
+    path = Path(name_or_path)
+    if str(name_or_path) in builtin_worlds():
+        path = world_path(str(name_or_path))
+    elif not path.is_file():
+        raise ValueError(
+            f"unknown world {str(name_or_path)!r}: no such file, and not a built-in world "
+            f"({', '.join(builtin_worlds())})")
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as exc:
+        raise ValueError(f"{path.name}: not valid YAML: {exc}") from exc
+    if isinstance(data, dict) and "image" in data:
+        from .map_import import world_from_map
+
+        world = world_from_map(data, path)
+    else:
+        world = world_from_dict(data, source=path.name, default_name=path.stem)
+    check_clearance(world, robot_radius)
+    return world
+
+
+def world_from_dict(data: Any, source: str = "<generated>", default_name: str = "world") -> World:
+    """Validate a parsed world file; ``source`` names it in error messages."""
+    v = _Validator(source)
+    if not isinstance(data, dict):
+        v.fail("top level", f"expected a mapping with walls/boxes/cylinders/start, got {type(data).__name__}")
+    name = data.get("name", default_name)
+    if not isinstance(name, str) or not name:
+        v.fail("name", f"expected a non-empty string, got {name!r}")
+    walls = tuple(
+        Wall(v.vec2(e, w, "from"), v.vec2(e, w, "to"),
+             v.positive(e, w, "thickness", DEFAULT_THICKNESS), v.positive(e, w, "height", DEFAULT_HEIGHT),
+             v.label(e, w))
+        for w, e in v.entries(data, "walls", required=("from", "to"), optional=("thickness", "height")))
+    for i, wall in enumerate(walls):
+        if wall.start == wall.end:
+            v.fail(f"walls[{i}]", f"from and to are the same point {list(wall.start)}")
+    boxes = tuple(
+        Box(v.vec2(e, w, "center"), v.size2(e, w, "size"), v.number(e, w, "yaw", 0.0),
+            v.positive(e, w, "height", DEFAULT_HEIGHT), v.label(e, w))
+        for w, e in v.entries(data, "boxes", required=("center", "size"), optional=("yaw", "height")))
+    cylinders = tuple(
+        Cylinder(v.vec2(e, w, "center"), v.positive(e, w, "radius"),
+                 v.positive(e, w, "height", DEFAULT_HEIGHT), v.label(e, w))
+        for w, e in v.entries(data, "cylinders", required=("center", "radius"), optional=("height",)))
+    start = v.pose(data["start"], "start") if "start" in data else Pose2D(0.0, 0.0, 0.0)
+    goals = tuple(v.pose(e, w) for w, e in v.entries(data, "goals", required=("x", "y"), optional=("yaw",)))
+    known = {"name", "walls", "boxes", "cylinders", "start", "goals"}
+    extra = MappingProxyType({k: val for k, val in data.items() if k not in known})
+    return World(name, walls, boxes, cylinders, start, goals, source, extra)
+
+
+def check_clearance(world: World, robot_radius: float) -> None:
+    """The start and every goal must be at least robot_radius away from all obstacles."""
+    poses = [("start", world.start)] + [(f"goals[{i}]", g) for i, g in enumerate(world.goals)]
+    for where, pose in poses:
+        dist, label = world.nearest_obstacle(pose.x, pose.y)
+        if dist == 0.0:
+            raise ValueError(f"{world.source}: {where} ({pose.x}, {pose.y}) is inside {label}")
+        if dist < robot_radius:
+            raise ValueError(f"{world.source}: {where} ({pose.x}, {pose.y}) is {dist:.3f} m from {label}, "
+                             f"closer than the robot radius {robot_radius}")
+
+
+def write_world(world: World, path: str | Path, header: str = "") -> None:
+    """Dump a (generated) world as a world file, with an optional comment header."""
+    def dump(value, flow) -> str:
+        return yaml.safe_dump(value, sort_keys=False, default_flow_style=flow, width=math.inf).rstrip()
+
+    lines = [f"# {line}" if line else "#" for line in header.splitlines()]
+    for key, value in world.to_dict().items():
+        if isinstance(value, list) and value and isinstance(value[0], dict):
+            # One entry per line, as in the hand-written worlds.
+            lines.append(f"{key}:")
+            lines += [f"  - {dump(item, True)}" for item in value]
+        elif isinstance(value, (dict, list)):
+            lines.append(f"{key}: {dump(value, True)}")
+        else:
+            lines.append(dump({key: value}, False))
+    Path(path).write_text("\n".join(lines) + "\n")
+
+
+class _Validator:
+    """Type and range checks that name the file and the entry in every message."""
+
+    def __init__(self, source: str):
+        self.source = source
+
+    def fail(self, where: str, problem: str):
+        raise ValueError(f"{self.source}: {where}: {problem}")
+
+    def entries(self, data: dict, key: str, required: tuple, optional: tuple):
+        items = data.get(key) or []
+        if not isinstance(items, list):
+            self.fail(key, f"expected a list, got {type(items).__name__}")
+        allowed = set(required) | set(optional) | {"name"}
+        for i, entry in enumerate(items):
+            where = f"{key}[{i}]"
+            if not isinstance(entry, dict):
+                self.fail(where, f"expected a mapping, got {type(entry).__name__} {entry!r}")
+            missing = [k for k in required if k not in entry]
+            if missing:
+                self.fail(where, f"missing key {missing[0]!r}")
+            unknown = sorted(set(entry) - allowed, key=str)
+            if unknown:
+                self.fail(where, f"unknown key {unknown[0]!r} (expected {', '.join(sorted(allowed))})")
+            yield where, entry
+
+    def number(self, entry: dict, where: str, key: str, default: float | None = None) -> float:
+        value = entry.get(key, default)
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            self.fail(f"{where}.{key}", f"expected a number, got {type(value).__name__} {value!r}")
+        if not math.isfinite(value):
+            self.fail(f"{where}.{key}", f"expected a finite number, got {value}")
+        return float(value)
+
+    def positive(self, entry: dict, where: str, key: str, default: float | None = None) -> float:
+        value = self.number(entry, where, key, default)
+        if value < 0:
+            self.fail(f"{where}.{key}", f"negative {key} {value}")
+        if value == 0:
+            self.fail(f"{where}.{key}", f"{key} must be positive, got 0")
+        return value
+
+    def vec2(self, entry: dict, where: str, key: str) -> tuple[float, float]:
+        value = entry[key]
+        if not isinstance(value, list) or len(value) != 2:
+            self.fail(f"{where}.{key}", f"expected [x, y], got {value!r}")
+        pair = {"x": value[0], "y": value[1]}
+        return self.number(pair, f"{where}.{key}", "x"), self.number(pair, f"{where}.{key}", "y")
+
+    def size2(self, entry: dict, where: str, key: str) -> tuple[float, float]:
+        sx, sy = self.vec2(entry, where, key)
+        for value in (sx, sy):
+            if value < 0:
+                self.fail(f"{where}.{key}", f"negative size {value}")
+            if value == 0:
+                self.fail(f"{where}.{key}", f"size must be positive, got {[sx, sy]}")
+        return sx, sy
+
+    def label(self, entry: dict, where: str) -> str | None:
+        name = entry.get("name")
+        if name is not None and not isinstance(name, str):
+            self.fail(f"{where}.name", f"expected a string, got {type(name).__name__} {name!r}")
+        return name
+
+    def pose(self, entry: Any, where: str) -> Pose2D:
+        if not isinstance(entry, dict):
+            self.fail(where, f"expected a mapping {{x, y, yaw}}, got {type(entry).__name__} {entry!r}")
+        unknown = sorted(set(entry) - {"x", "y", "yaw", "name"}, key=str)
+        if unknown:
+            self.fail(where, f"unknown key {unknown[0]!r} (expected x, y, yaw, name)")
+        for key in ("x", "y"):
+            if key not in entry:
+                self.fail(where, f"missing key {key!r}")
+        return Pose2D(self.number(entry, where, "x"), self.number(entry, where, "y"),
+                      self.number(entry, where, "yaw", 0.0), self.label(entry, where))
