@@ -1,0 +1,10 @@
+"""Global planning: global_planner/GlobalPlanner and navfn/NavfnROS on a Costmap2D."""
+
+from .config import GLOBAL_PLANNER, NAVFN, GlobalPlannerConfig, OrientationMode
+from .global_planner import (GlobalPlanner, PlanFailure, PlanResult, make_global_planner,
+                             potential_to_occupancy, warm_up)
+from .kernels import POT_HIGH
+
+__all__ = ["GLOBAL_PLANNER", "NAVFN", "POT_HIGH", "GlobalPlanner", "GlobalPlannerConfig",
+           "OrientationMode", "PlanFailure", "PlanResult", "make_global_planner",
+           "potential_to_occupancy", "warm_up"]
