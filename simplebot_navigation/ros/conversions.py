@@ -1,0 +1,85 @@
+"""Message <-> numpy conversions shared by the nodes (the only place message layouts are spelled out)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from builtin_interfaces.msg import Time as TimeMsg
+from geometry_msgs.msg import Point32, PolygonStamped, Pose, PoseArray, PoseStamped, Quaternion, TransformStamped
+from nav_msgs.msg import OccupancyGrid, Path
+
+from simplebot_navigation.costmap.cost_values import OCCUPANCY_GRID_TABLE
+
+
+def yaw_to_quaternion(yaw: float) -> Quaternion:
+    return Quaternion(x=0.0, y=0.0, z=math.sin(yaw / 2.0), w=math.cos(yaw / 2.0))
+
+
+def quaternion_to_yaw(q) -> float:
+    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
+def pose_to_xyyaw(pose: Pose) -> tuple[float, float, float]:
+    return pose.position.x, pose.position.y, quaternion_to_yaw(pose.orientation)
+
+
+def xyyaw_to_pose(x: float, y: float, yaw: float) -> Pose:
+    pose = Pose()
+    pose.position.x, pose.position.y = float(x), float(y)
+    pose.orientation = yaw_to_quaternion(float(yaw))
+    return pose
+
+
+def transform_to_xyyaw(tf: TransformStamped) -> tuple[float, float, float]:
+    t = tf.transform.translation
+    return t.x, t.y, quaternion_to_yaw(tf.transform.rotation)
+
+
+def path_msg(poses: np.ndarray, frame_id: str, stamp: TimeMsg) -> Path:
+    """nav_msgs/Path from an (N, 3) array of x, y, yaw."""
+    msg = Path()
+    msg.header.frame_id = frame_id
+    msg.header.stamp = stamp
+    for x, y, yaw in np.asarray(poses, dtype=float).reshape(-1, 3):
+        ps = PoseStamped()
+        ps.header = msg.header
+        ps.pose = xyyaw_to_pose(x, y, yaw)
+        msg.poses.append(ps)
+    return msg
+
+
+def path_to_array(msg: Path) -> np.ndarray:
+    return np.array([pose_to_xyyaw(p.pose) for p in msg.poses], dtype=float).reshape(-1, 3)
+
+
+def pose_array_msg(poses: np.ndarray, frame_id: str, stamp: TimeMsg) -> PoseArray:
+    msg = PoseArray()
+    msg.header.frame_id = frame_id
+    msg.header.stamp = stamp
+    msg.poses = [xyyaw_to_pose(x, y, yaw) for x, y, yaw in np.asarray(poses, dtype=float).reshape(-1, 3)]
+    return msg
+
+
+def polygon_msg(points: np.ndarray, frame_id: str, stamp: TimeMsg) -> PolygonStamped:
+    msg = PolygonStamped()
+    msg.header.frame_id = frame_id
+    msg.header.stamp = stamp
+    msg.polygon.points = [Point32(x=float(x), y=float(y), z=0.0) for x, y in np.asarray(points).reshape(-1, 2)]
+    return msg
+
+
+def occupancy_grid_msg(costs: np.ndarray, resolution: float, origin_x: float, origin_y: float,
+                       frame_id: str, stamp: TimeMsg) -> OccupancyGrid:
+    """A costmap grid (uint8 costs, [row=y, col=x]) as nav_msgs/OccupancyGrid with costmap_2d's table."""
+    msg = OccupancyGrid()
+    msg.header.frame_id = frame_id
+    msg.header.stamp = stamp
+    msg.info.map_load_time = stamp
+    msg.info.resolution = float(resolution)
+    msg.info.height, msg.info.width = (int(v) for v in costs.shape)
+    msg.info.origin.position.x = float(origin_x)
+    msg.info.origin.position.y = float(origin_y)
+    msg.info.origin.orientation.w = 1.0
+    msg.data = OCCUPANCY_GRID_TABLE[costs].ravel().tobytes()
+    return msg
