@@ -80,6 +80,9 @@ class CostmapLayer(Layer, Costmap2D):
         Costmap2D.__init__(self, 0, 0, 1.0, 0.0, 0.0, default_value)
         self._extra = None
 
+    def on_initialize(self) -> None:
+        self.match_size()
+
     def match_size(self) -> None:
         master = self.layered_costmap.costmap
         self.resize_map(master.size_x, master.size_y, master.resolution, master.origin_x, master.origin_y)
