@@ -16,6 +16,10 @@ Deliberate differences from ROS 1 (all documented on make_plan):
 - A* step costs are ``cost + neutral_cost`` without ROS's unsigned-char wrap-around (which
   makes costs >= 206, and unknown space, *cheaper* than free space).
 - Buckets never drop cells (ROS's 10 000-entry ring buffers silently do on large maps).
+- The precise start seeds a symmetric 3 x 3 block of nodes with true distances (see _seeds).
+- navfn mode keeps navfn's cost mapping, border blocking, tolerance search and un-oriented
+  poses, but places path points on cell centres (navfn converts with ``origin + m * res``,
+  half a cell off) and, like it, starts the wave from the robot's cell.
 """
 
 from __future__ import annotations
@@ -255,7 +259,7 @@ class GlobalPlanner:
     def _expand(self, cost, pot, width, su, sv, start_cell, goal_index) -> bool:
         cfg = self.config
         if cfg.navfn or cfg.use_dijkstra:
-            seed_idx, seed_val, push_idx = self._seeds(su, sv, start_cell, width, len(pot) // width)
+            seed_idx, seed_val, push_idx = self._seeds(su, sv, start_cell, cost, width)
             return kernels.dijkstra_expand(cost, pot, width, seed_idx, seed_val, push_idx,
                                            goal_index, self._threshold0, 2.0 * self._neutral,
                                            cfg.use_quadratic)
@@ -263,32 +267,36 @@ class GlobalPlanner:
         return kernels.astar_expand(cost, pot, width, start_index, goal_index,
                                     float(self._neutral), cfg.use_quadratic)
 
-    def _seeds(self, su, sv, start_cell, width, height):
+    def _seeds(self, su, sv, start_cell, cost, width):
         """Initial potentials and pushes of the wavefront.
 
-        Precise start: the four lattice nodes around the start point get neutral_cost x their
-        distance to it, and the ring around them is pushed. ROS 1 seeds them with
-        ``2 neutral dx dy``-style products instead, which gives three of the four nodes 0 when
-        the start is on a cell centre; the extracted path then wanders around the start.
+        Precise start: the 3 x 3 lattice nodes around the node nearest the start point get
+        neutral_cost x their distance to it (blocked nodes excepted), and the ring around them
+        is pushed. ROS 1 seeds only the 2 x 2 nodes up and right of the point with
+        ``2 neutral dx dy``-style products, which gives three of them 0 when the start is on a
+        cell centre; its paths then wander around the start, and even with true distances a
+        one-sided block bends straight paths near the start.
         """
         if not self._precise:
             k = self._index(start_cell, width)
             return (np.array([k], np.int64), np.array([0.0], np.float32),
                     np.array([k + 1, k - 1, k - width, k + width], np.int64))
-        ix, iy = int(su), int(sv)
-        dx, dy = su - ix, sv - iy
-        k = (iy + 1) * width + ix + 1
-        n = float(self._neutral)
-        seeds = [(k, n * math.hypot(dx, dy)), (k + 1, n * math.hypot(1 - dx, dy)),
-                 (k + width, n * math.hypot(dx, 1 - dy)),
-                 (k + width + 1, n * math.hypot(1 - dx, 1 - dy))]
-        # Seeds on the pad ring (start in the outer half of a border cell) are dropped.
-        seeds = [(i, v) for i, v in seeds
-                 if 0 < i % width < width - 1 and 0 < i // width < height - 1]
-        push = [k + 2, k - 1, k + width - 1, k + width + 2,
-                k - width, k - width + 1, k + 2 * width, k + 2 * width + 1]
-        return (np.array([i for i, _ in seeds], np.int64),
-                np.array([v for _, v in seeds], np.float32), np.array(push, np.int64))
+        height = len(cost) // width
+        cx, cy = int(round(su)), int(round(sv))
+        seed_idx, seed_val, push = [], [], []
+        for ox in range(-2, 3):
+            for oy in range(-2, 3):
+                x, y = cx + ox, cy + oy
+                if not (0 <= x < width - 2 and 0 <= y < height - 2):
+                    continue
+                n = (y + 1) * width + x + 1
+                if max(abs(ox), abs(oy)) == 2:
+                    push.append(n)
+                elif (ox == 0 and oy == 0) or not math.isinf(cost[n]):
+                    seed_idx.append(n)
+                    seed_val.append(self._neutral * math.hypot(x - su, y - sv))
+        return (np.array(seed_idx, np.int64), np.array(seed_val, np.float32),
+                np.array(push, np.int64))
 
     def _target(self, costmap, potential, goal_xy, goal_cell, reached, tol):
         """Where the plan ends: the goal, or the best reachable point within the tolerance."""
