@@ -1,0 +1,214 @@
+"""TEB robot footprint models (REFERENCE §4.3): the shapes the optimiser keeps away from obstacles.
+
+Every model is a union of primitives in the robot frame -- circles (a point is a circle of
+radius 0) and segments (a line is one segment, a polygon its closed outline) -- so one
+vectorised routine gives distances and their gradients for all five types. Obstacles are
+mapped into each pose's robot frame, q = R(-theta) (o - p); the pose gradient follows from
+dd/dp = -R(theta) dd/dq and dd/dtheta = dd/dq . (q_y, -q_x).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+MODEL_TYPES = ("point", "circular", "two_circles", "line", "polygon")
+
+
+class FootprintModel:
+    def __init__(self, kind: str, circles=(), segments=(), closed_polygon: bool = False,
+                 vertices=None, warnings=None):
+        self.kind = kind
+        self.circles = np.asarray(circles, dtype=float).reshape(-1, 3)       # cx, cy, r
+        self.segments = np.asarray(segments, dtype=float).reshape(-1, 4)     # ax, ay, bx, by
+        self.closed_polygon = closed_polygon
+        self.vertices = None if vertices is None else np.asarray(vertices, dtype=float)
+        self.warnings = list(warnings or [])
+
+    # -- construction -----------------------------------------------------------------
+    @classmethod
+    def point(cls, warnings=None) -> "FootprintModel":
+        return cls("point", circles=[(0.0, 0.0, 0.0)], warnings=warnings)
+
+    @classmethod
+    def circular(cls, radius: float) -> "FootprintModel":
+        return cls("circular", circles=[(0.0, 0.0, radius)])
+
+    @classmethod
+    def two_circles(cls, front_offset: float, front_radius: float,
+                    rear_offset: float, rear_radius: float) -> "FootprintModel":
+        return cls("two_circles", circles=[(front_offset, 0.0, front_radius),
+                                           (-rear_offset, 0.0, rear_radius)])
+
+    @classmethod
+    def line(cls, line_start, line_end) -> "FootprintModel":
+        return cls("line", segments=[(*line_start, *line_end)])
+
+    @classmethod
+    def polygon(cls, vertices) -> "FootprintModel":
+        v = np.asarray(vertices, dtype=float)
+        segs = np.hstack([v, np.roll(v, -1, axis=0)])
+        return cls("polygon", segments=segs, closed_polygon=True, vertices=v)
+
+    @classmethod
+    def from_params(cls, params: dict | None) -> "FootprintModel":
+        """The ``footprint_model`` sub-namespace. Missing or unknown type, or missing
+        parameters of a known type, fall back to ``point`` with a warning, as TEB does;
+        present but malformed values raise ValueError naming the parameter."""
+        params = params or {}
+        kind = params.get("type")
+        if kind is None:
+            return cls.point(["footprint_model/type not specified: using the point model "
+                              "(min_obstacle_dist must include the robot radius)"])
+        if not isinstance(kind, str) or kind not in MODEL_TYPES:
+            return cls.point([f"footprint_model/type {kind!r} is not one of {', '.join(MODEL_TYPES)}: "
+                              "using the point model"])
+        if kind == "point":
+            return cls.point()
+        if kind == "circular":
+            if "radius" not in params:
+                return cls.point(["footprint_model/radius missing for type 'circular': using the point model"])
+            return cls.circular(_number(params, "radius"))
+        if kind == "two_circles":
+            names = ("front_offset", "front_radius", "rear_offset", "rear_radius")
+            missing = [n for n in names if n not in params]
+            if missing:
+                return cls.point([f"footprint_model/{', '.join(missing)} missing for type 'two_circles': "
+                                  "using the point model"])
+            return cls.two_circles(*(_number(params, n) for n in names))
+        if kind == "line":
+            missing = [n for n in ("line_start", "line_end") if n not in params]
+            if missing:
+                return cls.point([f"footprint_model/{', '.join(missing)} missing for type 'line': "
+                                  "using the point model"])
+            return cls.line(_xy(params, "line_start"), _xy(params, "line_end"))
+        if "vertices" not in params:
+            return cls.point(["footprint_model/vertices missing for type 'polygon': using the point model"])
+        raw = params["vertices"]
+        if not isinstance(raw, (list, tuple)) or len(raw) < 3:
+            raise ValueError(f"footprint_model/vertices: expected a list of at least 3 [x, y] points, got {raw!r}")
+        return cls.polygon([_xy({"vertices": p}, "vertices") for p in raw])
+
+    # -- geometry -----------------------------------------------------------------------
+    @property
+    def inscribed_radius(self) -> float:
+        if self.kind == "circular":
+            return float(self.circles[0, 2])
+        if self.kind == "two_circles":
+            (fo, _, fr), (ro, _, rr) = self.circles[0], self.circles[1]
+            ro = -ro
+            return min(min(ro + rr, fo + fr), min(rr, fr))
+        if self.kind == "polygon":
+            d, _ = self._robot_frame_distance(np.zeros((1, 2)))
+            return float(-d[0]) if d[0] < 0 else 0.0
+        return 0.0
+
+    def _robot_frame_distance(self, q: np.ndarray):
+        """Distance (K,) and its gradient wrt q (K,2) for robot-frame points q (K,2)."""
+        best_d = np.full(len(q), np.inf)
+        best_g = np.zeros((len(q), 2))
+        if len(self.circles):
+            diff = q[:, None, :] - self.circles[None, :, :2]                 # K,C,2
+            norm = np.sqrt(np.einsum("kcj,kcj->kc", diff, diff))
+            d = norm - self.circles[None, :, 2]
+            j = np.argmin(d, axis=1)
+            k = np.arange(len(q))
+            best_d = d[k, j]
+            n = norm[k, j]
+            safe = np.where(n > 1e-12, n, 1.0)[:, None]
+            best_g = np.where(n[:, None] > 1e-12, diff[k, j] / safe, 0.0)
+        if len(self.segments):
+            a = self.segments[None, :, :2]
+            ab = self.segments[None, :, 2:] - a
+            len2 = np.einsum("ksj,ksj->ks", ab, ab)
+            aq = q[:, None, :] - a
+            t = np.clip(np.einsum("ksj,ksj->ks", aq, ab) / np.where(len2 > 0, len2, 1.0), 0.0, 1.0)
+            diff = aq - t[..., None] * ab
+            norm = np.sqrt(np.einsum("ksj,ksj->ks", diff, diff))
+            j = np.argmin(norm, axis=1)
+            k = np.arange(len(q))
+            seg_d = norm[k, j]
+            safe = np.where(seg_d > 1e-12, seg_d, 1.0)[:, None]
+            seg_g = np.where(seg_d[:, None] > 1e-12, diff[k, j] / safe, 0.0)
+            if self.closed_polygon:
+                sign = np.where(_inside_polygon(q, self.vertices), -1.0, 1.0)
+                seg_d = seg_d * sign
+                seg_g = seg_g * sign[:, None]
+            take = seg_d < best_d
+            best_d = np.where(take, seg_d, best_d)
+            best_g = np.where(take[:, None], seg_g, best_g)
+        return best_d, best_g
+
+    @staticmethod
+    def _to_robot_frame(poses: np.ndarray, points: np.ndarray) -> np.ndarray:
+        c, s = np.cos(poses[..., 2]), np.sin(poses[..., 2])
+        dx = points[..., 0] - poses[..., 0]
+        dy = points[..., 1] - poses[..., 1]
+        return np.stack([c * dx + s * dy, -s * dx + c * dy], axis=-1)
+
+    def distances(self, poses: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """Distance matrix (N, M) from N poses (N,3) to M point obstacles (M,2)."""
+        poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        q = self._to_robot_frame(poses[:, None, :], points[None, :, :])
+        d, _ = self._robot_frame_distance(q.reshape(-1, 2))
+        return d.reshape(len(poses), len(points))
+
+    def pair_distances(self, poses: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """Pairwise distances (K,) between poses[k] (K,3) and points[k] (K,2)."""
+        return self._robot_frame_distance(self._to_robot_frame(poses, points))[0]
+
+    def distance_and_gradient(self, poses: np.ndarray, points: np.ndarray):
+        """Pairwise distances (K,) between poses[k] and points[k], and d(dist)/d(x, y, theta) (K,3)."""
+        q = self._to_robot_frame(poses, points)
+        d, gq = self._robot_frame_distance(q)
+        c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+        grad = np.empty((len(d), 3))
+        grad[:, 0] = -(c * gq[:, 0] - s * gq[:, 1])
+        grad[:, 1] = -(s * gq[:, 0] + c * gq[:, 1])
+        grad[:, 2] = gq[:, 0] * q[:, 1] - gq[:, 1] * q[:, 0]
+        return d, grad
+
+    def outline(self, poses: np.ndarray, circle_points: int = 16) -> list[np.ndarray]:
+        """World-frame outline point lists of the model at each pose (for markers)."""
+        parts = []
+        ang = np.linspace(0.0, 2 * math.pi, circle_points + 1)
+        for cx, cy, r in self.circles:
+            parts.append(np.stack([cx + r * np.cos(ang), cy + r * np.sin(ang)], axis=1) if r > 0
+                         else np.array([[cx, cy]]))
+        if self.closed_polygon:
+            parts.append(np.vstack([self.vertices, self.vertices[:1]]))
+        elif len(self.segments):
+            parts.append(self.segments[0].reshape(2, 2))
+        local = np.vstack(parts)
+        out = []
+        for x, y, th in np.asarray(poses, dtype=float).reshape(-1, 3):
+            c, s = math.cos(th), math.sin(th)
+            out.append(np.stack([x + c * local[:, 0] - s * local[:, 1],
+                                 y + s * local[:, 0] + c * local[:, 1]], axis=1))
+        return out
+
+
+def _inside_polygon(q: np.ndarray, vertices: np.ndarray) -> np.ndarray:
+    """Even-odd rule, vectorised over query points."""
+    x, y = q[:, 0:1], q[:, 1:2]
+    xi, yi = vertices[None, :, 0], vertices[None, :, 1]
+    xj, yj = np.roll(vertices[:, 0], 1)[None, :], np.roll(vertices[:, 1], 1)[None, :]
+    crosses = ((yi > y) != (yj > y)) & (x < (xj - xi) * (y - yi) / np.where(yj != yi, yj - yi, 1.0) + xi)
+    return (np.count_nonzero(crosses, axis=1) % 2) == 1
+
+
+def _number(params: dict, name: str) -> float:
+    v = params[name]
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise ValueError(f"footprint_model/{name}: expected a number, got {v!r}")
+    return float(v)
+
+
+def _xy(params: dict, name: str) -> tuple[float, float]:
+    v = params[name]
+    if (not isinstance(v, (list, tuple)) or len(v) != 2
+            or any(isinstance(c, bool) or not isinstance(c, (int, float)) for c in v)):
+        raise ValueError(f"footprint_model/{name}: expected [x, y], got {v!r}")
+    return float(v[0]), float(v[1])

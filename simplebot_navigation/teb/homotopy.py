@@ -1,0 +1,279 @@
+"""Homotopy class planning, simple version: several bands through distinct gaps, the cheapest wins.
+
+TEB's full HCP samples a roadmap and compares H-signatures against every point obstacle, which
+is what makes it slow with costmap cells (REFERENCE §4.7). Here lethal cells are first grouped
+into clusters (cells closer than the robot can pass between), each cluster is represented by one
+key point, and a band's class is the vector of angles it sweeps around those key points: two
+bands with the same start and goal are in the same class when every swept angle agrees to within
+pi. New candidates are seeded by offset initial paths passing left and right of the clusters
+closest to the start-goal line, at most max_number_classes bands in total.
+
+With enable_homotopy_class_planning false the planner keeps exactly one band (TebOptimalPlanner).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import ndimage
+
+from simplebot_navigation.teb.band import TimedElasticBand, normalize_theta
+from simplebot_navigation.teb.optimizer import TebOptimizer
+
+
+@dataclass
+class Candidate:
+    band: TimedElasticBand
+    from_initial_plan: bool = False
+    cost: float = math.inf
+    signature: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+
+def obstacle_clusters(obstacles: np.ndarray, gap: float) -> list[np.ndarray]:
+    """Group point obstacles on a coarse grid of cell size ``gap`` (8-connected): points less than
+    ``gap`` apart always share a cluster, points farther than 2*sqrt(2)*gap never do directly."""
+    if len(obstacles) == 0:
+        return []
+    lo = obstacles.min(axis=0)
+    ij = np.floor((obstacles - lo) / gap).astype(np.int64)
+    grid = np.zeros(ij.max(axis=0) + 1, dtype=bool)
+    grid[ij[:, 0], ij[:, 1]] = True
+    labels, count = ndimage.label(grid, structure=np.ones((3, 3), dtype=bool))
+    point_label = labels[ij[:, 0], ij[:, 1]] - 1
+    order = np.argsort(point_label, kind="stable")
+    splits = np.searchsorted(point_label[order], np.arange(1, count))
+    return [obstacles[idx] for idx in np.split(order, splits)]
+
+
+def cluster_keypoint(points: np.ndarray) -> np.ndarray:
+    """The member closest to the centroid: a point that lies on the obstacle itself."""
+    c = points.mean(axis=0)
+    return points[np.argmin(((points - c) ** 2).sum(axis=1))]
+
+
+def homotopy_signature(path_xy: np.ndarray, keypoints: np.ndarray) -> np.ndarray:
+    """Angle swept around each key point while travelling along the path (winding, not wrapped)."""
+    if len(keypoints) == 0:
+        return np.zeros(0)
+    ang = np.arctan2(path_xy[:, None, 1] - keypoints[None, :, 1], path_xy[:, None, 0] - keypoints[None, :, 0])
+    return normalize_theta(np.diff(ang, axis=0)).sum(axis=0)
+
+
+def same_class(sig_a: np.ndarray, sig_b: np.ndarray) -> bool:
+    return bool(np.all(np.abs(sig_a - sig_b) < math.pi))
+
+
+class HomotopyClassPlanner:
+    def __init__(self, cfg, model):
+        self.cfg = cfg
+        self.model = model
+        self.optimizer = TebOptimizer(cfg, model)
+        self.candidates: list[Candidate] = []
+        self.best: Candidate | None = None
+        self.keypoints = np.zeros((0, 2))
+
+    @property
+    def enabled(self) -> bool:
+        return self.cfg.enable_homotopy_class_planning
+
+    def clear(self) -> None:
+        self.candidates = []
+        self.best = None
+
+    def best_band(self) -> TimedElasticBand | None:
+        return self.best.band if self.best else None
+
+    # -- one planning cycle -----------------------------------------------------------------
+    def plan(self, initial_plan: np.ndarray, obstacles: np.ndarray, via_points, start_velocity,
+             free_goal_vel: bool, bounds=None) -> bool:
+        """initial_plan (K,3): robot pose first, local goal last. bounds: (xmin, ymin, xmax, ymax)
+        of the local costmap, where seeds may place their detour points."""
+        cfg = self.cfg
+        start, goal = initial_plan[0], initial_plan[-1]
+        self._update_candidates(start, goal)
+        if self.enabled:
+            gap = max(2.0 * self.model.inscribed_radius, 0.1)
+            clusters = obstacle_clusters(obstacles, gap)
+            self.keypoints = (np.array([cluster_keypoint(c) for c in clusters]) if clusters
+                              else np.zeros((0, 2)))
+            for cand in self.candidates:
+                cand.signature = homotopy_signature(cand.band.poses[:, :2], self.keypoints)
+            self._drop_duplicates()
+            self._ensure_initial_plan_candidate(initial_plan)
+            self._explore(start, goal, clusters, obstacles, bounds)
+        elif not self.candidates:
+            self.candidates = [self._new_candidate(initial_plan, True)]
+        if not cfg.optimization_activate:
+            self.best = self.candidates[0] if self.candidates else None
+            return self.best is not None
+        for cand in self.candidates:
+            cand.cost = self.optimizer.optimize(cand.band, obstacles, via_points, start_velocity,
+                                                free_goal_vel, compute_cost=self.enabled)
+        if self.enabled:
+            for cand in self.candidates:
+                cand.signature = homotopy_signature(cand.band.poses[:, :2], self.keypoints)
+            self._drop_duplicates()
+            self._delete_detours()
+            self._select_best()
+        else:
+            self.best = self.candidates[0]
+        return self.best is not None
+
+    def _update_candidates(self, start, goal) -> None:
+        """Warm start every band, or drop them all when the goal moved too far (force_reinit_*)."""
+        cfg = self.cfg
+        keep = []
+        for cand in self.candidates:
+            back = cand.band.poses[-1]
+            if (math.hypot(goal[0] - back[0], goal[1] - back[1]) < cfg.force_reinit_new_goal_dist
+                    and abs(float(normalize_theta(goal[2] - back[2]))) < cfg.force_reinit_new_goal_angular):
+                cand.band.update_and_prune(start, goal, cfg.min_samples)
+                keep.append(cand)
+        if len(keep) != len(self.candidates):
+            keep = []
+            self.best = None
+        self.candidates = keep
+
+    def _new_candidate(self, path: np.ndarray, from_initial_plan: bool) -> Candidate:
+        band = TimedElasticBand()
+        band.init_from_path(path, self.cfg.max_vel_x, self.cfg.max_vel_theta,
+                            self.cfg.global_plan_overwrite_orientation, self.cfg.min_samples,
+                            self.cfg.allow_init_with_backwards_motion)
+        return Candidate(band, from_initial_plan,
+                         signature=homotopy_signature(band.poses[:, :2], self.keypoints))
+
+    def _has_class(self, signature) -> Candidate | None:
+        for cand in self.candidates:
+            if same_class(cand.signature, signature):
+                return cand
+        return None
+
+    def _drop_duplicates(self) -> None:
+        """Keep one band per class: the current best, else the cheaper one."""
+        kept: list[Candidate] = []
+        for cand in sorted(self.candidates, key=lambda c: (c is not self.best, c.cost)):
+            twin = next((k for k in kept if same_class(k.signature, cand.signature)), None)
+            if twin is None:
+                kept.append(cand)
+            elif cand.from_initial_plan:
+                twin.from_initial_plan = True
+        self.candidates = kept
+
+    def _ensure_initial_plan_candidate(self, initial_plan) -> None:
+        sig = homotopy_signature(initial_plan[:, :2], self.keypoints)
+        for cand in self.candidates:
+            cand.from_initial_plan = False
+        twin = self._has_class(sig)
+        if twin is not None:
+            twin.from_initial_plan = True
+        elif len(self.candidates) < self.cfg.max_number_classes:
+            self.candidates.append(self._new_candidate(initial_plan, True))
+        else:
+            # The global plan's class always gets a band; it replaces the most expensive one.
+            worst = max((c for c in self.candidates if c is not self.best), key=lambda c: c.cost,
+                        default=self.candidates[-1])
+            self.candidates.remove(worst)
+            self.candidates.append(self._new_candidate(initial_plan, True))
+
+    def _explore(self, start, goal, clusters, obstacles, bounds) -> None:
+        """Seed bands left and right of the clusters nearest to the start-goal line."""
+        cfg = self.cfg
+        axis = goal[:2] - start[:2]
+        length = float(np.hypot(*axis))
+        if length < 2 * cfg.min_obstacle_dist or not clusters:
+            return
+        axis /= length
+        normal = np.array([-axis[1], axis[0]])
+        half_width = 0.5 * cfg.roadmap_graph_area_width
+        clearance = self.model.inscribed_radius + cfg.min_obstacle_dist
+        ranked = []
+        for pts in clusters:
+            rel = pts - start[:2]
+            t, lat = rel @ axis, rel @ normal
+            inside = (t > 0) & (t < length) & (np.abs(lat) < half_width)
+            if inside.any():
+                ranked.append((float(np.min(np.abs(lat[inside]))), t[inside], lat[inside]))
+        ranked.sort(key=lambda r: r[0])
+        for _, t, lat in ranked:
+            if len(self.candidates) >= cfg.max_number_classes:
+                return
+            t_w = float(np.clip(np.mean(t), 0.25 * length, 0.75 * length))
+            for offset in (float(lat.max()) + clearance, float(lat.min()) - clearance):
+                if len(self.candidates) >= cfg.max_number_classes:
+                    return
+                via = start[:2] + t_w * axis + offset * normal
+                if bounds is not None and not (bounds[0] <= via[0] <= bounds[2] and bounds[1] <= via[1] <= bounds[3]):
+                    continue
+                if len(obstacles) and np.min(np.hypot(*(obstacles - via).T)) < self.model.inscribed_radius:
+                    continue
+                path = _polyline(np.array([start[:2], via, goal[:2]]), cfg.max_vel_x * cfg.dt_ref)
+                seed = np.column_stack([path, np.zeros(len(path))])
+                seed[0], seed[-1] = start, goal
+                sig = homotopy_signature(seed[:, :2], self.keypoints)
+                if self._has_class(sig) is None:
+                    cand = self._new_candidate(seed, False)
+                    cand.signature = sig
+                    self.candidates.append(cand)
+
+    def _delete_detours(self) -> None:
+        """Drop bands that start backwards (delete_detours_backwards) or take far longer than the
+        fastest one (max_ratio_detours_duration_best_duration), while another band remains."""
+        cfg = self.cfg
+        if len(self.candidates) < 2:
+            return
+        fastest = min(c.band.sum_of_time_diffs for c in self.candidates)
+        kept = []
+        for cand in self.candidates:
+            poses = cand.band.poses
+            d = poses[-1, :2] - poses[0, :2]
+            norm = float(np.hypot(*d))
+            backwards = (cfg.delete_detours_backwards and norm > 1e-9 and len(poses) > 2 and
+                         (math.cos(poses[1, 2]) * d[0] + math.sin(poses[1, 2]) * d[1]) / norm < -0.1)
+            too_long = cand.band.sum_of_time_diffs > cfg.max_ratio_detours_duration_best_duration * fastest
+            if (backwards or too_long) and not cand.from_initial_plan:
+                continue
+            kept.append(cand)
+        self.candidates = kept or self.candidates
+
+    def _select_best(self) -> None:
+        cfg = self.cfg
+        best, best_cost = None, math.inf
+        for cand in self.candidates:
+            cost = cand.cost
+            if cand is self.best:
+                cost *= cfg.selection_cost_hysteresis
+            elif cand.from_initial_plan:
+                cost *= cfg.selection_prefer_initial_plan
+            if cost < best_cost or best is None:
+                best, best_cost = cand, cost
+        self.best = best
+
+    def remove_infeasible_best(self, is_feasible) -> bool:
+        """Try the best band; while it is infeasible drop it and re-select, but give up at once if
+        the infeasible band was already the previous choice (switching then would oscillate)."""
+        previous = self.best
+        while self.candidates:
+            if self.best is None:
+                return False
+            if is_feasible(self.best.band):
+                return True
+            failed = self.best
+            self.candidates.remove(failed)
+            if not self.enabled or failed is previous:
+                self.best = None
+                return False
+            self._select_best()
+        self.best = None
+        return False
+
+
+def _polyline(points: np.ndarray, spacing: float) -> np.ndarray:
+    """Resample a polyline at about ``spacing`` metres, keeping its vertices."""
+    out = [points[:1]]
+    for a, b in zip(points[:-1], points[1:]):
+        n = max(1, int(math.ceil(np.hypot(*(b - a)) / spacing)))
+        f = np.arange(1, n + 1)[:, None] / n
+        out.append(a + f * (b - a))
+    return np.vstack(out)

@@ -1,0 +1,247 @@
+"""TebLocalPlanner: the control cycle of TebLocalPlannerROS::computeVelocityCommands (REFERENCE §4.5),
+free of ROS. The ROS shell feeds it the global plan (already in the local costmap frame), the robot
+pose and odometry velocity and the local Costmap2D, and publishes what the accessors return.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from simplebot_navigation.teb.band import normalize_theta
+from simplebot_navigation.teb.config import TebConfig
+from simplebot_navigation.teb.feasibility import footprint_inscribed_radius, is_trajectory_feasible
+from simplebot_navigation.teb.footprint import FootprintModel
+from simplebot_navigation.teb.homotopy import HomotopyClassPlanner
+from simplebot_navigation.teb.obstacles import costmap_point_obstacles
+
+GOAL_ORIENTATION_AVERAGE = 3
+
+
+@dataclass
+class VelocityCommandResult:
+    v: float
+    omega: float
+    ok: bool
+    message: str
+    goal_reached: bool = False
+
+
+class TebLocalPlanner:
+    def __init__(self, config: TebConfig, costmap_footprint, controller_period: float):
+        """costmap_footprint: the (padded) footprint polygon the local costmap uses, (K,2) in the
+        robot frame -- the feasibility check uses it, the optimiser uses the footprint model."""
+        if not controller_period > 0:
+            raise ValueError(f"controller_period must be > 0, got {controller_period}")
+        self.cfg = config
+        self.model = FootprintModel.from_params(config.footprint_model)
+        self.warnings = list(config.warnings) + self.model.warnings
+        self.costmap_footprint = np.asarray(costmap_footprint, dtype=float).reshape(-1, 2)
+        self.costmap_inscribed_radius = footprint_inscribed_radius(self.costmap_footprint)
+        if self.model.inscribed_radius + config.min_obstacle_dist < self.costmap_inscribed_radius:
+            self.warnings.append(
+                f"footprint model inscribed radius ({self.model.inscribed_radius:.3f}) + min_obstacle_dist "
+                f"({config.min_obstacle_dist:.3f}) is smaller than the costmap footprint's inscribed radius "
+                f"({self.costmap_inscribed_radius:.3f}): the optimiser may plan into the inflated zone")
+        self.controller_period = float(controller_period)
+        self.planner = HomotopyClassPlanner(config, self.model)
+        self.global_plan = np.zeros((0, 3))
+        self.transformed_plan = np.zeros((0, 3))
+        self.via_points = np.zeros((0, 2))
+        self.obstacles = np.zeros((0, 2))
+        self.goal_reached = False
+
+    # -- inputs -------------------------------------------------------------------------------
+    def set_plan(self, global_plan_xyyaw) -> None:
+        plan = np.asarray(global_plan_xyyaw, dtype=float)
+        if plan.ndim != 2 or plan.shape[1] != 3 or len(plan) == 0:
+            raise ValueError(f"global plan must be a non-empty (N, 3) array of x, y, yaw; got shape {plan.shape}")
+        self.global_plan = plan.copy()
+        self.goal_reached = False
+
+    def reset(self) -> None:
+        self.planner.clear()
+
+    # -- the control cycle --------------------------------------------------------------------
+    def compute_velocity_commands(self, robot_pose, robot_velocity, costmap) -> VelocityCommandResult:
+        cfg = self.cfg
+        pose = np.asarray(robot_pose, dtype=float)
+        vel = (float(robot_velocity[0]), float(robot_velocity[1]))
+        if len(self.global_plan) == 0:
+            return VelocityCommandResult(0.0, 0.0, False, "no global plan set")
+        self._prune_global_plan(pose)
+        transformed, goal_idx = self._transform_global_plan(pose, costmap)
+        self.via_points = self._via_points(transformed)
+        if self.is_goal_reached(pose, vel):
+            self.goal_reached = True
+            return VelocityCommandResult(0.0, 0.0, True, "goal reached", goal_reached=True)
+        local_goal = transformed[-1].copy()
+        if cfg.global_plan_overwrite_orientation:
+            local_goal[2] = self._estimate_local_goal_orientation(local_goal, goal_idx)
+        if len(transformed) == 1:
+            transformed = np.vstack([pose, transformed])
+        transformed[0] = pose
+        transformed[-1] = local_goal
+        self.transformed_plan = transformed
+        self.obstacles = (costmap_point_obstacles(costmap, pose, cfg.costmap_obstacles_behind_robot_dist)
+                          if cfg.include_costmap_obstacles else np.zeros((0, 2)))
+        bounds = (costmap.origin_x, costmap.origin_y,
+                  costmap.origin_x + costmap.size_x * costmap.resolution,
+                  costmap.origin_y + costmap.size_y * costmap.resolution)
+        if not self.planner.plan(transformed, self.obstacles, self.via_points, vel, cfg.free_goal_vel, bounds):
+            self.planner.clear()
+            return VelocityCommandResult(0.0, 0.0, False, "planner failed to find a trajectory")
+
+        def feasible(band):
+            return is_trajectory_feasible(costmap, self.costmap_footprint, self.costmap_inscribed_radius,
+                                          band.poses, cfg.feasibility_check_no_poses,
+                                          cfg.feasibility_check_lookahead_distance,
+                                          cfg.min_resolution_collision_check_angular)
+
+        if not self.planner.remove_infeasible_best(feasible):
+            self.planner.clear()
+            return VelocityCommandResult(0.0, 0.0, False, "trajectory is not feasible. Resetting planner...")
+        command = self._velocity_from_band(self.planner.best_band())
+        if command is None:
+            self.planner.clear()
+            return VelocityCommandResult(0.0, 0.0, False, "velocity command invalid. Resetting planner...")
+        v, omega = self._saturate(*command, vel)
+        return VelocityCommandResult(v, omega, True, "")
+
+    def is_goal_reached(self, robot_pose, robot_velocity) -> bool:
+        """Position and yaw within tolerance, no via-points left (complete_global_plan) and
+        stopped by odometry unless free_goal_vel."""
+        cfg = self.cfg
+        if len(self.global_plan) == 0:
+            return False
+        goal = self.global_plan[-1]
+        x, y, yaw = robot_pose
+        v, omega = robot_velocity
+        stopped = abs(omega) <= cfg.theta_stopped_vel and abs(v) <= cfg.trans_stopped_vel
+        return (math.hypot(goal[0] - x, goal[1] - y) < cfg.xy_goal_tolerance
+                and abs(float(normalize_theta(goal[2] - yaw))) < cfg.yaw_goal_tolerance
+                and (not cfg.complete_global_plan or len(self.via_points) == 0)
+                and (stopped or cfg.free_goal_vel))
+
+    # -- accessors for visualisation ----------------------------------------------------------
+    @property
+    def band_poses(self) -> np.ndarray:
+        band = self.planner.best_band()
+        return band.poses.copy() if band is not None else np.zeros((0, 3))
+
+    @property
+    def band_time_stamps(self) -> np.ndarray:
+        band = self.planner.best_band()
+        return band.time_stamps if band is not None else np.zeros(0)
+
+    @property
+    def candidate_bands(self) -> list[np.ndarray]:
+        """Poses of every homotopy candidate (the best one included)."""
+        return [c.band.poses.copy() for c in self.planner.candidates]
+
+    def footprint_outlines(self) -> list[np.ndarray]:
+        return self.model.outline(self.band_poses)
+
+    # -- plan handling ------------------------------------------------------------------------
+    def _prune_global_plan(self, pose) -> None:
+        """Erase the plan before the first pose within global_plan_prune_distance of the robot."""
+        d2 = (self.global_plan[:, 0] - pose[0]) ** 2 + (self.global_plan[:, 1] - pose[1]) ** 2
+        near = np.nonzero(d2 < self.cfg.global_plan_prune_distance ** 2)[0]
+        if len(near) and near[0] > 0:
+            self.global_plan = self.global_plan[near[0]:]
+
+    def _transform_global_plan(self, pose, costmap):
+        """From the plan pose closest to the robot, up to max_global_plan_lookahead_dist of path
+        and within 85 % of half the local costmap size. Returns (plan, index of its last pose)."""
+        plan = self.global_plan
+        threshold = 0.85 * max(costmap.size_x * costmap.resolution / 2.0,
+                               costmap.size_y * costmap.resolution / 2.0)
+        d2 = (plan[:, 0] - pose[0]) ** 2 + (plan[:, 1] - pose[1]) ** 2
+        outside = np.nonzero(d2 > threshold ** 2)[0]
+        stop = outside[0] if len(outside) else len(plan)
+        if stop == 0:
+            return plan[-1:].copy(), len(plan) - 1
+        start = int(np.argmin(d2[:stop]))
+        # TEB's loop adds pose k+1 only while pose k was inside the threshold and the path length
+        # accumulated up to pose k (counting the segment into the first pose) is within the lookahead.
+        idx = np.arange(start, len(plan))
+        ok = d2[idx] <= threshold ** 2
+        max_len = self.cfg.max_global_plan_lookahead_dist
+        if max_len > 0:
+            seg = np.hypot(plan[idx, 0] - plan[idx - 1, 0], plan[idx, 1] - plan[idx - 1, 1])
+            seg[idx == 0] = 0.0
+            ok &= np.cumsum(seg) <= max_len
+        lead = int(np.argmin(ok)) if not ok.all() else len(ok)
+        end = min(start + 1 + lead, len(plan))
+        return plan[start:end].copy(), end - 1
+
+    def _via_points(self, transformed) -> np.ndarray:
+        sep = self.cfg.global_plan_viapoint_sep
+        if sep <= 0:
+            return np.zeros((0, 2))
+        out, prev = [], transformed[0, :2]
+        for p in transformed[1:, :2]:
+            if math.hypot(*(p - prev)) >= sep:
+                out.append(p)
+                prev = p
+        return np.array(out).reshape(-1, 2)
+
+    def _estimate_local_goal_orientation(self, local_goal, goal_idx: int) -> float:
+        """Near the global goal use its yaw; otherwise average the plan direction over the next
+        few poses after the local goal."""
+        plan = self.global_plan
+        n = len(plan)
+        if goal_idx > n - GOAL_ORIENTATION_AVERAGE - 2:
+            return float(plan[-1, 2]) if goal_idx < n - 1 else float(local_goal[2])
+        length = min(GOAL_ORIENTATION_AVERAGE, n - goal_idx - 1)
+        pts = plan[goal_idx:goal_idx + length + 1, :2]
+        d = np.diff(pts, axis=0)
+        ang = np.arctan2(d[:, 1], d[:, 0])
+        return float(math.atan2(np.sin(ang).mean(), np.cos(ang).mean()))
+
+    # -- command ------------------------------------------------------------------------------
+    def _velocity_from_band(self, band):
+        """Velocity between pose 0 and pose control_look_ahead_poses (fewer if their time exceeds
+        dt_ref per pose), with the sign of the motion along the start heading."""
+        cfg = self.cfg
+        if band is None or len(band.poses) < 2:
+            return None
+        look = max(1, min(cfg.control_look_ahead_poses,
+                          len(band.poses) - 1 - cfg.prevent_look_ahead_poses_near_goal))
+        dt = 0.0
+        for k in range(look):
+            dt += band.time_diffs[k]
+            if dt >= cfg.dt_ref * look:
+                look = k + 1
+                break
+        if not dt > 0:
+            return None
+        p0, p1 = band.poses[0], band.poses[look]
+        d = p1[:2] - p0[:2]
+        direction = d[0] * math.cos(p0[2]) + d[1] * math.sin(p0[2])
+        v = math.copysign(1.0, direction) * math.hypot(*d) / dt if direction != 0 else 0.0
+        omega = float(normalize_theta(p1[2] - p0[2])) / dt
+        if not (math.isfinite(v) and math.isfinite(omega)):
+            return None
+        return v, omega
+
+    def _saturate(self, v, omega, current):
+        """Acceleration window over one control period around the odometry velocity, then the
+        velocity limits (they win if both cannot hold)."""
+        cfg = self.cfg
+        dv = cfg.acc_lim_x * self.controller_period
+        dw = cfg.acc_lim_theta * self.controller_period
+        v = min(max(v, current[0] - dv), current[0] + dv)
+        omega = min(max(omega, current[1] - dw), current[1] + dw)
+        backwards = cfg.max_vel_x_backwards if cfg.max_vel_x_backwards > 0 else cfg.max_vel_x
+        ratio_v = 1.0
+        if v > cfg.max_vel_x:
+            ratio_v = cfg.max_vel_x / v
+        elif v < -backwards:
+            ratio_v = -backwards / v
+        ratio_w = abs(cfg.max_vel_theta / omega) if abs(omega) > cfg.max_vel_theta else 1.0
+        if cfg.use_proportional_saturation:
+            ratio_v = ratio_w = min(ratio_v, ratio_w)
+        return v * ratio_v, omega * ratio_w
