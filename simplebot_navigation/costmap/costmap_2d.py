@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
 
@@ -130,37 +131,14 @@ class Costmap2D:
     def raytrace_cells(self, x0, y0, x1, y1, max_length: float = math.inf):
         """Cells visited by costmap_2d's Bresenham raytrace from (x0, y0) to each (x1, y1).
 
-        Vectorised over rays: x0/y0 and x1/y1 broadcast against each other. Each ray visits
-        ``end = min(int(scale * major), major)`` steps (scale shortens rays longer than
-        max_length cells) and then once more the cell it stopped on, so the start cell and
-        the final cell are both included. Returns (mx, my) int64 arrays, rays concatenated
-        in order, each ray's cells from start to end.
+        Vectorised over rays: x0/y0 and x1/y1 broadcast against each other. Each ray takes
+        ``min(int(scale * major), major)`` steps (scale shortens rays longer than max_length
+        cells) and then visits the cell it stopped on once more, so the start cell and the final
+        cell are both included. Returns (mx, my) int64 arrays, rays concatenated in order, each
+        ray's cells from start to end.
         """
         x0, y0, x1, y1 = np.broadcast_arrays(*(np.asarray(v, dtype=np.int64) for v in (x0, y0, x1, y1)))
-        x0, y0, x1, y1 = (v.ravel() for v in (x0, y0, x1, y1))
-        dx, dy = x1 - x0, y1 - y0
-        adx, ady = np.abs(dx), np.abs(dy)
-        x_major = adx >= ady
-        major = np.where(x_major, adx, ady)
-        minor = np.where(x_major, ady, adx)
-        dist = np.hypot(dx, dy)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            scale = np.where(dist == 0.0, 1.0, np.minimum(1.0, max_length / np.where(dist == 0.0, 1.0, dist)))
-        end = np.minimum((scale * major).astype(np.int64), major)
-        counts = end + 1
-        ray = np.repeat(np.arange(len(x0)), counts)
-        first = np.cumsum(counts) - counts
-        k = np.arange(int(counts.sum()), dtype=np.int64) - first[ray]
-        major_r = major[ray]
-        # Bresenham's error term starts at major // 2 and steps the minor axis each time it reaches major.
-        minor_steps = (major_r // 2 + k * minor[ray]) // np.maximum(major_r, 1)
-        along, across = k, minor_steps
-        xm = x_major[ray]
-        sgx = np.where(dx > 0, 1, -1)[ray]
-        sgy = np.where(dy > 0, 1, -1)[ray]
-        mx = x0[ray] + sgx * np.where(xm, along, across)
-        my = y0[ray] + sgy * np.where(xm, across, along)
-        return mx, my
+        return _raytrace(x0.ravel(), y0.ravel(), x1.ravel(), y1.ravel(), float(max_length))
 
     def raytrace_line(self, x0: int, y0: int, x1: int, y1: int, max_length: float = math.inf):
         """Cells of one raytrace as a list of (mx, my), start to end."""
@@ -201,3 +179,47 @@ class Costmap2D:
         fx, fy = self.convex_fill_cells(np.stack([mx, my], axis=1))
         self.costmap[fy, fx] = cost_value
         return True
+
+
+@numba.njit(cache=True, nogil=True)
+def _ray_steps(dx, dy, max_length):
+    major = max(abs(dx), abs(dy))
+    dist = math.hypot(dx, dy)
+    scale = 1.0 if dist == 0.0 else min(1.0, max_length / dist)
+    return min(int(scale * major), major)
+
+
+@numba.njit(cache=True, nogil=True)
+def _raytrace(x0, y0, x1, y1, max_length):
+    n = len(x0)
+    total = 0
+    for r in range(n):
+        total += _ray_steps(x1[r] - x0[r], y1[r] - y0[r], max_length) + 1
+    mx = np.empty(total, dtype=np.int64)
+    my = np.empty(total, dtype=np.int64)
+    k = 0
+    for r in range(n):
+        dx, dy = x1[r] - x0[r], y1[r] - y0[r]
+        adx, ady = abs(dx), abs(dy)
+        sx = 1 if dx > 0 else -1
+        sy = 1 if dy > 0 else -1
+        x_major = adx >= ady
+        major, minor = (adx, ady) if x_major else (ady, adx)
+        error = major // 2
+        x, y = x0[r], y0[r]
+        for _ in range(_ray_steps(dx, dy, max_length)):
+            mx[k], my[k] = x, y
+            k += 1
+            error += minor
+            step_minor = error >= major
+            if step_minor:
+                error -= major
+            if x_major:
+                x += sx
+                y += sy if step_minor else 0
+            else:
+                y += sy
+                x += sx if step_minor else 0
+        mx[k], my[k] = x, y
+        k += 1
+    return mx, my
