@@ -18,6 +18,7 @@ import numpy as np
 
 from .costmap_2d import Costmap2D
 from .footprint import pad_footprint, transform_footprint
+from .layer import CostmapLayer
 from .layered_costmap import LayeredCostmap
 from .obstacle_layer import (Observation, ObservationSource, ObstacleLayer, laser_scan_to_observation,
                              point_cloud_to_observation)
@@ -99,6 +100,26 @@ class Costmap:
     def reset_layers(self) -> None:
         """The clear_costmaps service: master to its default, every layer reset."""
         self.layered.reset_layers()
+
+    def clear_layers_outside(self, robot_x: float, robot_y: float, reset_distance: float,
+                             layer_names=None, invert_area: bool = False) -> list[str]:
+        """clear_costmap_recovery on this costmap: in each named layer (default: every obstacle layer),
+        forget everything outside the reset_distance square around the robot (inside with
+        invert_area), and schedule the whole layer for the next update. Returns the layers cleared."""
+        if layer_names is None:
+            layers = [layer for layer in self.layered.plugins if isinstance(layer, ObstacleLayer)]
+        else:
+            layers = [layer for layer in self.layered.plugins
+                      if layer.name in layer_names and isinstance(layer, CostmapLayer)]
+        for layer in layers:
+            start_x, start_y = layer.world_to_map_no_bounds(robot_x - reset_distance / 2,
+                                                            robot_y - reset_distance / 2)
+            end_x, end_y = layer.world_to_map_no_bounds(robot_x - reset_distance / 2 + reset_distance,
+                                                        robot_y - reset_distance / 2 + reset_distance)
+            layer.clear_area(start_x, start_y, end_x, end_y, invert_area)
+            layer.add_extra_bounds(layer.origin_x, layer.origin_y, layer.origin_x + layer.size_in_meters_x,
+                                   layer.origin_y + layer.size_in_meters_y)
+        return [layer.name for layer in layers]
 
     # -- footprint ----------------------------------------------------------------
     def set_unpadded_footprint(self, points) -> None:

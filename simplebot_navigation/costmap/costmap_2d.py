@@ -102,8 +102,9 @@ class Costmap2D:
         return self.costmap[y0:yn, x0:xn].copy()
 
     def copy(self) -> "Costmap2D":
-        other = Costmap2D.__new__(Costmap2D)
-        other.__dict__.update(self.__dict__)
+        """An independent grid with the same geometry and costs."""
+        other = Costmap2D(0, 0, self.resolution, self.origin_x, self.origin_y, self.default_value)
+        other.size_x, other.size_y = self.size_x, self.size_y
         other.costmap = self.costmap.copy()
         return other
 

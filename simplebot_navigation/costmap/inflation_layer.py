@@ -29,6 +29,13 @@ def inflation_cost(distance_cells: float, resolution: float, inscribed_radius: f
 
 
 @numba.njit(cache=True, nogil=True)
+def _grow(array, capacity):
+    out = np.full(capacity, -1, dtype=array.dtype)
+    out[:len(array)] = array
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
 def _brushfire(master, x0, y0, xn, yn, cell_radius, bin_of, cost_of, n_bins, inflate_unknown):
     """Inflate `master` in place from the lethal cells of [x0, xn) x [y0, yn).
 
@@ -38,7 +45,7 @@ def _brushfire(master, x0, y0, xn, yn, cell_radius, bin_of, cost_of, n_bins, inf
     """
     size_y, size_x = master.shape
     seen = np.zeros(size_y * size_x, dtype=np.bool_)
-    capacity = 4 * size_x * size_y + (xn - x0) * (yn - y0) + 1
+    capacity = 2 * (xn - x0) * (yn - y0) + 1024
     cell = np.empty(capacity, dtype=np.int64)
     src = np.empty(capacity, dtype=np.int64)
     nxt = np.full(capacity, -1, dtype=np.int64)
@@ -99,6 +106,9 @@ def _brushfire(master, x0, y0, xn, yn, cell_radius, bin_of, cost_of, n_bins, inf
                     nb = bin_of[abs(nx - sx), abs(ny - sy)]
                     if nb < 0:
                         continue
+                    if count == capacity:
+                        capacity *= 2
+                        cell, src, nxt = _grow(cell, capacity), _grow(src, capacity), _grow(nxt, capacity)
                     cell[count] = n_index
                     src[count] = s
                     if tail[nb] < 0:

@@ -103,6 +103,14 @@ class CostmapLayer(Layer, Costmap2D):
     def reset(self) -> None:
         self.reset_maps()
 
+    def clear_area(self, start_x: int, start_y: int, end_x: int, end_y: int, invert_area: bool = False) -> None:
+        """Set to NO_INFORMATION every cell outside the open box (start_x, end_x) x (start_y, end_y),
+        or inside it with invert_area (what clear_costmap_recovery does to a layer)."""
+        xs = np.arange(self.size_x)
+        ys = np.arange(self.size_y)
+        inside = ((ys[:, None] > start_y) & (ys[:, None] < end_y)) & ((xs > start_x) & (xs < end_x))
+        self.costmap[inside == invert_area] = NO_INFORMATION
+
     # -- combination with the master grid, over [x0, xn) x [y0, yn) ----------------
     def update_with_true_overwrite(self, master: Costmap2D, x0: int, y0: int, xn: int, yn: int) -> None:
         master.costmap[y0:yn, x0:xn] = self.costmap[y0:yn, x0:xn]

@@ -139,3 +139,20 @@ def test_footprint_and_parameter_changes_reinflate_the_whole_map():
     inflation.set_inflation_parameters(0.8, 10.0)
     lc.update_map(0, 0, 0)
     assert lc.update_window == (0, 0, 100, 100)
+
+
+def test_small_window_reaches_beyond_itself_like_the_brushfire():
+    """Seeds come from the window grown by the inflation radius; their halos spread past it."""
+    rng = np.random.default_rng(5)
+    size, res = 120, 0.05
+    lc, grid, inflation = make(size, res, 0.1, 1.5, 3.0)
+    costs = np.where(rng.random((size, size)) < 0.02, LETHAL_OBSTACLE, 0).astype(np.uint8)
+    lc.costmap.costmap[:] = costs
+    inflation.update_costs(lc.costmap, 60, 60, 61, 61)
+    expected = [list(row) for row in costs]
+    brushfire(expected, size, size, 60, 60, 61, 61, res, lc.inscribed_radius, 3.0, 1.5)
+    np.testing.assert_array_equal(lc.costmap.costmap, np.array(expected, np.uint8))
+    cr = 30
+    outside = np.ones((size, size), bool)
+    outside[60 - cr:61 + cr, 60 - cr:61 + cr] = False
+    assert (lc.costmap.costmap != costs)[outside].any()

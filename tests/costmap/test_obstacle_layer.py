@@ -194,3 +194,16 @@ def test_lab_costmaps_match_the_per_ray_reference(params, steps):
         np.testing.assert_array_equal(cm.master.costmap, np.array(ref.master, np.uint8))
         assert cm.is_current()
     assert (cm.master.costmap == LETHAL_OBSTACLE).sum() > 20
+
+
+def test_recovery_clearing_forgets_obstacles_outside_the_square():
+    cm = Costmap("local_costmap", local_costmap_params())
+    cm.update_map(0.0, 0.0, 0.0)
+    layer = cm.layered.layer("obstacles")
+    layer.costmap[:] = LETHAL_OBSTACLE
+    assert cm.clear_layers_outside(0.0, 0.0, 1.0) == ["obstacles"]
+    mx, my = layer.world_to_map(0.0, 0.0)
+    assert layer.get_cost(mx, my) == LETHAL_OBSTACLE and layer.get_cost(mx + 9, my) == LETHAL_OBSTACLE
+    assert layer.get_cost(mx + 10, my) == NO_INFORMATION and layer.get_cost(0, 0) == NO_INFORMATION
+    cm.update_map(0.0, 0.0, 0.0)
+    assert cm.update_window == (0, 0, 100, 100)
