@@ -172,7 +172,11 @@ class Costmap2D:
         return col + x_lo, fy
 
     def set_convex_polygon_cost(self, polygon_world, cost_value: int) -> bool:
-        """Fill a convex polygon given in world coordinates; does nothing and returns False if any vertex is off the map."""
+        """Fill a convex polygon given in world coordinates.
+
+        Does nothing and returns False if any vertex is off the map (footprint clearing near the
+        edge of a rolling window is then skipped, as in costmap_2d).
+        """
         p = np.asarray(polygon_world, dtype=float).reshape(-1, 2)
         mx, my, valid = self.world_to_map_array(p[:, 0], p[:, 1])
         if not valid.all():

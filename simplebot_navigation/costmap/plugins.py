@@ -17,7 +17,8 @@ def layer_kind(plugin_type: str, plugin_name: str) -> str:
             if plugin_type.startswith(namespace) and plugin_type[len(namespace):] in LAYER_CLASSES:
                 return plugin_type[len(namespace):]
     supported = ", ".join(f"{ns}{kind}" for ns in _NAMESPACES for kind in LAYER_CLASSES)
-    raise ValueError(f"costmap plugin {plugin_name!r} has unsupported type {plugin_type!r}; supported types: {supported}")
+    raise ValueError(f"costmap plugin {plugin_name!r} has unsupported type {plugin_type!r}; "
+                     f"supported types: {supported}")
 
 
 def create_layer(plugin_name: str, plugin_type: str, params: dict):

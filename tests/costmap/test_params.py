@@ -142,3 +142,13 @@ def test_source_lookup_errors():
     with pytest.raises(KeyError, match="'side_laser' is unknown"):
         cm.add_laser_scan("side_laser", [1.0], 0.0, 0.1, 0.1, 5.0, (0, 0, 0, 0), 0.0)
     cm.add_laser_scan("obstacles/front_laser", [1.0], 0.0, 0.1, 0.1, 5.0, (0, 0, 0, 0), 0.0)
+
+
+def test_ros2_parameter_round_trip_gives_the_same_configuration():
+    from simplebot_navigation.launch.rosparam import from_ros2_overrides, to_ros2_overrides
+
+    tree = global_costmap_params()
+    direct = resolve_costmap_params(tree, "global_costmap")
+    via_ros2 = resolve_costmap_params(from_ros2_overrides(to_ros2_overrides(tree)), "global_costmap")
+    assert via_ros2.footprint.tolist() == direct.footprint.tolist()
+    assert via_ros2.plugins == direct.plugins and via_ros2.warnings == direct.warnings
