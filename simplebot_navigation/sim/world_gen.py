@@ -64,8 +64,8 @@ def doors_world(robot_width: float, ratios=(1.25, 1.5, 2.0), bay_width: float = 
                  tuple(goals), "<doors_world>", MappingProxyType(extra))
 
 
-def clutter_world(seed: int = 0, size=(12.0, 10.0), n_boxes: int = 10, n_cylinders: int = 10,
-                  min_gap: float = 1.0, keep_clear: float = 1.0, max_tries: int = 5000) -> World:
+def clutter_world(seed: int = 0, size=(12.0, 10.0), n_boxes: int = 8, n_cylinders: int = 8,
+                  min_gap: float = 1.0, keep_clear: float = 1.0, max_tries: int = 20000) -> World:
     """A walled room with seeded random boxes and cylinders, start on the left, goals on the right.
 
     Any two obstacles (and any obstacle and the walls) are at least ``min_gap`` apart, measured
