@@ -29,23 +29,18 @@ def inflation_cost(distance_cells: float, resolution: float, inscribed_radius: f
 
 
 @numba.njit(cache=True, nogil=True)
-def _grow(array, capacity):
-    out = np.full(capacity, -1, dtype=array.dtype)
-    out[:len(array)] = array
-    return out
-
-
-@numba.njit(cache=True, nogil=True)
-def _brushfire(master, x0, y0, xn, yn, cell_radius, bin_of, cost_of, n_bins, inflate_unknown):
+def _brushfire(master, x0, y0, xn, yn, cell_radius, bin_of, cost_of, n_bins, inflate_unknown, capacity):
     """Inflate `master` in place from the lethal cells of [x0, xn) x [y0, yn).
 
     bin_of[|dx|, |dy|] is the rank of hypot(dx, dy) among the distinct distances (-1 beyond the
     inflation radius); each bin is a FIFO linked list, processed in rank order. Entries appended to
     an already processed bin are never visited, which mirrors iterating a std::map while inserting.
+    Returns the number of queue entries used, or -1 if `capacity` entries were not enough; the
+    caller then runs it again with more room, which is safe because a partial run only wrote the
+    costs a full run writes first.
     """
     size_y, size_x = master.shape
     seen = np.zeros(size_y * size_x, dtype=np.bool_)
-    capacity = 2 * (xn - x0) * (yn - y0) + 1024
     cell = np.empty(capacity, dtype=np.int64)
     src = np.empty(capacity, dtype=np.int64)
     nxt = np.full(capacity, -1, dtype=np.int64)
@@ -107,8 +102,7 @@ def _brushfire(master, x0, y0, xn, yn, cell_radius, bin_of, cost_of, n_bins, inf
                     if nb < 0:
                         continue
                     if count == capacity:
-                        capacity *= 2
-                        cell, src, nxt = _grow(cell, capacity), _grow(src, capacity), _grow(nxt, capacity)
+                        return -1
                     cell[count] = n_index
                     src[count] = s
                     if tail[nb] < 0:
@@ -118,6 +112,7 @@ def _brushfire(master, x0, y0, xn, yn, cell_radius, bin_of, cost_of, n_bins, inf
                     tail[nb] = count
                     count += 1
             e = nxt[e]
+    return count
 
 
 class InflationLayer(Layer):
@@ -206,7 +201,12 @@ class InflationLayer(Layer):
         x0, y0 = max(0, x0 - cr), max(0, y0 - cr)
         xn, yn = min(master.size_x, xn + cr), min(master.size_y, yn + cr)
         bin_of, cost, n_bins = self._tables
-        _brushfire(master.costmap, x0, y0, xn, yn, cr, bin_of, cost, n_bins, self.inflate_unknown)
+        # Queued cells lie within the radius of a seed: start with two entries per such cell.
+        reach = (min(xn + cr, master.size_x) - max(x0 - cr, 0)) * (min(yn + cr, master.size_y) - max(y0 - cr, 0))
+        capacity = (xn - x0) * (yn - y0) + 2 * reach + 1024
+        while _brushfire(master.costmap, x0, y0, xn, yn, cr, bin_of, cost, n_bins, self.inflate_unknown,
+                         capacity) < 0:
+            capacity *= 2
 
     def reset(self) -> None:
         """costmap_2d re-initialises the layer, which drops a pending full reinflation."""

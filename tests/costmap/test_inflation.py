@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from simplebot_navigation.costmap.cost_values import LETHAL_OBSTACLE, NO_INFORMATION
-from simplebot_navigation.costmap.inflation_layer import InflationLayer, inflation_cost
+from simplebot_navigation.costmap.inflation_layer import InflationLayer, _brushfire, inflation_cost
 from simplebot_navigation.costmap.layer import CostmapLayer
 from simplebot_navigation.costmap.layered_costmap import LayeredCostmap
 
@@ -156,3 +156,20 @@ def test_small_window_reaches_beyond_itself_like_the_brushfire():
     outside = np.ones((size, size), bool)
     outside[60 - cr:61 + cr, 60 - cr:61 + cr] = False
     assert (lc.costmap.costmap != costs)[outside].any()
+
+
+def test_queue_overflow_then_rerun_gives_the_same_costs():
+    """A run that runs out of queue space stops early; running again with more room is exact."""
+    rng = np.random.default_rng(7)
+    size, res = 50, 0.05
+    lc, grid, inflation = make(size, res, 0.1, 0.6, 3.0, inflate_unknown=False)
+    costs = np.where(rng.random((size, size)) < 0.03, LETHAL_OBSTACLE, 0).astype(np.uint8)
+    costs[10:20, 10:40] = NO_INFORMATION
+    lc.costmap.costmap[:] = costs
+    bin_of, cost, n_bins = inflation._tables
+    args = (lc.costmap.costmap, 0, 0, size, size, inflation.cell_inflation_radius, bin_of, cost, n_bins, False)
+    assert _brushfire(*args, 200) == -1
+    assert _brushfire(*args, 100000) > 200
+    expected = [list(row) for row in costs]
+    brushfire(expected, size, size, 0, 0, size, size, res, lc.inscribed_radius, 3.0, 0.6)
+    np.testing.assert_array_equal(lc.costmap.costmap, np.array(expected, np.uint8))
