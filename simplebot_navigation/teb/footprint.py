@@ -151,16 +151,46 @@ class FootprintModel:
         """Distance matrix (N, M) from N poses (N,3) to M point obstacles (M,2)."""
         poses = np.asarray(poses, dtype=float).reshape(-1, 3)
         points = np.asarray(points, dtype=float).reshape(-1, 2)
+        if not len(self.segments):
+            return self._circle_pairs(poses[:, None, :], points[None, :, :], False)[0]
         q = self._to_robot_frame(poses[:, None, :], points[None, :, :])
         d, _ = self._robot_frame_distance(q.reshape(-1, 2))
         return d.reshape(len(poses), len(points))
 
     def pair_distances(self, poses: np.ndarray, points: np.ndarray) -> np.ndarray:
         """Pairwise distances (K,) between poses[k] (K,3) and points[k] (K,2)."""
+        if not len(self.segments):
+            return self._circle_pairs(poses, points, False)[0]
         return self._robot_frame_distance(self._to_robot_frame(poses, points))[0]
+
+    def _circle_pairs(self, poses, points, with_gradient: bool):
+        """World-frame shortcut for circle-only models (point, circular, two_circles): the
+        optimiser's hot loop, so no (K, C, 2) temporaries. Broadcasts poses against points."""
+        c, s = np.cos(poses[..., 2]), np.sin(poses[..., 2])
+        best_d = best_g = None
+        for cx, cy, r in self.circles:
+            ex = points[..., 0] - (poses[..., 0] + c * cx - s * cy)
+            ey = points[..., 1] - (poses[..., 1] + s * cx + c * cy)
+            norm = np.hypot(ex, ey)
+            d = norm - r
+            grad = None
+            if with_gradient:
+                inv = np.divide(1.0, norm, out=np.zeros_like(norm), where=norm > 1e-12)
+                grad = np.stack([-ex * inv, -ey * inv,
+                                 (ex * (s * cx + c * cy) - ey * (c * cx - s * cy)) * inv], axis=1)
+            if best_d is None:
+                best_d, best_g = d, grad
+            else:
+                take = d < best_d
+                best_d = np.where(take, d, best_d)
+                if with_gradient:
+                    best_g = np.where(take[:, None], grad, best_g)
+        return best_d, best_g
 
     def distance_and_gradient(self, poses: np.ndarray, points: np.ndarray):
         """Pairwise distances (K,) between poses[k] and points[k], and d(dist)/d(x, y, theta) (K,3)."""
+        if not len(self.segments):
+            return self._circle_pairs(poses, points, True)
         q = self._to_robot_frame(poses, points)
         d, gq = self._robot_frame_distance(q)
         c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])

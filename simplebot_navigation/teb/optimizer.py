@@ -54,37 +54,62 @@ class EdgeSet:
     def n_vars(self) -> int:
         return 4 * self.n - 3
 
-    def build_layout(self, free_goal_vel: bool, with_inflation: bool) -> None:
-        """Columns of each family's local Jacobian: pose k -> 4k-3..4k-1, dT_i -> 4i, fixed -> -1."""
-        n = self.n
+    def build_layout(self, static: "StaticLayout") -> None:
+        """Add the obstacle and via-point families (single-pose edges) to the cached layout of
+        the families that depend only on the band size."""
+        self.cols, self.h_index, self.g_index = dict(static.cols), dict(static.h_index), dict(static.g_index)
+        self.bandwidth = static.bandwidth
+        pc = static.pose_cols
+        extra = {}
+        if len(self.obst_pose):
+            obst = pc[self.obst_pose]
+            extra["obstacle"] = np.vstack([obst, obst]) if static.with_inflation else obst
+        if len(self.via_pose):
+            extra["via"] = np.vstack([pc[self.via_pose, 0:1], pc[self.via_pose, 1:2]])
+        for name, c in extra.items():
+            self.cols[name] = c
+            self.h_index[name], self.g_index[name] = _scatter_indices(c, self.n_vars, self.bandwidth)
+
+
+class StaticLayout:
+    """Columns of each size-dependent family's local Jacobian: pose k -> 4k-3..4k-1, dT_i -> 4i,
+    fixed poses -> -1; plus the scatter indices into banded J^T J."""
+
+    def __init__(self, n: int, free_goal_vel: bool, with_inflation: bool):
+        self.with_inflation = with_inflation
         pc = np.full((n + 1, 3), -1, dtype=np.int64)
         pc[1:n] = 4 * np.arange(1, n)[:, None] - 3 + np.arange(3)
+        self.pose_cols = pc
         tc = 4 * np.arange(n)[:, None]
         seg = np.hstack([pc[:-1], pc[1:], tc])
-        cols = {"vel": seg, "omega": seg}
-        for kind in ("acc", "acc_theta"):
-            if n >= 2:
-                cols[kind] = np.hstack([seg[:-1], seg[1:], tc[:-1], tc[1:]])
-            cols[kind + "_start"] = np.hstack([seg[0], tc[0]])[None, :]
-            if not free_goal_vel:
-                cols[kind + "_goal"] = np.hstack([seg[-1], tc[-1]])[None, :]
-        cols["kin_nh"] = cols["kin_fd"] = seg[:, :6]
+        # Families stack their two residual kinds (v and omega, nh and forward drive, ...) so
+        # each numpy operation covers both.
+        cols = {"vel": np.vstack([seg, seg])}
+        if n >= 2:
+            acc = np.hstack([seg[:-1], seg[1:], tc[:-1], tc[1:]])
+            cols["acc"] = np.vstack([acc, acc])
+        cols["acc_start"] = np.repeat(np.hstack([seg[0], tc[0]])[None, :], 2, axis=0)
+        if not free_goal_vel:
+            cols["acc_goal"] = np.repeat(np.hstack([seg[-1], tc[-1]])[None, :], 2, axis=0)
+        cols["kin"] = np.vstack([seg[:, :6], seg[:, :6]])
         cols["time"] = tc
-        if len(self.obst_pose):
-            cols["obstacle"] = pc[self.obst_pose]
-            if with_inflation:
-                cols["inflation"] = pc[self.obst_pose]
-        if len(self.via_pose):
-            cols["via_x"] = pc[self.via_pose, 0:1]
-            cols["via_y"] = pc[self.via_pose, 1:2]
         self.cols = cols
-        self.bandwidth = max(_row_span(c) for c in cols.values())
-        dump = (self.bandwidth + 1) * self.n_vars
+        # Single-pose families (obstacles, via-points) span 2 columns; keep room for them.
+        self.bandwidth = max(2, max(_row_span(c) for c in cols.values()))
+        n_vars = 4 * n - 3
+        self.h_index, self.g_index = {}, {}
         for name, c in cols.items():
-            ci, cj = c[:, :, None], c[:, None, :]
-            ok = (ci >= cj) & (cj >= 0)
-            self.h_index[name] = np.where(ok, (ci - cj) * self.n_vars + cj, dump).ravel()
-            self.g_index[name] = np.where(c >= 0, c, self.n_vars).ravel()
+            self.h_index[name], self.g_index[name] = _scatter_indices(c, n_vars, self.bandwidth)
+
+
+def _scatter_indices(cols: np.ndarray, n_vars: int, bandwidth: int):
+    """Flat indices of every (i, j) product of a row into lower banded storage, and of every
+    column into g; pairs above the diagonal or with a fixed variable go to a dump slot."""
+    ci, cj = cols[:, :, None], cols[:, None, :]
+    ok = (ci >= cj) & (cj >= 0)
+    h = np.where(ok, (ci - cj) * n_vars + cj, (bandwidth + 1) * n_vars).ravel()
+    g = np.where(cols >= 0, cols, n_vars).ravel()
+    return h, g
 
 
 def _row_span(cols: np.ndarray) -> int:
@@ -97,11 +122,12 @@ def _row_span(cols: np.ndarray) -> int:
 
 
 class TebOptimizer:
-    """Optimises one band in place; keeps nothing between calls but the config."""
+    """Optimises one band in place; keeps only the config and the cached per-size layouts."""
 
     def __init__(self, cfg, model):
         self.cfg = cfg
         self.model = model
+        self._layouts: dict = {}
 
     # -- outer loop -------------------------------------------------------------------------
     def optimize(self, band: TimedElasticBand, obstacles: np.ndarray, via_points: np.ndarray | None,
@@ -149,7 +175,12 @@ class TebOptimizer:
             else:
                 vp = np.argmin(d2, axis=1) + 1
         edges = EdgeSet(pi, obst_point, vp, vpts, obstacle_weight, n=n - 1)
-        edges.build_layout(self.free_goal_vel, self.with_inflation)
+        key = (n - 1, self.free_goal_vel, self.with_inflation)
+        if key not in self._layouts:
+            if len(self._layouts) > 64:
+                self._layouts.clear()
+            self._layouts[key] = StaticLayout(*key)
+        edges.build_layout(self._layouts[key])
         return edges
 
     @property
@@ -159,12 +190,12 @@ class TebOptimizer:
     # -- edge evaluation --------------------------------------------------------------------
     def evaluate(self, poses: np.ndarray, dts: np.ndarray, edges: EdgeSet, with_jacobian: bool) -> dict:
         """Weighted residuals per edge family, name -> (r, J_local or None); cost = sum of r.r.
-        The local Jacobian columns are edges.cols[name]."""
+        The local Jacobian columns are edges.cols[name]; rows of the two stacked kinds of a
+        family follow each other (first all v rows, then all omega rows, ...)."""
         cfg = self.cfg
         eps = cfg.penalty_epsilon
         n = len(dts)
         out = {}
-        x0, y0, t0 = poses[:-1, 0], poses[:-1, 1], poses[:-1, 2]
         dx, dy = np.diff(poses[:, 0]), np.diff(poses[:, 1])
         cos, sin = np.cos(poses[:, 2]), np.sin(poses[:, 2])
         c0, s0, c1, s1 = cos[:-1], sin[:-1], cos[1:], sin[1:]
@@ -172,106 +203,110 @@ class TebOptimizer:
         proj = dx * c0 + dy * s0
         u = 100.0 * proj
         sig = u / (1.0 + np.abs(u))
-        vel = sig * dist / dts
-        omega = normalize_theta(np.diff(poses[:, 2])) / dts
-        jv = jw = dproj = None
+        inv_dt = 1.0 / dts
+        vw = np.empty((2, n))                                   # [v; omega] per segment
+        vw[0] = sig * dist * inv_dt
+        vw[1] = normalize_theta(np.diff(poses[:, 2])) * inv_dt
+        jvw = dproj = None
         if with_jacobian:
-            inv_dt = 1.0 / dts
             inv = np.divide(1.0, dist, out=np.zeros(n), where=dist > 1e-12)
             dproj = np.empty((n, 6))
             dproj[:, 0], dproj[:, 1], dproj[:, 2] = -c0, -s0, dy * c0 - dx * s0
             dproj[:, 3], dproj[:, 4], dproj[:, 5] = c0, s0, 0.0
             a = (100.0 / (1.0 + np.abs(u)) ** 2 * dist * inv_dt)[:, None]
-            b = (sig * inv * inv_dt)
-            jv = np.empty((n, 7))
+            b = sig * inv * inv_dt
+            jvw = np.zeros((2, n, 7))
+            jv, jw = jvw[0], jvw[1]
             jv[:, :6] = a * dproj
             jv[:, 0] -= b * dx
             jv[:, 1] -= b * dy
             jv[:, 3] += b * dx
             jv[:, 4] += b * dy
-            jv[:, 6] = -vel * inv_dt
-            jw = np.zeros((n, 7))
+            jv[:, 6] = -vw[0] * inv_dt
             jw[:, 2] = -inv_dt
             jw[:, 5] = inv_dt
-            jw[:, 6] = -omega * inv_dt
+            jw[:, 6] = -vw[1] * inv_dt
 
         # velocity
-        for name, w, val, jac, lo, hi in (
-                ("vel", cfg.weight_max_vel_x, vel, jv, -cfg.max_vel_x_backwards, cfg.max_vel_x),
-                ("omega", cfg.weight_max_vel_theta, omega, jw, -cfg.max_vel_theta, cfg.max_vel_theta)):
-            w = math.sqrt(w)
-            e, de = bound_to_interval(val, lo, hi, eps)
-            out[name] = (w * e, (w * de)[:, None] * jac if with_jacobian else None)
+        w = np.sqrt([[cfg.weight_max_vel_x], [cfg.weight_max_vel_theta]])
+        lo = np.array([[-cfg.max_vel_x_backwards], [-cfg.max_vel_theta]])
+        hi = np.array([[cfg.max_vel_x], [cfg.max_vel_theta]])
+        e, de = bound_to_interval(vw, lo, hi, eps)
+        out["vel"] = ((w * e).ravel(), ((w * de)[..., None] * jvw).reshape(2 * n, 7) if with_jacobian else None)
 
         # acceleration: interior triples, start (odometry velocity) and goal (zero unless free)
-        for name, w, val, jac, lim, start_val in (
-                ("acc", cfg.weight_acc_lim_x, vel, jv, cfg.acc_lim_x, self.start_velocity[0]),
-                ("acc_theta", cfg.weight_acc_lim_theta, omega, jw, cfg.acc_lim_theta, self.start_velocity[1])):
-            w = math.sqrt(w)
-            if n >= 2:
-                ssum = dts[:-1] + dts[1:]
-                acc = 2.0 * (val[1:] - val[:-1]) / ssum
-                e, de = bound_to_interval(acc, -lim, lim, eps)
-                jac_acc = None
-                if with_jacobian:
-                    jac_acc = np.empty((n - 1, 16))
-                    jac_acc[:, :7] = -2.0 * jac[:-1]
-                    jac_acc[:, 7:14] = 2.0 * jac[1:]
-                    jac_acc[:, 14] = jac_acc[:, 15] = -acc
-                    jac_acc *= (w * de / ssum)[:, None]
-                out[name] = (w * e, jac_acc)
-            acc0 = (val[0] - start_val) / dts[0]
-            e, de = bound_to_interval(acc0, -lim, lim, eps)
-            jac0 = (np.append(jac[0], -acc0) * (w * de / dts[0]))[None, :] if with_jacobian else None
-            out[name + "_start"] = (np.atleast_1d(w * e), jac0)
-            if not self.free_goal_vel:
-                accg = -val[-1] / dts[-1]
-                e, de = bound_to_interval(accg, -lim, lim, eps)
-                jacg = (np.append(-jac[-1], -accg) * (w * de / dts[-1]))[None, :] if with_jacobian else None
-                out[name + "_goal"] = (np.atleast_1d(w * e), jacg)
+        w = np.sqrt([[cfg.weight_acc_lim_x], [cfg.weight_acc_lim_theta]])
+        lim = np.array([[cfg.acc_lim_x], [cfg.acc_lim_theta]])
+        if n >= 2:
+            ssum = dts[:-1] + dts[1:]
+            acc = 2.0 * (vw[:, 1:] - vw[:, :-1]) / ssum
+            e, de = bound_to_interval(acc, -lim, lim, eps)
+            jac = None
+            if with_jacobian:
+                jac = np.empty((2, n - 1, 16))
+                jac[..., :7] = -2.0 * jvw[:, :-1]
+                jac[..., 7:14] = 2.0 * jvw[:, 1:]
+                jac[..., 14] = jac[..., 15] = -acc
+                jac = (jac * (w * de / ssum)[..., None]).reshape(2 * (n - 1), 16)
+            out["acc"] = ((w * e).ravel(), jac)
+        start = np.array([[self.start_velocity[0]], [self.start_velocity[1]]])
+        ends = [("acc_start", 0, vw[:, :1] - start, 1.0)]
+        if not self.free_goal_vel:
+            ends.append(("acc_goal", n - 1, -vw[:, -1:], -1.0))
+        for name, i, delta, sign in ends:
+            acc = delta / dts[i]                                   # (2, 1)
+            e, de = bound_to_interval(acc, -lim, lim, eps)
+            jac = None
+            if with_jacobian:
+                jac = np.empty((2, 8))
+                jac[:, :7] = sign * jvw[:, i]
+                jac[:, 7] = -acc[:, 0]
+                jac *= w * de / dts[i]
+            out[name] = ((w * e).ravel(), jac)
 
         # non-holonomic kinematics and forward drive
-        w = math.sqrt(cfg.weight_kinematics_nh)
+        w_nh, w_fd = math.sqrt(cfg.weight_kinematics_nh), math.sqrt(cfg.weight_kinematics_forward_drive)
         cs, ss = c0 + c1, s0 + s1
-        jk = None
+        e_fd, de_fd = bound_from_below(proj, 0.0, 0.0)
+        jac = None
         if with_jacobian:
-            jk = np.empty((n, 6))
+            jac = np.empty((2 * n, 6))
+            jk = jac[:n]
             jk[:, 0], jk[:, 1], jk[:, 2] = ss, -cs, -s0 * dy - c0 * dx
             jk[:, 3], jk[:, 4], jk[:, 5] = -ss, cs, -s1 * dy - c1 * dx
-            jk *= w
-        out["kin_nh"] = (w * (cs * dy - ss * dx), jk)
-        w = math.sqrt(cfg.weight_kinematics_forward_drive)
-        e, de = bound_from_below(proj, 0.0, 0.0)
-        out["kin_fd"] = (w * e, (w * de)[:, None] * dproj if with_jacobian else None)
+            jk *= w_nh
+            jac[n:] = (w_fd * de_fd)[:, None] * dproj
+        out["kin"] = (np.concatenate([w_nh * (cs * dy - ss * dx), w_fd * e_fd]), jac)
 
         # time optimal
         w = math.sqrt(cfg.weight_optimaltime)
         out["time"] = (w * dts, np.full((n, 1), w) if with_jacobian else None)
 
-        # obstacles (+ inflation)
+        # obstacles (+ inflation), both from the same footprint-model distance
         if len(edges.obst_pose):
             if with_jacobian:
                 d, grad = self.model.distance_and_gradient(poses[edges.obst_pose], edges.obst_point)
             else:
-                d = self.model.pair_distances(poses[edges.obst_pose], edges.obst_point)
+                d, grad = self.model.pair_distances(poses[edges.obst_pose], edges.obst_point), None
             w = math.sqrt(edges.obstacle_weight)
             e, de = bound_from_below(d, cfg.min_obstacle_dist, eps)
             p = cfg.obstacle_cost_exponent
             if p != 1.0:
                 de = de * p * np.power(e, p - 1.0)
                 e = np.power(e, p)
-            out["obstacle"] = (w * e, (w * de)[:, None] * grad if with_jacobian else None)
+            res, dres = [w * e], [w * de]
             if self.with_inflation:
                 w = math.sqrt(cfg.weight_inflation)
                 e, de = bound_from_below(d, cfg.inflation_dist, 0.0)
-                out["inflation"] = (w * e, (w * de)[:, None] * grad if with_jacobian else None)
+                res.append(w * e)
+                dres.append(w * de)
+            out["obstacle"] = (np.concatenate(res),
+                               np.concatenate(dres)[:, None] * np.vstack([grad] * len(res)) if with_jacobian else None)
 
         if len(edges.via_pose):
             w = math.sqrt(cfg.weight_viapoint)
             diff = poses[edges.via_pose, :2] - edges.via_point
-            jac = np.full((len(diff), 1), w) if with_jacobian else None
-            out["via_x"] = (w * diff[:, 0], jac)
-            out["via_y"] = (w * diff[:, 1], jac)
+            out["via"] = (w * diff.T.ravel(), np.full((2 * len(diff), 1), w) if with_jacobian else None)
         return out
 
     @staticmethod
@@ -352,9 +387,9 @@ class TebOptimizer:
         cost = 0.0
         for name, (r, _) in self.evaluate(band.poses, band.time_diffs, edges, False).items():
             chi = float(r @ r)
-            if name in ("obstacle", "inflation"):
+            if name == "obstacle":
                 chi *= cfg.selection_obst_cost_scale
-            elif name in ("via_x", "via_y"):
+            elif name == "via":
                 chi *= cfg.selection_viapoint_cost_scale
             elif name == "time" and cfg.selection_alternative_time_cost:
                 chi = band.sum_of_time_diffs
