@@ -190,6 +190,11 @@ def resolve_costmap_params(params: dict, name: str = "costmap", parents=()) -> C
             params_ = _obstacle_params(ns, cfg, chain)
             if not params_["sources"]:
                 cfg.warnings.append(f"{ns.path}: no observation_sources, so this layer will never see an obstacle")
+            for source in params_["sources"]:
+                if source.inf_is_valid:
+                    cfg.warnings.append(
+                        f"{ns.path}/{source.name}: inf_is_valid: +inf ranges clear up to range_max but never mark "
+                        f"(ROS 1 marks them at range_max - 1e-4 when obstacle_range reaches that far)")
         elif kind == "InflationLayer":
             params_ = _inflation_params(ns)
         else:

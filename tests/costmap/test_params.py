@@ -17,7 +17,9 @@ def test_lab_global_costmap():
     assert (cfg.global_frame, cfg.robot_base_frame, cfg.rolling_window) == ("odom", "base_link", False)
     assert (cfg.size_x, cfg.size_y, cfg.resolution, cfg.origin_x, cfg.origin_y) == (150, 150, 0.2, -15.0, -15.0)
     assert (cfg.update_frequency, cfg.publish_frequency, cfg.transform_tolerance) == (3.0, 1.0, 0.5)
-    assert cfg.warnings == ['global_costmap: Pre-Hydro parameter "static_map" unused since "plugins" is provided']
+    assert cfg.warnings[0] == 'global_costmap: Pre-Hydro parameter "static_map" unused since "plugins" is provided'
+    assert cfg.warnings[1].startswith("global_costmap/obstacles/front_laser: inf_is_valid: +inf ranges clear")
+    assert len(cfg.warnings) == 3
     obstacles, inflation = cfg.plugins
     assert (obstacles.name, obstacles.kind, inflation.name, inflation.kind) == \
         ("obstacles", "ObstacleLayer", "inflation_layer", "InflationLayer")
