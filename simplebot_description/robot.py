@@ -178,7 +178,10 @@ def _chassis(robot: yourdfpy.URDF, body: str):
 def _wheels(robot: yourdfpy.URDF) -> tuple[float, float]:
     joints = [robot.joint_map[name] for name in WHEEL_JOINTS]
     left, right = (float(j.origin[1, 3]) for j in joints)
-    radii = {float(robot.link_map[j.child].collisions[0].geometry.cylinder.radius) for j in joints}
+    radii = set()
+    for j in joints:
+        geometry = robot.link_map[j.child].collisions[0].geometry
+        radii.add(float((geometry.sphere or geometry.cylinder).radius))
     if len(radii) != 1:
         raise ValueError(f"{XACRO_PATH.name}: the driven wheels have different radii {sorted(radii)}")
     return left - right, radii.pop()

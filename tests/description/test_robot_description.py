@@ -60,15 +60,15 @@ def test_round_body_radius_arg_moves_lidars_and_wheels():
     d = robot_description("round", radius=0.5)
     assert d.radius == 0.5
     assert d.laser_poses["front_laser_link"][0] == pytest.approx(0.475)
-    assert d.wheel_separation == pytest.approx(2 * (0.5 - 0.03) - 0.04)
+    assert d.wheel_separation == pytest.approx(2 * (0.5 - 0.07))
 
 
 @pytest.mark.parametrize("body", ["box", "round"])
 def test_wheels_fit_inside_the_footprint(body):
     d = robot_description(body)
     assert d.wheel_radius == pytest.approx(0.07)
-    wheel_width = 0.04
-    assert d.wheel_separation / 2 + wheel_width / 2 < d.width / 2
+    # The wheels touch the floor through spheres of the wheel radius, flush with the sides.
+    assert d.wheel_separation / 2 + d.wheel_radius == pytest.approx(d.width / 2)
 
 
 @pytest.mark.parametrize("body", ["box", "round"])
