@@ -28,6 +28,8 @@ from numba import njit
 POT_HIGH = np.float32(1.0e10)
 _INVSQRT2 = np.float32(0.707106781)
 _INF = np.float32(np.inf)
+# Quadratic approximation of the two-neighbour planar-wave update (QuadraticCalculator).
+_QA, _QB, _QC = np.float32(-0.2301), np.float32(0.5307), np.float32(0.7040)
 
 
 @njit(cache=True)
@@ -48,7 +50,7 @@ def fill_padded_costs(costmap, lut, block_border, out):
         out[:, nx] = _INF
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _potential(pot, n, width, hf, quadratic):
     """global_planner's QuadraticCalculator / PotentialCalculator (neighbour form)."""
     left = pot[n - 1]
@@ -66,11 +68,11 @@ def _potential(pot, n, width, hf, quadratic):
     if dc >= hf:
         return ta + hf
     d = dc / hf
-    v = np.float32(-0.2301 * d * d + 0.5307 * d + 0.7040)
+    v = (_QA * d + _QB) * d + _QC
     return ta + hf * v
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def dijkstra_expand(cost, pot, width, seed_idx, seed_val, push_idx, goal, threshold0,
                     increment, quadratic):
     """DijkstraExpansion::calculatePotentials (threshold-bucketed wavefront).
@@ -100,6 +102,8 @@ def dijkstra_expand(cost, pot, width, seed_idx, seed_val, push_idx, goal, thresh
     threshold = np.float32(threshold0)
     inc = np.float32(increment)
     offsets = (-1, 1, -width, width)
+    if pot[goal] < POT_HIGH:  # the goal is one of the seeded nodes
+        return True
     while cur_end > 0:
         for i in range(cur_end):
             pending[cur[i]] = False
@@ -112,7 +116,10 @@ def dijkstra_expand(cost, pot, width, seed_idx, seed_val, push_idx, goal, thresh
                 low = new < threshold
                 for off in offsets:
                     m = n + off
-                    if not pending[m] and pot[m] > new + _INVSQRT2 * cost[m]:
+                    pm = pot[m]
+                    # pm > new first: it rejects the cells behind the wave without the
+                    # cost read (same outcome, costs are positive).
+                    if pm > new and pm > new + _INVSQRT2 * cost[m] and not pending[m]:
                         pending[m] = True
                         if low:
                             nxt[nxt_end] = m

@@ -321,6 +321,16 @@ def test_navfn_goal_in_obstacle_with_and_without_tolerance():
     assert ok.ok and ok.goal[:2] == pytest.approx((5.05, 2.05))
 
 
+@pytest.mark.parametrize("params", [{}, {"use_dijkstra": False}, {"use_grid_path": True}])
+def test_goal_in_the_start_cell_even_when_boxed_in(params):
+    costmap = free_map()
+    costmap.costmap[9:12, 9:12] = LETHAL_OBSTACLE  # the robot's cell is cleared, the ring stays
+    result = planner(**params).make_plan(costmap, (1.02, 1.03, 0.0), (1.08, 1.07, 0.5))
+    assert result.ok
+    assert tuple(result.poses[-1]) == pytest.approx((1.08, 1.07, 0.5))
+    assert result.length < 0.1
+
+
 def test_planner_accepts_a_config_object():
     cfg = GlobalPlannerConfig.from_params({"publish_potential": False})
     assert GlobalPlanner(cfg).make_plan(free_map(), (1, 1, 0), (2, 2, 0)).ok
