@@ -1,0 +1,234 @@
+"""The simulator node: SimplebotSim behind the topics the lab's Gazebo set-up had.
+
+Simulated time is the clock of every other node (/clock). In its own process the
+node steps the simulation against the wall clock at ``real_time_factor``; with
+``real_time_factor: 0`` it does not step by itself and a lockstep driver calls
+``advance()`` (single-process runs, tests and the scenario runner: DESIGN §3).
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import sys
+import time
+
+import numpy as np
+import rclpy
+import yourdfpy
+from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from geometry_msgs.msg import TransformStamped, Twist
+from nav_msgs.msg import Odometry
+from rclpy.clock import Clock, ClockType
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from rclpy.time import Time
+from rosgraph_msgs.msg import Clock as ClockMsg
+from sensor_msgs.msg import LaserScan
+from std_msgs.msg import String
+
+from simplebot_description import robot_description
+from simplebot_navigation.ros.conversions import yaw_to_quaternion
+from simplebot_navigation.ros.tf import StaticTransformBroadcaster, TransformBroadcaster
+from simplebot_navigation.sim.simulator import SimplebotSim
+from simplebot_navigation.sim.world import load_world
+
+LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+WALL_TICK_S = 0.005
+MAX_LAG_S = 0.5
+
+
+def _stamp(t: float):
+    return Time(nanoseconds=int(round(t * 1e9))).to_msg()
+
+
+def _quaternion_from_matrix(m: np.ndarray) -> tuple[float, float, float, float]:
+    w = math.sqrt(max(0.0, 1.0 + m[0, 0] + m[1, 1] + m[2, 2])) / 2.0
+    x = math.copysign(math.sqrt(max(0.0, 1.0 + m[0, 0] - m[1, 1] - m[2, 2])) / 2.0, m[2, 1] - m[1, 2])
+    y = math.copysign(math.sqrt(max(0.0, 1.0 - m[0, 0] + m[1, 1] - m[2, 2])) / 2.0, m[0, 2] - m[2, 0])
+    z = math.copysign(math.sqrt(max(0.0, 1.0 - m[0, 0] - m[1, 1] + m[2, 2])) / 2.0, m[1, 0] - m[0, 1])
+    return x, y, z, w
+
+
+def _transform(parent: str, child: str, stamp, xyz, quat) -> TransformStamped:
+    tf = TransformStamped()
+    tf.header.frame_id = parent
+    tf.header.stamp = stamp
+    tf.child_frame_id = child
+    tf.transform.translation.x, tf.transform.translation.y, tf.transform.translation.z = (float(v) for v in xyz)
+    r = tf.transform.rotation
+    r.x, r.y, r.z, r.w = (float(v) for v in quat)
+    return tf
+
+
+class SimulatorNode(Node):
+    def __init__(self, **kwargs):
+        super().__init__("simulator", **kwargs)
+        p = {name: self.declare_parameter(name, default).value for name, default in (
+            ("world", "lab"), ("robot", "box"), ("radius", 0.3), ("real_time_factor", 1.0),
+            ("physics_rate", 100.0), ("odom_rate", 50.0), ("seed", 0), ("range_noise_std", 0.0))}
+        self.description = robot_description(str(p["robot"]), float(p["radius"]))
+        self.world = load_world(str(p["world"]), robot_radius=self.description.inscribed_radius)
+        self.sim = SimplebotSim(self.world, self.description, physics_rate=float(p["physics_rate"]),
+                                seed=int(p["seed"]), range_noise_std=float(p["range_noise_std"]))
+        self.rtf = float(p["real_time_factor"])
+        if not (self.rtf >= 0.0 and math.isfinite(self.rtf)):
+            raise ValueError(f"real_time_factor must be >= 0, got {p['real_time_factor']!r}")
+        self._odom_every = max(1, round(float(p["physics_rate"]) / float(p["odom_rate"])))
+
+        self.clock_pub = self.create_publisher(ClockMsg, "/clock", 10)
+        self.odom_pub = self.create_publisher(Odometry, "/simplebot_controller/odom", 10)
+        self.truth_pub = self.create_publisher(Odometry, "/simplebot/ground_truth", 10)
+        self.collision_pub = self.create_publisher(DiagnosticStatus, "/simplebot/collisions", LATCHED)
+        self.scan_pubs = {frame: self.create_publisher(LaserScan, "/" + scan.topic.lstrip("/"),
+                                                       qos_profile_sensor_data)
+                          for frame, scan in self.description.scans.items()}
+        self.tf_broadcaster = TransformBroadcaster(self)
+        self.create_publisher(String, "/robot_description", LATCHED).publish(String(data=self.description.urdf))
+        StaticTransformBroadcaster(self).send_transform([
+            _transform(j.parent, j.child, _stamp(0.0), j.xyz, rpy_to_quaternion(j.rpy))
+            for j in self.description.fixed_joints])
+        self._wheel_joints = self._wheel_geometry()
+        self.create_subscription(Twist, "/simplebot_controller/cmd_vel", self._on_cmd_vel, 10)
+
+        self._reported_collisions = -1
+        self._publish_collisions()
+        self._steps = 0
+        self._wall_start = time.monotonic()
+        self._sim_start = self.sim.sim_time
+        if self.rtf > 0:
+            self.create_timer(WALL_TICK_S, self._on_wall_tick, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        start = self.world.start
+        self.get_logger().info(
+            f"world '{self.world.name}', {self.description.body} robot at ({start.x:.2f}, {start.y:.2f}, "
+            f"yaw {start.yaw:.2f}), physics {p['physics_rate']:.0f} Hz, "
+            + (f"real-time factor {self.rtf:g}" if self.rtf > 0 else "lockstep (stepped by its driver)"))
+
+    # -- stepping -------------------------------------------------------------------------------
+    def advance(self, duration: float) -> None:
+        """Step the simulation by duration seconds, publishing everything that falls due."""
+        end = self.sim.sim_time + duration
+        while self.sim.sim_time + self.sim.dt <= end + 1e-9:
+            self._step()
+
+    def _on_wall_tick(self) -> None:
+        target = self._sim_start + (time.monotonic() - self._wall_start) * self.rtf
+        lag = target - self.sim.sim_time
+        if lag > MAX_LAG_S:
+            self.get_logger().warn(f"cannot keep real_time_factor {self.rtf:g}: simulation is {lag:.2f} s behind; "
+                                   "slowing down", throttle_duration_sec=5.0)
+            self._wall_start = time.monotonic()
+            self._sim_start = self.sim.sim_time
+            target = self.sim.sim_time + self.sim.dt
+        self.advance(target - self.sim.sim_time)
+
+    def _step(self) -> None:
+        self.sim.step()
+        self._steps += 1
+        now = self.sim.sim_time
+        stamp = _stamp(now)
+        self.clock_pub.publish(ClockMsg(clock=stamp))
+        if self._steps % self._odom_every == 0:
+            self._publish_odometry(stamp)
+        for scan in self.sim.due_scans():
+            self.scan_pubs[scan.frame].publish(self._scan_msg(scan))
+        if self.sim.collisions().count != self._reported_collisions:
+            self._publish_collisions()
+
+    # -- publishing -----------------------------------------------------------------------------
+    def _publish_odometry(self, stamp) -> None:
+        odom, truth = self.sim.odometry(), self.sim.ground_truth()
+        for source, pub in ((odom, self.odom_pub), (truth, self.truth_pub)):
+            msg = Odometry()
+            msg.header.stamp = stamp
+            msg.header.frame_id = source.frame_id
+            msg.child_frame_id = source.child_frame_id
+            msg.pose.pose.position.x, msg.pose.pose.position.y = source.x, source.y
+            msg.pose.pose.orientation = yaw_to_quaternion(source.yaw)
+            msg.twist.twist.linear.x, msg.twist.twist.linear.y = source.vx, source.vy
+            msg.twist.twist.angular.z = source.wz
+            pub.publish(msg)
+        transforms = [_transform(odom.frame_id, odom.child_frame_id, stamp, (odom.x, odom.y, 0.0),
+                                 (0.0, 0.0, math.sin(odom.yaw / 2), math.cos(odom.yaw / 2)))]
+        joints = self.sim.joint_states()
+        for name, angle in zip(joints.names, joints.positions):
+            parent, child, origin, axis = self._wheel_joints[name]
+            transforms.append(_transform(parent, child, stamp, origin[:3, 3],
+                                         _quaternion_from_matrix(origin[:3, :3] @ _axis_rotation(axis, angle))))
+        self.tf_broadcaster.send_transform(transforms)
+
+    def _scan_msg(self, scan) -> LaserScan:
+        msg = LaserScan()
+        msg.header.stamp = _stamp(scan.stamp)
+        msg.header.frame_id = scan.frame
+        msg.angle_min, msg.angle_max, msg.angle_increment = scan.angle_min, scan.angle_max, scan.angle_increment
+        msg.time_increment, msg.scan_time = scan.time_increment, scan.scan_time
+        msg.range_min, msg.range_max = scan.range_min, scan.range_max
+        msg.ranges = scan.ranges.astype(np.float32, copy=False).tolist()
+        return msg
+
+    def _publish_collisions(self) -> None:
+        report = self.sim.collisions()
+        self._reported_collisions = report.count
+        status = DiagnosticStatus(name="simplebot/collisions", hardware_id="simplebot",
+                                  level=DiagnosticStatus.WARN if report.count else DiagnosticStatus.OK,
+                                  message=f"{report.count} collision(s)")
+        values = {"count": report.count, "in_contact": report.in_contact, "last_obstacle": report.last_obstacle,
+                  "last_stamp": report.last_stamp}
+        if report.last_point is not None:
+            values.update(zip(("last_x", "last_y", "last_z"), report.last_point))
+        status.values = [KeyValue(key=k, value="" if v is None else str(v)) for k, v in values.items()]
+        self.collision_pub.publish(status)
+
+    # -- input ----------------------------------------------------------------------------------
+    def _on_cmd_vel(self, msg: Twist) -> None:
+        try:
+            self.sim.set_cmd_vel(msg.linear.x, msg.angular.z)
+        except ValueError as err:
+            self.get_logger().warn(f"/simplebot_controller/cmd_vel: {err}", throttle_duration_sec=2.0)
+
+    def _wheel_geometry(self) -> dict:
+        urdf = yourdfpy.URDF.load(io.StringIO(self.description.urdf), build_scene_graph=False,
+                                  load_meshes=False)
+        return {name: (j.parent, j.child, j.origin if j.origin is not None else np.eye(4), np.asarray(j.axis, float))
+                for name, j in urdf.joint_map.items() if j.type in ("continuous", "revolute")}
+
+    def destroy_node(self) -> None:
+        self.sim.close()
+        super().destroy_node()
+
+
+def _axis_rotation(axis: np.ndarray, angle: float) -> np.ndarray:
+    k = axis / np.linalg.norm(axis)
+    kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + math.sin(angle) * kx + (1 - math.cos(angle)) * kx @ kx
+
+
+def rpy_to_quaternion(rpy) -> tuple[float, float, float, float]:
+    roll, pitch, yaw = rpy
+    cr, sr, cp, sp, cy, sy = (f(a / 2) for a in (roll, pitch, yaw) for f in (math.cos, math.sin))
+    return (sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy,
+            cr * cp * cy + sr * sp * sy)
+
+
+def main(args=None) -> int:
+    rclpy.init(args=args if args is not None else sys.argv)
+    try:
+        node = SimulatorNode()
+    except (ValueError, FileNotFoundError) as err:
+        print(f"simulator: {err}", file=sys.stderr, flush=True)
+        rclpy.try_shutdown()
+        return 2
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
