@@ -265,7 +265,7 @@ class GlobalPlanner:
                                            cfg.use_quadratic)
         start_index = self._index(start_cell, width)
         return kernels.astar_expand(cost, pot, width, start_index, goal_index,
-                                    float(self._neutral), cfg.use_quadratic)
+                                    np.float32(self._neutral), cfg.use_quadratic)
 
     def _seeds(self, su, sv, start_cell, cost, width):
         """Initial potentials and pushes of the wavefront.
