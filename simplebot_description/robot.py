@@ -184,7 +184,7 @@ def _wheels(robot: yourdfpy.URDF) -> tuple[float, float]:
         radii.add(float((geometry.sphere or geometry.cylinder).radius))
     if len(radii) != 1:
         raise ValueError(f"{XACRO_PATH.name}: the driven wheels have different radii {sorted(radii)}")
-    return left - right, radii.pop()
+    return round(left - right, 12), radii.pop()
 
 
 def _fixed_joint(joint) -> FixedJoint:

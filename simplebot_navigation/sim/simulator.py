@@ -154,8 +154,10 @@ class SimplebotSim:
         with tempfile.NamedTemporaryFile("w", suffix=".urdf", delete=False) as f:
             f.write(self.description.urdf)
         try:
+            # Implicit cylinders: the round chassis collides as a true circle, not a polygon.
             self._robot = pb.loadURDF(f.name, [start.x, start.y, 0.0], pb.getQuaternionFromEuler([0, 0, start.yaw]),
-                                      flags=pb.URDF_USE_INERTIA_FROM_FILE | pb.URDF_USE_IMPLICIT_CYLINDER, physicsClientId=c)
+                                      flags=pb.URDF_USE_INERTIA_FROM_FILE | pb.URDF_USE_IMPLICIT_CYLINDER,
+                                      physicsClientId=c)
         finally:
             os.unlink(f.name)
         joints = {pb.getJointInfo(self._robot, i, physicsClientId=c)[1].decode(): i

@@ -249,8 +249,9 @@ def test_non_finite_commands_are_rejected_and_the_last_one_stays(make_sim, v, w)
     assert sim.odometry().vx == pytest.approx(0.2, abs=0.003)
 
 
-def test_driving_into_a_wall_is_a_collision(make_sim):
-    sim = make_sim(wall_ahead(1.0))
+@pytest.mark.parametrize("description, front", [(BOX, 0.45), (ROUND, 0.3)], ids=["box", "round"])
+def test_driving_into_a_wall_is_a_collision(make_sim, description, front):
+    sim = make_sim(wall_ahead(1.0), description)
     drive(sim, 0.3, 0.0, 1.0)
     assert sim.collisions().count == 0 and not sim.collisions().in_contact
     drive(sim, 0.3, 0.0, 3.0)
@@ -260,8 +261,8 @@ def test_driving_into_a_wall_is_a_collision(make_sim):
     assert report.last_obstacle == "walls[0]"
     assert report.last_point[0] == pytest.approx(1.0, abs=0.01)
     assert report.last_stamp == pytest.approx(sim.sim_time)
-    # The chassis front (0.45 m ahead of base_link) stops at the wall face.
-    assert sim.ground_truth().x == pytest.approx(0.55, abs=0.01)
+    # The chassis front stops at the wall face.
+    assert sim.ground_truth().x == pytest.approx(1.0 - front, abs=0.01)
     drive(sim, -0.3, 0.0, 1.0)
     assert not sim.collisions().in_contact
     drive(sim, 0.3, 0.0, 3.0)
