@@ -54,12 +54,8 @@ def fill_padded_costs(costmap, lut, block_border, out):
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _potential(pot, n, width, hf, quadratic):
+def _update(left, right, up, down, hf, quadratic):
     """global_planner's QuadraticCalculator / PotentialCalculator (neighbour form)."""
-    left = pot[n - 1]
-    right = pot[n + 1]
-    up = pot[n - width]
-    down = pot[n + width]
     tc = left if left < right else right
     ta = up if up < down else down
     if not quadratic:
@@ -73,6 +69,11 @@ def _potential(pot, n, width, hf, quadratic):
     d = dc / hf
     v = (_QA * d + _QB) * d + _QC
     return ta + hf * v
+
+
+@njit(cache=True, inline="always")
+def _potential(pot, n, width, hf, quadratic):
+    return _update(pot[n - 1], pot[n + 1], pot[n - width], pot[n + width], hf, quadratic)
 
 
 @njit(cache=True, error_model="numpy")
@@ -112,17 +113,15 @@ def dijkstra_expand(cost, pot, width, seed_idx, seed_val, push_idx, goal, thresh
             pending[cur[i]] = False
         for i in range(cur_end):
             n = cur[i]
-            hf = cost[n]
-            new = _potential(pot, n, width, hf, quadratic)
+            # Neighbour potentials are read once: updating pot[n] does not change them.
+            nb = (pot[n - 1], pot[n + 1], pot[n - width], pot[n + width])
+            new = _update(nb[0], nb[1], nb[2], nb[3], cost[n], quadratic)
             if new < pot[n]:
                 pot[n] = new
                 low = new < threshold
-                for off in offsets:
-                    m = n + off
-                    pm = pot[m]
-                    # pm > new first: it rejects the cells behind the wave without the
-                    # cost read (same outcome, costs are positive).
-                    if pm > new and pm > new + _INVSQRT2 * cost[m] and not pending[m]:
+                for k in range(4):
+                    m = n + offsets[k]
+                    if nb[k] > new + _INVSQRT2 * cost[m] and not pending[m]:
                         pending[m] = True
                         if low:
                             nxt[nxt_end] = m
