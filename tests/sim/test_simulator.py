@@ -335,3 +335,14 @@ def test_joint_states_report_wheel_speeds(make_sim):
     assert js.names == ("left_wheel_joint", "right_wheel_joint")
     wheel = 1.0 * BOX.wheel_separation / 2 / BOX.wheel_radius
     assert js.velocities == pytest.approx((-wheel, wheel), abs=0.05)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"physics_rate": 0}, "physics_rate must be a positive number of Hz, got 0"),
+    ({"physics_rate": math.inf}, "physics_rate must be a positive number of Hz, got inf"),
+    ({"seed": 1.5}, "seed must be an int, got 1.5"),
+    ({"range_noise_std": -0.01}, "lidar range noise std must be >= 0, got -0.01"),
+])
+def test_bad_simulator_arguments(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        SimplebotSim(World("empty"), BOX, **kwargs)
