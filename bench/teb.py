@@ -1,0 +1,156 @@
+"""TEB control-cycle time for the lab robot, homotopy class planning off and on, side by side.
+
+    /work/devenv/bin/python bench/teb.py [--cycles N] [--profile]
+
+Scene: a 3.2 m wide corridor (walls at y = +-1.6 m) with four 0.4 m boxes staggered 0.5 m off the
+centre line every 2 m, the lab robot (0.9 x 0.6 m box, padding 0.03, diff-drive) with the lab's
+teb_local_planner.yaml (two_circles model, offsets and radii 0.2) and TEB defaults otherwise.
+The local costmap is the lab's rolling window, 5 x 5 m at 0.05 m, re-cut around the robot every
+cycle; lethal cells are the wall lines and the box outlines (what the front and back scans mark
+together). The global plan is a slalom between the boxes to x = 10 m.
+
+Two robots run in lock step, one per planner configuration, each integrating its own (v, omega)
+with a unicycle model at the 10 Hz controller period, so both are timed in the same run under
+the same machine load. A cycle is one compute_velocity_commands call (plan pruning/transform,
+obstacle extraction, optimisation, feasibility check, command). Times are wall clock.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from simplebot_navigation.costmap.cost_values import LETHAL_OBSTACLE  # noqa: E402
+from simplebot_navigation.costmap.costmap_2d import Costmap2D  # noqa: E402
+from simplebot_navigation.teb.config import TebConfig  # noqa: E402
+from simplebot_navigation.teb.planner import TebLocalPlanner  # noqa: E402
+
+RES = 0.05
+WORLD_ORIGIN = (-3.0, -4.0)
+WORLD_CELLS = (340, 160)                # 17 x 8 m
+BOXES = [(2.0, 0.5), (4.0, -0.5), (6.0, 0.5), (8.0, -0.5)]
+LAB_FOOTPRINT = np.array([[0.45, 0.3], [0.45, -0.3], [-0.45, -0.3], [-0.45, 0.3]])
+PADDING = 0.03
+LAB_PARAMS = {
+    "odom_topic": "/odom",
+    "map_frame": "/odom",
+    "footprint_model": {"type": "two_circles", "front_offset": 0.2, "front_radius": 0.2,
+                        "rear_offset": 0.2, "rear_radius": 0.2},
+}
+PERIOD = 0.1
+
+
+def world_grid() -> np.ndarray:
+    grid = np.zeros(WORLD_CELLS[::-1], dtype=np.uint8)
+    xs = WORLD_ORIGIN[0] + (np.arange(WORLD_CELLS[0]) + 0.5) * RES
+    ys = WORLD_ORIGIN[1] + (np.arange(WORLD_CELLS[1]) + 0.5) * RES
+    X, Y = np.meshgrid(xs, ys)
+    for wall_y in (-1.6, 1.6):
+        grid[np.abs(Y - wall_y) < RES / 2] = LETHAL_OBSTACLE
+    for bx, by in BOXES:
+        inside = (np.abs(X - bx) <= 0.2) & (np.abs(Y - by) <= 0.2)
+        interior = (np.abs(X - bx) <= 0.2 - RES) & (np.abs(Y - by) <= 0.2 - RES)
+        grid[inside & ~interior] = LETHAL_OBSTACLE
+    return grid
+
+
+def local_costmap(world: np.ndarray, x: float, y: float) -> Costmap2D:
+    """The 5 x 5 m rolling window around (x, y), aligned with the world cells."""
+    size = 100
+    mx0 = int(math.floor((x - WORLD_ORIGIN[0]) / RES)) - size // 2
+    my0 = int(math.floor((y - WORLD_ORIGIN[1]) / RES)) - size // 2
+    cm = Costmap2D(size, size, RES, WORLD_ORIGIN[0] + mx0 * RES, WORLD_ORIGIN[1] + my0 * RES)
+    cm.costmap[:, :] = world[my0:my0 + size, mx0:mx0 + size]
+    return cm
+
+
+def make_planner(homotopy: bool) -> TebLocalPlanner:
+    cfg = TebConfig.from_params({**LAB_PARAMS, "enable_homotopy_class_planning": homotopy})
+    footprint = LAB_FOOTPRINT + np.sign(LAB_FOOTPRINT) * PADDING
+    planner = TebLocalPlanner(cfg, footprint, PERIOD)
+    planner.set_plan(global_plan())
+    return planner
+
+
+def global_plan() -> np.ndarray:
+    """A slalom keeping about 0.8 m from the box edges, as a global planner on the inflated
+    costmap would route it, sampled every cell, with yaw along the path."""
+    xs = np.arange(0.0, 10.0 + 1e-9, RES)
+    ramp = np.clip(xs / 1.5, 0.0, 1.0) * np.clip((10.0 - xs) / 1.5, 0.0, 1.0)
+    ys = -0.55 * ramp * np.cos(np.pi * (xs - 2.0) / 2.0)
+    yaw = np.arctan2(np.gradient(ys), np.gradient(xs))
+    return np.column_stack([xs, ys, yaw])
+
+
+def run(cycles: int, profile: bool) -> None:
+    world = world_grid()
+    obstacles = np.column_stack(np.nonzero(world.T == LETHAL_OBSTACLE)) * RES + np.array(WORLD_ORIGIN) + RES / 2
+    runs = {name: {"planner": make_planner(hcp), "pose": np.zeros(3), "vel": (0.0, 0.0), "times": [],
+                   "classes": [], "done": None, "failures": 0, "clearance": math.inf}
+            for name, hcp in (("homotopy off", False), ("homotopy on", True))}
+    profiler = None
+    if profile:
+        from pyinstrument import Profiler
+        profiler = Profiler()
+        profiler.start()
+    for k in range(cycles):
+        for r in runs.values():
+            if r["done"] is not None:
+                continue
+            pose, planner = r["pose"], r["planner"]
+            costmap = local_costmap(world, pose[0], pose[1])
+            t0 = time.perf_counter()
+            cmd = planner.compute_velocity_commands(pose, r["vel"], costmap)
+            r["times"].append(time.perf_counter() - t0)
+            r["classes"].append(len(planner.planner.candidates))
+            if cmd.goal_reached:
+                r["done"] = k * PERIOD
+                continue
+            r["failures"] += not cmd.ok
+            v, w = cmd.v, cmd.omega
+            pose += (v * math.cos(pose[2]) * PERIOD, v * math.sin(pose[2]) * PERIOD, w * PERIOD)
+            r["vel"] = (v, w)
+            r["clearance"] = min(r["clearance"], box_clearance(pose, obstacles))
+        if all(r["done"] is not None for r in runs.values()):
+            break
+    if profiler:
+        profiler.stop()
+        print(profiler.output_text(unicode=False, color=False, show_all=False))
+    print(f"{'mode':14s} {'cycles':>6s} {'median ms':>10s} {'p95 ms':>8s} {'max ms':>8s} "
+          f"{'classes':>8s} {'failed':>6s} {'arrived s':>9s} {'clearance m':>11s}")
+    for name, r in runs.items():
+        t = np.array(r["times"]) * 1000.0
+        arrived = f"{r['done']:.1f}" if r["done"] is not None else "no"
+        print(f"{name:14s} {len(t):6d} {np.median(t):10.1f} {np.percentile(t, 95):8.1f} {t.max():8.1f} "
+              f"{np.mean(r['classes']):8.2f} {r['failures']:6d} {arrived:>9s} {r['clearance']:11.3f}")
+    off, on = (np.median(np.array(runs[n]["times"])) for n in runs)
+    print(f"median ratio on/off: {on / off:.2f}")
+
+
+def box_clearance(pose, obstacles) -> float:
+    """Distance from the robot's (unpadded) rectangle to the nearest lethal cell centre."""
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    rel = obstacles - pose[:2]
+    local = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]])
+    out = np.maximum(np.abs(local) - (0.45, 0.3), 0.0)
+    return float(np.min(np.hypot(out[:, 0], out[:, 1])))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cycles", type=int, default=400, help="control cycles per planner (default 400)")
+    parser.add_argument("--profile", action="store_true", help="print a pyinstrument profile of the run")
+    args = parser.parse_args()
+    run(args.cycles, args.profile)
+
+
+if __name__ == "__main__":
+    main()
