@@ -87,6 +87,10 @@ class SimplebotSim:
 
     The ROS node calls set_cmd_vel() when a Twist arrives, step_until() to advance the clock, and
     publishes odometry(), ground_truth(), due_scans() and collisions().
+
+    physics_rate must be a multiple of the lidar rate (10 Hz). ``seed`` feeds the lidar range noise
+    (``range_noise_std``, metres, off by default) and the odometry errors (``odom_noise``, off by
+    default). ``ray_threads`` is passed to rayTestBatch (1: the other core stays free for the nodes).
     """
 
     def __init__(self, world: World, description: RobotDescription, *, physics_rate: float = 100.0,
