@@ -152,6 +152,50 @@ def test_quadratic_potential_values_around_an_integer_start():
     assert simple[21, 21] == 100
 
 
+INF = float("inf")
+# Potentials computed by ROS 1 global_planner (noetic, its C++ DijkstraExpansion/AStarExpansion
+# with the QuadraticCalculator and default costs) on ros_map() from cell (2, 2) to (7, 2).
+ROS_DIJKSTRA = [
+    [INF, INF, INF, INF, INF, INF, INF, INF, INF, INF],
+    [INF, 85.2, 50.0, 85.2, 334.746, INF, INF, INF, INF, INF],
+    [INF, 50.0, 0.0, 50.0, 302.0, INF, INF, 622.139, 640.692, INF],
+    [INF, 85.2, 50.0, 85.2, 334.746, INF, 775.683, 572.139, 594.278, INF],
+    [INF, 127.246, 100.0, 127.246, 379.246, INF, 667.833, 522.139, 549.385, INF],
+    [INF, 172.139, 150.0, 172.139, 307.333, 413.39, 489.794, 472.139, 507.339, INF],
+    [INF, 222.139, 360.94, 222.139, 272.139, 322.139, 372.139, 422.139, 472.139, INF],
+    [INF, INF, INF, INF, INF, INF, INF, INF, INF, INF]]
+ROS_ASTAR = [  # same map without the unknown cell (ROS 1 wraps 255 + 50 to 49 there)
+    [INF, INF, INF, INF, INF, INF, INF, INF, INF, INF],
+    [INF, 85.2, 50.0, 85.2, 251.823, INF, INF, INF, INF, INF],
+    [INF, 50.0, 0.0, 50.0, 220.0, INF, INF, 625.2, INF, INF],
+    [INF, 85.2, 50.0, 85.2, 251.823, INF, 630.521, 575.2, 602.446, INF],
+    [INF, 127.246, 100.0, 135.2, 298.363, INF, 535.2, 525.2, 560.4, INF],
+    [INF, 172.139, 150.0, 185.2, 265.2, 345.2, 425.2, 475.2, 525.2, INF],
+    [INF, 218.553, 200.0, 235.2, 282.179, 332.179, 382.179, 432.179, INF, INF],
+    [INF, INF, INF, INF, INF, INF, INF, INF, INF, INF]]
+
+
+def ros_map(unknown: bool):
+    costmap = free_map(10, 8, 1.0)
+    grid = costmap.costmap
+    grid[1:5, 5] = LETHAL_OBSTACLE  # wall from the bottom
+    grid[1:5, 4], grid[1:5, 6], grid[5, 4:7] = 120, 60, 30
+    if unknown:
+        grid[6, 2] = NO_INFORMATION
+    return costmap
+
+
+@pytest.mark.parametrize("params, unknown, expected", [({}, True, ROS_DIJKSTRA),
+                                                       ({"use_dijkstra": False}, False, ROS_ASTAR)])
+def test_potentials_match_ros_1(params, unknown, expected):
+    # old_navfn_behavior seeds the start cell exactly as ROS 1 does; the border is outlined.
+    result = planner(old_navfn_behavior=True, **params).make_plan(
+        ros_map(unknown), (2.5, 2.5, 0.0), (7.5, 2.5, 0.0))
+    assert result.ok
+    pot = np.where(result.potential >= POT_HIGH, np.inf, result.potential)
+    assert pot == pytest.approx(np.array(expected), abs=1e-3)
+
+
 def test_potential_occupancy_grid_scaling():
     pot = np.array([[0.0, 50.0, 100.0, POT_HIGH]], dtype=np.float32)
     assert potential_to_occupancy(pot, 100).tolist() == [[0, 50, 100, -1]]
