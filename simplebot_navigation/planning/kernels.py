@@ -11,7 +11,8 @@ with no extra dependency (numba is already required): with identical seeding
 (old_navfn_behavior) the Dijkstra and A* potentials agree with ROS 1's compiled sources to
 float rounding (relative 2e-7) on random inflated maps, and so do the gradient paths. Every
 kernel is compiled with ``cache=True``, so only the very first process pays the compile time
-(see warm_up()).
+(see warm_up()); the ones called from Python release the GIL, so a long plan does not stall a
+node's other threads.
 
 All kernels work on a *padded* grid: one ring of blocked cells (cost +inf, potential POT_HIGH)
 around the costmap. That replaces the bounds checks ROS leaves to ``outline_map`` (without it,
@@ -35,7 +36,7 @@ _INF = np.float32(np.inf)
 _QA, _QB, _QC = np.float32(-0.2301), np.float32(0.5307), np.float32(0.7040)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def fill_padded_costs(costmap, lut, block_border, out):
     """out[1:-1, 1:-1] = lut[costmap]; the pad ring (and the border when asked) is blocked."""
     ny, nx = costmap.shape
@@ -76,7 +77,7 @@ def _potential(pot, n, width, hf, quadratic):
     return _update(pot[n - 1], pot[n + 1], pot[n - width], pot[n + width], hf, quadratic)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def dijkstra_expand(cost, pot, width, seed_idx, seed_val, push_idx, goal, threshold0,
                     increment, quadratic):
     """DijkstraExpansion::calculatePotentials (threshold-bucketed wavefront).
@@ -193,7 +194,7 @@ def _heap_pop(keys, idx, size):
     return top, size
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def astar_expand(cost, pot, width, start, goal, neutral, quadratic):
     """AStarExpansion::calculatePotentials: binary heap on potential + Manhattan * neutral.
 
@@ -231,7 +232,7 @@ def astar_expand(cost, pot, width, start, goal, neutral, quadratic):
     return False
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def clear_endpoint(costmap, pot, width, gx, gy, half, neutral, quadratic):
     """Expander::clearEndpoint: give unassigned cells in a window around the goal a potential.
 
@@ -304,7 +305,7 @@ def _grad_cell(pot, n, width, height):
     return 0.0, 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def gradient_path(pot, width, start_x, start_y, goal_x, goal_y, max_steps):
     """GradientPath::getPath, from the goal down the potential to the start.
 
@@ -377,7 +378,7 @@ def gradient_path(pot, width, start_x, start_y, goal_x, goal_y, max_steps):
     return buf, count, 4
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def grid_path(pot, width, start_x, start_y, goal_x, goal_y, max_steps):
     """GridPath::getPath: steepest descent over the 8 neighbours, from the goal to the start.
 
