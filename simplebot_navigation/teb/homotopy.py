@@ -6,7 +6,10 @@ into clusters (cells closer than the robot can pass between), each cluster is re
 key point, and a band's class is the vector of angles it sweeps around those key points: two
 bands with the same start and goal are in the same class when every swept angle agrees to within
 pi. New candidates are seeded by offset initial paths passing left and right of the clusters
-closest to the start-goal line, at most max_number_classes bands in total.
+closest to the start-goal line, at most max_number_classes bands in total. To keep the control
+cycle bounded in Python, at most one new class is seeded per cycle, it gets half the outer
+iterations in that cycle and competes from the next one, and a seed that merges into another
+class or is dropped as a detour is not tried again for REJECTED_SEED_CYCLES cycles.
 
 With enable_homotopy_class_planning false the planner keeps exactly one band (TebOptimalPlanner).
 """
@@ -29,6 +32,12 @@ class Candidate:
     from_initial_plan: bool = False
     cost: float = math.inf
     signature: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    fresh_seed: bool = False
+
+
+#: Control cycles during which a seed that did not survive its first optimisation is not re-seeded
+#: (TEB re-explores every cycle; in Python each wasted candidate costs a full optimisation).
+REJECTED_SEED_CYCLES = 10
 
 
 def obstacle_clusters(obstacles: np.ndarray, gap: float) -> list[np.ndarray]:
@@ -62,6 +71,8 @@ def homotopy_signature(path_xy: np.ndarray, keypoints: np.ndarray) -> np.ndarray
 
 
 def same_class(sig_a: np.ndarray, sig_b: np.ndarray) -> bool:
+    if len(sig_a) != len(sig_b):
+        return False
     return bool(np.all(np.abs(sig_a - sig_b) < math.pi))
 
 
@@ -73,6 +84,9 @@ class HomotopyClassPlanner:
         self.candidates: list[Candidate] = []
         self.best: Candidate | None = None
         self.keypoints = np.zeros((0, 2))
+        # Signatures of seeds that merged into another class or were dropped as detours,
+        # with the cycles left during which the same seed is not tried again.
+        self.rejected: list[tuple[np.ndarray, int]] = []
 
     @property
     def enabled(self) -> bool:
@@ -81,6 +95,7 @@ class HomotopyClassPlanner:
     def clear(self) -> None:
         self.candidates = []
         self.best = None
+        self.rejected = []
 
     def best_band(self) -> TimedElasticBand | None:
         return self.best.band if self.best else None
@@ -109,13 +124,25 @@ class HomotopyClassPlanner:
             self.best = self.candidates[0] if self.candidates else None
             return self.best is not None
         for cand in self.candidates:
-            cand.cost = self.optimizer.optimize(cand.band, obstacles, via_points, start_velocity,
-                                                free_goal_vel, compute_cost=self.enabled)
+            if cand.fresh_seed:
+                # A new class gets half the budget now and competes from the next cycle on.
+                self.optimizer.optimize(cand.band, obstacles, via_points, start_velocity, free_goal_vel,
+                                        compute_cost=False,
+                                        outer_iterations=max(1, cfg.no_outer_iterations // 2))
+                cand.cost = math.inf
+            else:
+                cand.cost = self.optimizer.optimize(cand.band, obstacles, via_points, start_velocity,
+                                                    free_goal_vel, compute_cost=self.enabled)
         if self.enabled:
+            seeds = {id(c): c.signature for c in self.candidates if c.fresh_seed}
             for cand in self.candidates:
                 cand.signature = homotopy_signature(cand.band.poses[:, :2], self.keypoints)
+                cand.fresh_seed = False
             self._drop_duplicates()
             self._delete_detours()
+            kept = {id(c) for c in self.candidates}
+            self.rejected = [(sig, ttl - 1) for sig, ttl in self.rejected if ttl > 1]
+            self.rejected += [(sig, REJECTED_SEED_CYCLES) for key, sig in seeds.items() if key not in kept]
             self._select_best()
         else:
             self.best = self.candidates[0]
@@ -206,16 +233,19 @@ class HomotopyClassPlanner:
                 via = start[:2] + t_w * axis + offset * normal
                 if bounds is not None and not (bounds[0] <= via[0] <= bounds[2] and bounds[1] <= via[1] <= bounds[3]):
                     continue
-                if len(obstacles) and np.min(np.hypot(*(obstacles - via).T)) < self.model.inscribed_radius:
+                if abs(offset) > half_width or not _segments_clear(
+                        np.array([start[:2], via, goal[:2]]), obstacles, self.model.inscribed_radius):
                     continue
                 path = _polyline(np.array([start[:2], via, goal[:2]]), cfg.max_vel_x * cfg.dt_ref)
                 seed = np.column_stack([path, np.zeros(len(path))])
                 seed[0], seed[-1] = start, goal
                 sig = homotopy_signature(seed[:, :2], self.keypoints)
-                if self._has_class(sig) is None:
+                if self._has_class(sig) is None and not any(same_class(r, sig) for r, _ in self.rejected):
                     cand = self._new_candidate(seed, False)
                     cand.signature = sig
+                    cand.fresh_seed = True
                     self.candidates.append(cand)
+                    return  # one new class per cycle bounds the cycle time
 
     def _delete_detours(self) -> None:
         """Drop bands that start backwards (delete_detours_backwards) or take far longer than the
@@ -267,6 +297,19 @@ class HomotopyClassPlanner:
             self._select_best()
         self.best = None
         return False
+
+
+def _segments_clear(points: np.ndarray, obstacles: np.ndarray, radius: float) -> bool:
+    """True when no obstacle lies within ``radius`` of the polyline through ``points``: a seed
+    must not start out crossing a wall (TEB's roadmap edges are checked the same way)."""
+    if len(obstacles) == 0:
+        return True
+    a, b = points[:-1], points[1:]
+    ab = b - a
+    rel = obstacles[:, None, :] - a[None, :, :]
+    t = np.clip((rel * ab).sum(axis=2) / np.maximum((ab * ab).sum(axis=1), 1e-12), 0.0, 1.0)
+    closest = rel - t[..., None] * ab
+    return bool(np.min(np.einsum("msj,msj->ms", closest, closest)) >= radius * radius)
 
 
 def _polyline(points: np.ndarray, spacing: float) -> np.ndarray:

@@ -131,21 +131,24 @@ class TebOptimizer:
 
     # -- outer loop -------------------------------------------------------------------------
     def optimize(self, band: TimedElasticBand, obstacles: np.ndarray, via_points: np.ndarray | None,
-                 start_velocity, free_goal_vel: bool, compute_cost: bool = True) -> float:
+                 start_velocity, free_goal_vel: bool, compute_cost: bool = True,
+                 outer_iterations: int | None = None) -> float:
         """optimizeTEB: outer iterations of autoResize + association + inner LM, the obstacle
-        weight growing by weight_adapt_factor. Returns the selection cost of the final graph."""
+        weight growing by weight_adapt_factor. Returns the selection cost of the final graph
+        (inf unless compute_cost)."""
         cfg = self.cfg
         self.start_velocity = (float(start_velocity[0]), float(start_velocity[1]))
         self.free_goal_vel = free_goal_vel
         multiplier = 1.0
         cost = math.inf
-        for outer in range(cfg.no_outer_iterations):
+        outer_iterations = cfg.no_outer_iterations if outer_iterations is None else outer_iterations
+        for outer in range(outer_iterations):
             if cfg.teb_autosize:
                 band.auto_resize(cfg.dt_ref, cfg.dt_hysteresis, cfg.min_samples, cfg.max_samples,
                                  fast_mode=not cfg.include_dynamic_obstacles)
             edges = self.build_edges(band, obstacles, via_points, cfg.weight_obstacle * multiplier)
             self.levenberg_marquardt(band, edges, cfg.no_inner_iterations)
-            if compute_cost and outer == cfg.no_outer_iterations - 1:
+            if compute_cost and outer == outer_iterations - 1:
                 cost = self.selection_cost(band, edges)
             multiplier *= cfg.weight_adapt_factor
         return cost
