@@ -357,7 +357,8 @@ class GlobalPlanner:
 
 
 _EXTRACTION_ERRORS = {1: "it ran off the map border", 2: "it ran into unassigned potential",
-                      3: "zero gradient", 4: "step limit reached"}
+                      3: "it is stuck in a local minimum of the potential",
+                      4: "step limit reached"}
 
 
 def make_global_planner(type_name: str, params: dict | None = None) -> GlobalPlanner:

@@ -311,7 +311,7 @@ def gradient_path(pot, width, start_x, start_y, goal_x, goal_y, max_steps):
 
     Coordinates are lattice coordinates of the unpadded grid (integer = cell centre).
     Returns (points, n, status): status 0 = reached the start, 1 = left the map,
-    2 = ran into unassigned potential, 3 = zero gradient, 4 = step limit.
+    2 = ran into unassigned potential, 3 = stuck in a local minimum, 4 = step limit.
     """
     height = pot.size // width
     buf = np.empty((64, 2), np.float64)
@@ -334,47 +334,53 @@ def gradient_path(pot, width, start_x, start_y, goal_x, goal_y, max_steps):
                        and buf[count - 1, 1] == buf[count - 3, 1])
         up = stc - width
         down = stc + width
-        if (oscillating or pot[stc] >= POT_HIGH or pot[stc - 1] >= POT_HIGH
-                or pot[stc + 1] >= POT_HIGH or pot[up] >= POT_HIGH or pot[up - 1] >= POT_HIGH
-                or pot[up + 1] >= POT_HIGH or pot[down] >= POT_HIGH
-                or pot[down - 1] >= POT_HIGH or pot[down + 1] >= POT_HIGH):
-            # Near the edge of the assigned potential: step to the lowest of the 8 neighbours.
-            # ROS truncates the reference potential to an int, so do we.
-            best = stc
-            best_pot = math.floor(pot[stc]) if pot[stc] < POT_HIGH else POT_HIGH
-            for m in (up - 1, up, up + 1, stc - 1, stc + 1, down - 1, down, down + 1):
-                if pot[m] < best_pot:
-                    best_pot = pot[m]
-                    best = m
-            stc = best
-            dx = 0.0
-            dy = 0.0
-            if pot[stc] >= POT_HIGH:
-                return buf, count, 2
-        else:
+        grid_step = (oscillating or pot[stc] >= POT_HIGH or pot[stc - 1] >= POT_HIGH
+                     or pot[stc + 1] >= POT_HIGH or pot[up] >= POT_HIGH
+                     or pot[up - 1] >= POT_HIGH or pot[up + 1] >= POT_HIGH
+                     or pot[down] >= POT_HIGH or pot[down - 1] >= POT_HIGH
+                     or pot[down + 1] >= POT_HIGH)
+        if not grid_step:
             g00x, g00y = _grad_cell(pot, stc, width, height)
             g10x, g10y = _grad_cell(pot, stc + 1, width, height)
             g01x, g01y = _grad_cell(pot, down, width, height)
             g11x, g11y = _grad_cell(pot, down + 1, width, height)
             x = (1.0 - dy) * ((1.0 - dx) * g00x + dx * g10x) + dy * ((1.0 - dx) * g01x + dx * g11x)
             y = (1.0 - dy) * ((1.0 - dx) * g00y + dx * g10y) + dy * ((1.0 - dx) * g01y + dx * g11y)
-            if x == 0.0 and y == 0.0:
-                return buf, count, 3
-            ss = 0.5 / math.hypot(x, y)
-            dx += x * ss
-            dy += y * ss
-            if dx > 1.0:
-                stc += 1
-                dx -= 1.0
-            if dx < -1.0:
-                stc -= 1
-                dx += 1.0
-            if dy > 1.0:
-                stc += width
-                dy -= 1.0
-            if dy < -1.0:
-                stc -= width
-                dy += 1.0
+            # ROS 1 gives up on a zero gradient (a saddle of the potential); a grid step
+            # gets past it.
+            grid_step = x == 0.0 and y == 0.0
+            if not grid_step:
+                ss = 0.5 / math.hypot(x, y)
+                dx += x * ss
+                dy += y * ss
+                if dx > 1.0:
+                    stc += 1
+                    dx -= 1.0
+                if dx < -1.0:
+                    stc -= 1
+                    dx += 1.0
+                if dy > 1.0:
+                    stc += width
+                    dy -= 1.0
+                if dy < -1.0:
+                    stc -= width
+                    dy += 1.0
+        if grid_step:
+            # Near the edge of the assigned potential, oscillating or on a saddle: step to the
+            # lowest of the 8 neighbours. ROS truncates the reference potential to an int.
+            best = stc
+            best_pot = math.floor(pot[stc]) if pot[stc] < POT_HIGH else POT_HIGH
+            for m in (up - 1, up, up + 1, stc - 1, stc + 1, down - 1, down, down + 1):
+                if pot[m] < best_pot:
+                    best_pot = pot[m]
+                    best = m
+            if pot[best] >= POT_HIGH:
+                return buf, count, 2
+            if best == stc and dx == 0.0 and dy == 0.0:
+                return buf, count, 3  # a local minimum: ROS 1 would spin to the step limit
+            stc = best
+            dx = 0.0
+            dy = 0.0
     return buf, count, 4
 
 
