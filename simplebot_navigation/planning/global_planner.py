@@ -6,17 +6,20 @@ or A*), give the goal's neighbourhood a potential (clearEndpoint), descend the p
 the goal to the start (gradient or grid path), convert to world coordinates, append the goal
 and orient the poses.
 
-Deliberate differences from ROS 1 (all documented on make_plan):
+Deliberate differences from ROS 1:
 - ``default_tolerance`` and the request tolerance are honoured (ROS 1 global_planner ignores
   them): if the goal cannot be reached, the plan ends at the nearest reachable cell centre
   within the tolerance.
 - The expansion stops when the cell *containing* the goal has a potential. ROS 1 waits for the
   lattice node below-left of the goal point, which is an obstacle cell whenever the goal lies
   in the lower/left half of a cell next to one, and then fails although the goal is free.
-- A* step costs are ``cost + neutral_cost`` without ROS's unsigned-char wrap-around (which
-  makes costs >= 206, and unknown space, *cheaper* than free space).
+- A* (and clearEndpoint) step costs are ``cost + neutral_cost`` without ROS's unsigned-char
+  wrap-around, which makes costs >= 206, and unknown space, *cheaper* than free space.
 - Buckets never drop cells (ROS's 10 000-entry ring buffers silently do on large maps).
 - The precise start seeds a symmetric 3 x 3 block of nodes with true distances (see _seeds).
+- Path extraction gets past a zero gradient (ROS 1 fails there) and the grid path ends next
+  to the start instead of oscillating around it (see kernels).
+- ForwardThenInterpolate blends from the last straight section's heading (see orientation).
 - navfn mode keeps navfn's cost mapping, border blocking, tolerance search and un-oriented
   poses, but places path points on cell centres (navfn converts with ``origin + m * res``,
   half a cell off) and, like it, starts the wave from the robot's cell.

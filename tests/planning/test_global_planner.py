@@ -89,6 +89,15 @@ def test_detour_around_a_wall(params):
     assert result.length > 2 * math.hypot(2.0, 3.0 - 1.05) - 0.1  # via the gap corner
 
 
+def test_goal_in_the_left_half_of_a_cell_next_to_a_wall():
+    costmap = free_map()
+    costmap.costmap[:30, 30] = LETHAL_OBSTACLE
+    # Cell (31, 20); ROS 1 waits for lattice node int(31.2 - 0.5) = 30, the wall, and fails.
+    goal = (3.12, 2.05, 0.0)
+    result = planner().make_plan(costmap, (1.05, 2.05, 0.0), goal)
+    assert result.ok and tuple(result.poses[-1]) == pytest.approx(goal)
+
+
 def test_path_keeps_away_from_inflated_cost_when_there_is_room():
     costmap = free_map(100, 60)
     costmap.costmap[:25, 45:55] = LETHAL_OBSTACLE  # block up to y = 2.5 m, free above
