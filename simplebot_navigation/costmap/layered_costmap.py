@@ -58,6 +58,7 @@ class LayeredCostmap:
     def update_map(self, robot_x: float, robot_y: float, robot_yaw: float) -> None:
         """One cycle: grow bounds through the enabled layers, reset that window, then let each layer write it."""
         master = self.costmap
+        self.update_window = None
         if self.rolling_window:
             master.update_origin(robot_x - master.size_in_meters_x / 2, robot_y - master.size_in_meters_y / 2)
         if not self.plugins:

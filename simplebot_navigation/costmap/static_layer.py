@@ -7,12 +7,15 @@ map frame.
 
 from __future__ import annotations
 
+import logging
 import math
 
 import numpy as np
 
 from .cost_values import FREE_SPACE, LETHAL_OBSTACLE, NO_INFORMATION
 from .layer import Bounds, CostmapLayer
+
+_log = logging.getLogger(__name__)
 
 
 class StaticLayer(CostmapLayer):
@@ -103,8 +106,10 @@ class StaticLayer(CostmapLayer):
                 self.update_with_true_overwrite(master, x0, y0, xn, yn)
             return
         if self.global_to_map is None:
-            raise RuntimeError(f"static layer {self.name!r}: a rolling costmap needs global_to_map "
-                               f"(transform from the global frame to {self.map_frame or 'the map frame'})")
+            # As costmap_2d when the map frame cannot be looked up: this cycle goes without the map.
+            _log.warning("static layer %s: no transform from the global frame to %s yet; map not applied",
+                         self.name, self.map_frame or "the map frame")
+            return
         tx, ty, yaw = self.global_to_map
         ii, jj = np.meshgrid(np.arange(x0, xn), np.arange(y0, yn))
         wx, wy = master.origin_x + (ii + 0.5) * master.resolution, master.origin_y + (jj + 0.5) * master.resolution
