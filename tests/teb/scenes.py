@@ -30,10 +30,12 @@ def straight_plan(x0: float, x1: float, y: float = 0.0) -> np.ndarray:
 
 
 def box_cells(cx: float, cy: float, half_x: float, half_y: float) -> np.ndarray:
-    """World centres of the cells covering a filled axis-aligned box."""
-    xs = np.arange(cx - half_x, cx + half_x + 1e-9, RES)
-    ys = np.arange(cy - half_y, cy + half_y + 1e-9, RES)
-    return np.array([(x, y) for x in xs for y in ys])
+    """World centres of the grid cells (cells aligned to multiples of RES) whose centre lies in
+    the axis-aligned box."""
+    kx = np.arange(math.ceil((cx - half_x) / RES - 0.5 - 1e-9), math.floor((cx + half_x) / RES - 0.5 + 1e-9) + 1)
+    ky = np.arange(math.ceil((cy - half_y) / RES - 0.5 - 1e-9), math.floor((cy + half_y) / RES - 0.5 + 1e-9) + 1)
+    gx, gy = np.meshgrid((kx + 0.5) * RES, (ky + 0.5) * RES)
+    return np.column_stack([gx.ravel(), gy.ravel()])
 
 
 def rolling_costmap(x: float, y: float, lethal_points: np.ndarray, size_m: float = 5.0) -> Costmap2D:

@@ -1,0 +1,195 @@
+import math
+
+import numpy as np
+import pytest
+
+from simplebot_navigation.teb.planner import TebLocalPlanner
+
+from .scenes import (LAB_FOOTPRINT, LAB_PADDED_FOOTPRINT, PERIOD, box_cells, footprint_hits, lab_planner,
+                     rolling_costmap, straight_plan, unicycle_step)
+
+
+def drive(planner: TebLocalPlanner, goal_x: float, obstacles: np.ndarray, seconds: float, pose=None):
+    """Closed loop: plan, command, integrate a unicycle. Returns (poses, commands, results)."""
+    pose = np.zeros(3) if pose is None else np.asarray(pose, dtype=float)
+    vel = (0.0, 0.0)
+    poses, commands, results = [pose], [], []
+    for _ in range(int(seconds / PERIOD)):
+        result = planner.compute_velocity_commands(pose, vel, rolling_costmap(pose[0], pose[1], obstacles))
+        results.append(result)
+        if result.goal_reached:
+            break
+        commands.append((result.v, result.omega, vel))
+        pose = unicycle_step(pose, result.v, result.omega)
+        vel = (result.v, result.omega)
+        poses.append(pose)
+    return np.array(poses), commands, results
+
+
+@pytest.mark.parametrize("homotopy", [False, True])
+def test_closed_loop_reaches_a_goal_3m_away_past_an_obstacle(homotopy):
+    planner = lab_planner(enable_homotopy_class_planning=homotopy)
+    planner.set_plan(straight_plan(0.0, 3.0))
+    obstacle = box_cells(1.6, 0.25, 0.15, 0.15)           # a 0.3 m box just left of the plan
+    poses, commands, results = drive(planner, 3.0, obstacle, seconds=30.0)
+    assert results[-1].goal_reached, results[-1].message
+    assert math.hypot(poses[-1][0] - 3.0, poses[-1][1]) < planner.cfg.xy_goal_tolerance
+    assert abs(poses[-1][2]) < planner.cfg.yaw_goal_tolerance
+    assert not any(footprint_hits(p, LAB_FOOTPRINT, obstacle) for p in poses)
+    assert all(r.ok for r in results)
+    # it went around: on the right of the box, the lab robot's half width plus a margin away
+    near = poses[np.abs(poses[:, 0] - 1.6) < 0.2]
+    assert near[:, 1].max() < 0.25 - 0.15 - 0.3
+
+
+def test_commands_never_exceed_the_velocity_limits():
+    planner = lab_planner(enable_homotopy_class_planning=False)
+    cfg = planner.cfg
+    planner.set_plan(np.column_stack([np.linspace(0, 3, 61), np.linspace(0, 1.5, 61), np.zeros(61)]))
+    _, commands, _ = drive(planner, 3.0, box_cells(1.2, 0.9, 0.1, 0.1), seconds=10.0)
+    for v, omega, (v_cur, omega_cur) in commands:
+        assert -cfg.max_vel_x_backwards - 1e-12 <= v <= cfg.max_vel_x + 1e-12
+        assert abs(omega) <= cfg.max_vel_theta + 1e-12
+        assert abs(v - v_cur) <= cfg.acc_lim_x * PERIOD + 1e-12
+        assert abs(omega - omega_cur) <= cfg.acc_lim_theta * PERIOD + 1e-12
+    assert max(c[0] for c in commands) == pytest.approx(cfg.max_vel_x)
+
+
+def test_velocity_limits_win_over_the_acceleration_window():
+    planner = lab_planner(enable_homotopy_class_planning=False)
+    planner.set_plan(straight_plan(0.0, 3.0))
+    result = planner.compute_velocity_commands((0.0, 0.0, 0.0), (0.9, 0.8), rolling_costmap(0, 0, np.zeros((0, 2))))
+    assert result.ok
+    assert result.v == pytest.approx(planner.cfg.max_vel_x)
+    assert result.omega == pytest.approx(planner.cfg.max_vel_theta)
+
+
+def test_first_command_from_rest_is_limited_by_acceleration_over_one_period():
+    planner = lab_planner(enable_homotopy_class_planning=False)
+    planner.set_plan(straight_plan(0.0, 3.0))
+    result = planner.compute_velocity_commands((0.0, 0.0, 0.0), (0.0, 0.0), rolling_costmap(0, 0, np.zeros((0, 2))))
+    assert result.v == pytest.approx(planner.cfg.acc_lim_x * PERIOD)
+    assert result.omega == pytest.approx(0.0, abs=1e-6)
+
+
+@pytest.mark.parametrize("pose, velocity, free_goal_vel, reached", [
+    ((2.9, 0.05, 0.05), (0.0, 0.0), False, True),
+    ((2.9, 0.05, 0.05), (0.2, 0.0), False, False),           # still moving
+    ((2.9, 0.05, 0.05), (0.2, 0.0), True, True),             # ... unless free_goal_vel
+    ((2.9, 0.05, 0.05), (0.0, 0.15), False, False),          # still turning
+    ((2.75, 0.0, 0.0), (0.0, 0.0), False, False),            # 0.25 m away > xy_goal_tolerance 0.2
+    ((3.0, 0.0, 0.12), (0.0, 0.0), False, False),            # yaw off by more than 0.1
+    ((3.0, 0.0, 0.08), (0.09, 0.09), False, True),           # below the stop velocities
+])
+def test_goal_reached_logic(pose, velocity, free_goal_vel, reached):
+    planner = lab_planner(free_goal_vel=free_goal_vel)
+    planner.set_plan(straight_plan(0.0, 3.0))
+    assert planner.is_goal_reached(pose, velocity) is reached
+    result = planner.compute_velocity_commands(pose, velocity, rolling_costmap(pose[0], pose[1], np.zeros((0, 2))))
+    assert result.goal_reached is reached
+    if reached:
+        assert (result.v, result.omega, result.ok) == (0.0, 0.0, True)
+
+
+@pytest.mark.parametrize("homotopy", [False, True])
+def test_wall_across_the_path_is_reported_infeasible_and_the_planner_reset(homotopy):
+    # The optimiser cannot route around a wall spanning the costmap: the band piles up before it
+    # and jumps across; the check (with interpolation) must see the jump within the poses it covers.
+    planner = lab_planner(enable_homotopy_class_planning=homotopy, feasibility_check_no_poses=15)
+    planner.set_plan(straight_plan(0.0, 3.0))
+    wall = np.column_stack([np.full(81, 1.0), np.linspace(-2, 2, 81)])
+    result = planner.compute_velocity_commands((0.0, 0.0, 0.0), (0.2, 0.0), rolling_costmap(0, 0, wall))
+    assert not result.ok
+    assert result.message == "trajectory is not feasible. Resetting planner..."
+    assert (result.v, result.omega) == (0.0, 0.0)
+    assert len(planner.band_poses) == 0 and planner.candidate_bands == []
+
+
+def test_plan_is_pruned_behind_and_cut_at_the_lookahead():
+    planner = lab_planner()
+    planner.set_plan(straight_plan(-3.0, 8.0))
+    # a 10 m costmap, so that max_global_plan_lookahead_dist (3 m) rather than the map limits
+    planner.compute_velocity_commands((0.0, 0.0, 0.0), (0.0, 0.0),
+                                      rolling_costmap(0, 0, np.zeros((0, 2)), size_m=10.0))
+    # poses more than global_plan_prune_distance (1 m) behind the robot are dropped
+    assert planner.global_plan[0, 0] == pytest.approx(-0.95)
+    plan = planner.transformed_plan
+    np.testing.assert_allclose(plan[0], [0.0, 0.0, 0.0])
+    # TEB counts the plan segment leading into the closest pose as well: the pose at 2.95 m has
+    # 3.0 m behind it, so the pose after it (3.0 m) is the last one taken
+    assert plan[-1, 0] == pytest.approx(3.0)
+    np.testing.assert_allclose(planner.band_poses[-1], plan[-1])
+
+
+def test_local_plan_stays_inside_85_percent_of_the_costmap():
+    planner = lab_planner(max_global_plan_lookahead_dist=10.0)
+    planner.set_plan(straight_plan(0.0, 8.0))
+    planner.compute_velocity_commands((0.0, 0.0, 0.0), (0.0, 0.0), rolling_costmap(0, 0, np.zeros((0, 2))))
+    # half of 5 m times 0.85: the last pose added is the first one beyond 2.125 m
+    assert planner.transformed_plan[-1, 0] == pytest.approx(2.15)
+
+
+def test_new_far_goal_reinitialises_the_band():
+    planner = lab_planner(enable_homotopy_class_planning=False)
+    empty = rolling_costmap(0, 0, np.zeros((0, 2)))
+    planner.set_plan(straight_plan(0.0, 2.0))
+    planner.compute_velocity_commands((0.0, 0.0, 0.0), (0.0, 0.0), empty)
+    planner.set_plan(np.column_stack([np.zeros(41), np.linspace(0, -2, 41), np.full(41, -math.pi / 2)]))
+    planner.compute_velocity_commands((0.0, 0.0, 0.0), (0.0, 0.0), empty)
+    np.testing.assert_allclose(planner.band_poses[-1], [0.0, -2.0, -math.pi / 2], atol=1e-9)
+    assert planner.band_poses[:, 0].max() < 0.3
+
+
+def test_homotopy_finds_a_way_around_an_obstacle_on_the_plan():
+    obstacle = box_cells(1.5, 0.0, 0.2, 0.2)
+    planner = lab_planner(enable_homotopy_class_planning=True)
+    planner.set_plan(straight_plan(0.0, 3.0))
+    poses, _, results = drive(planner, 3.0, obstacle, seconds=30.0)
+    assert results[-1].goal_reached
+    assert not any(footprint_hits(p, LAB_FOOTPRINT, obstacle) for p in poses)
+    assert np.abs(poses[:, 1]).max() > 0.2 + 0.3
+
+
+def test_homotopy_off_keeps_a_single_band():
+    planner = lab_planner(enable_homotopy_class_planning=False)
+    planner.set_plan(straight_plan(0.0, 3.0))
+    obstacle = box_cells(1.5, 0.0, 0.2, 0.2)
+    for _ in range(3):
+        planner.compute_velocity_commands((0.0, 0.0, 0.0), (0.0, 0.0), rolling_costmap(0, 0, obstacle))
+        assert len(planner.candidate_bands) == 1
+
+
+def test_visualisation_accessors():
+    planner = lab_planner()
+    planner.set_plan(straight_plan(0.0, 3.0))
+    obstacle = box_cells(1.5, 1.0, 0.1, 0.1)
+    planner.compute_velocity_commands((0.0, 0.0, 0.0), (0.0, 0.0), rolling_costmap(0, 0, obstacle))
+    poses, stamps = planner.band_poses, planner.band_time_stamps
+    assert poses.shape[1] == 3 and len(stamps) == len(poses) and stamps[0] == 0.0
+    assert np.all(np.diff(stamps) > 0)
+    assert len(planner.footprint_outlines()) == len(poses)
+    assert len(planner.obstacles) == len(obstacle)
+    assert planner.warnings == []
+
+
+def test_obstacles_behind_the_robot_are_skipped_beyond_the_configured_distance():
+    planner = lab_planner()
+    planner.set_plan(straight_plan(0.0, 3.0))
+    behind = np.array([[-1.0, 0.0], [-2.0, 0.0], [1.0, 2.0]])
+    planner.compute_velocity_commands((0.0, 0.0, 0.0), (0.0, 0.0), rolling_costmap(0, 0, behind))
+    np.testing.assert_allclose(np.sort(planner.obstacles[:, 0]), [-0.975, 1.025])
+
+
+def test_bad_inputs():
+    planner = lab_planner()
+    result = planner.compute_velocity_commands((0.0, 0.0, 0.0), (0.0, 0.0), rolling_costmap(0, 0, np.zeros((0, 2))))
+    assert not result.ok and result.message == "no global plan set"
+    with pytest.raises(ValueError, match="global plan"):
+        planner.set_plan(np.zeros((5, 2)))
+    with pytest.raises(ValueError, match="controller_period"):
+        TebLocalPlanner(planner.cfg, LAB_PADDED_FOOTPRINT, 0.0)
+
+
+def test_small_model_warns_against_the_costmap_footprint():
+    planner = lab_planner(min_obstacle_dist=0.05)
+    assert any("inscribed radius" in w for w in planner.warnings)
