@@ -1,0 +1,179 @@
+"""GlobalPlannerROS: the ROS shell of the global planner, owned by move_base (REFERENCE §3.1).
+
+Selected by ``base_global_planner`` (global_planner/GlobalPlanner or navfn/NavfnROS). It reads
+the ``<name>.*`` parameters of its node, plans on the global costmap's master grid while holding
+the costmap's lock, and offers ROS 1's planner interfaces under the node's private namespace:
+``~<name>/plan`` (nav_msgs/Path, every plan, empty on failure), ``~<name>/potential``
+(nav_msgs/OccupancyGrid, when publish_potential) and the ``~<name>/make_plan`` service
+(nav_msgs/GetPlan, whose tolerance is honoured).
+
+The costmap is duck-typed, so the planner does not depend on how the costmap is kept: it needs
+``costmap`` (Costmap2D), ``lock``, ``global_frame`` and ``get_robot_pose()`` -> (x, y, yaw, stamp)
+or None.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+from builtin_interfaces.msg import Time as TimeMsg
+from nav_msgs.msg import OccupancyGrid, Path
+from nav_msgs.srv import GetPlan
+from rclpy.node import Node
+
+from simplebot_navigation.costmap.costmap_2d import Costmap2D
+from simplebot_navigation.planning import (GLOBAL_PLANNER, NAVFN, GlobalPlannerConfig, PlanFailure,
+                                           PlanResult, make_global_planner, potential_to_occupancy,
+                                           warm_up)
+from simplebot_navigation.ros.conversions import occupancy_grid_msg, path_msg, pose_to_xyyaw
+from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
+from simplebot_navigation.ros.tf import strip_frame
+
+#: base_global_planner value -> the planner's name (its parameter namespace and topic prefix)
+PLANNER_NAMES = {GLOBAL_PLANNER: "GlobalPlanner", NAVFN: "NavfnROS"}
+#: ROS 1 warns about a start or goal off the costmap at most once a second
+OFF_MAP_WARNING_PERIOD_S = 1.0
+_OFF_MAP = (PlanFailure.START_OFF_MAP, PlanFailure.GOAL_OFF_MAP)
+
+
+def planner_name(plugin_type: str) -> str:
+    """'global_planner/GlobalPlanner' -> 'GlobalPlanner'; ValueError for a type we do not have."""
+    try:
+        return PLANNER_NAMES[plugin_type]
+    except KeyError:
+        raise ValueError(f"unknown base_global_planner {plugin_type!r}; "
+                         f"supported: {', '.join(PLANNER_NAMES)}") from None
+
+
+def resolved_parameters(config: GlobalPlannerConfig) -> dict:
+    """The ROS 1 parameters a planner runs with, under the names its type reads them."""
+    if config.navfn:
+        return {"allow_unknown": config.allow_unknown, "default_tolerance": config.default_tolerance,
+                "visualize_potential": config.publish_potential,
+                "planner_window_x": config.planner_window_x, "planner_window_y": config.planner_window_y}
+    return {"use_dijkstra": config.use_dijkstra, "use_quadratic": config.use_quadratic,
+            "use_grid_path": config.use_grid_path, "allow_unknown": config.allow_unknown,
+            "lethal_cost": config.lethal_cost, "neutral_cost": config.neutral_cost,
+            "cost_factor": config.cost_factor, "orientation_mode": int(config.orientation_mode),
+            "orientation_window_size": config.orientation_window_size,
+            "outline_map": config.outline_map, "publish_potential": config.publish_potential,
+            "publish_scale": config.publish_scale, "default_tolerance": config.default_tolerance,
+            "old_navfn_behavior": config.old_navfn_behavior,
+            "planner_window_x": config.planner_window_x, "planner_window_y": config.planner_window_y}
+
+
+def potential_grid_msg(potential: np.ndarray, publish_scale: int, resolution: float, origin_x: float,
+                       origin_y: float, frame_id: str, stamp: TimeMsg) -> OccupancyGrid:
+    """The ``potential`` OccupancyGrid: the costmap's geometry, potential scaled to 0..publish_scale."""
+    msg = occupancy_grid_msg(np.zeros(potential.shape, np.uint8), resolution, origin_x, origin_y,
+                             frame_id, stamp)
+    msg.data = potential_to_occupancy(potential, publish_scale).ravel().tobytes()
+    return msg
+
+
+def _request_pose(role: str, stamped) -> tuple[float, float, float]:
+    """(x, y, yaw) of a GetPlan pose; ValueError naming the role for NaN/inf or a zero quaternion."""
+    p, q = stamped.pose.position, stamped.pose.orientation
+    values = (p.x, p.y, p.z, q.x, q.y, q.z, q.w)
+    if not all(math.isfinite(v) for v in values):
+        raise ValueError(f"the {role} pose is not finite: position ({p.x}, {p.y}, {p.z}), "
+                         f"orientation ({q.x}, {q.y}, {q.z}, {q.w})")
+    if q.x == q.y == q.z == q.w == 0.0:
+        raise ValueError(f"the {role} pose has a zero quaternion")
+    return pose_to_xyyaw(stamped.pose)
+
+
+class GlobalPlannerROS:
+    """``GlobalPlannerROS(node, 'global_planner/GlobalPlanner', global_costmap_ros)``."""
+
+    def __init__(self, node: Node, plugin_type: str, costmap_ros, callback_group=None):
+        self.name = planner_name(plugin_type)
+        self.node = node
+        self.costmap_ros = costmap_ros
+        self.logger = node.get_logger()
+        self.planner = make_global_planner(plugin_type, given_parameter_tree(node, self.name))
+        self.config = self.planner.config
+        declare_defaults(node, resolved_parameters(self.config), prefix=self.name)
+        warm_up()
+        self._last_off_map_warning: dict[PlanFailure, float] = {}
+
+        self.plan_pub = node.create_publisher(Path, f"~/{self.name}/plan", 1)
+        self.potential_pub = node.create_publisher(OccupancyGrid, f"~/{self.name}/potential", 1)
+        self.make_plan_srv = node.create_service(GetPlan, f"~/{self.name}/make_plan", self._on_make_plan,
+                                                 callback_group=callback_group)
+
+    @property
+    def global_frame(self) -> str:
+        return strip_frame(self.costmap_ros.global_frame)
+
+    def make_plan(self, start, goal, tolerance: float | None = None) -> PlanResult:
+        """Plan from ``start`` to ``goal`` ((x, y, yaw) in the global frame) on the global costmap.
+
+        ``tolerance`` None means ``default_tolerance``. Publishes the plan (empty on failure) and,
+        with publish_potential, the potential; logs the reason of a failure. Non-finite poses or
+        tolerance raise ValueError.
+        """
+        with self.costmap_ros.lock:
+            master: Costmap2D = self.costmap_ros.costmap
+            geometry = (master.resolution, master.origin_x, master.origin_y)
+            result = self.planner.make_plan(master, start, goal, tolerance)
+        stamp = self.node.get_clock().now().to_msg()
+        self.plan_pub.publish(path_msg(result.poses, self.global_frame, stamp))
+        if self.config.publish_potential and result.potential is not None:
+            self.potential_pub.publish(potential_grid_msg(result.potential, self.config.publish_scale,
+                                                          *geometry, self.global_frame, stamp))
+        if not result.ok:
+            self._log_failure(result)
+        return result
+
+    def destroy(self) -> None:
+        self.node.destroy_service(self.make_plan_srv)
+        self.node.destroy_publisher(self.plan_pub)
+        self.node.destroy_publisher(self.potential_pub)
+
+    # -- internals ---------------------------------------------------------------------------------
+    def _log_failure(self, result: PlanResult) -> None:
+        message = f"{self.name}: failed to get a plan: {result.message}"
+        if result.failure not in _OFF_MAP:
+            self.logger.error(message)
+            return
+        now = time.monotonic()
+        if now - self._last_off_map_warning.get(result.failure, -math.inf) >= OFF_MAP_WARNING_PERIOD_S:
+            self._last_off_map_warning[result.failure] = now
+            self.logger.warning(message)
+
+    def _on_make_plan(self, request: GetPlan.Request, response: GetPlan.Response) -> GetPlan.Response:
+        """ROS 1 move_base's planService start rule: req.start if it has a frame, else the robot."""
+        response.plan.header.frame_id = self.global_frame
+        response.plan.header.stamp = self.node.get_clock().now().to_msg()
+        try:
+            start, goal, tolerance = self._plan_request(request)
+        except ValueError as err:
+            self.logger.error(f"{self.name}: make_plan request rejected: {err}")
+            self.plan_pub.publish(path_msg(np.empty((0, 3)), self.global_frame, response.plan.header.stamp))
+            return response
+        result = self.make_plan(start, goal, tolerance)
+        response.plan = path_msg(result.poses, self.global_frame, response.plan.header.stamp)
+        return response
+
+    def _plan_request(self, request: GetPlan.Request):
+        frame = self.global_frame
+        for role, stamped in (("start", request.start), ("goal", request.goal)):
+            given = strip_frame(stamped.header.frame_id)
+            if (role == "goal" or given) and given != frame:
+                raise ValueError(f"the {role} pose must be in the {frame!r} frame (the planner's global "
+                                 f"frame), not in {given!r}")
+        goal = _request_pose("goal", request.goal)
+        if request.start.header.frame_id:
+            start = _request_pose("start", request.start)
+        else:
+            robot = self.costmap_ros.get_robot_pose()
+            if robot is None:
+                raise ValueError("the request has no start frame and the robot pose is not available")
+            start = tuple(robot[:3])
+        tolerance = float(request.tolerance)
+        if not (math.isfinite(tolerance) and tolerance >= 0.0):
+            raise ValueError(f"tolerance must be finite and >= 0, got {tolerance}")
+        return start, goal, tolerance
