@@ -175,6 +175,7 @@ class Costmap2DROS:
         self.logger = node.get_logger()
         self.callback_group = callback_group
         self.lock = threading.RLock()
+        self._queue_lock = threading.Lock()
         self._throttle = _Throttle()
         _install_log_handler()
 
@@ -212,6 +213,8 @@ class Costmap2DROS:
         self.updates_pub = node.create_publisher(OccupancyGridUpdate, f"/{name}/costmap_updates", UPDATES_QOS)
         self.footprint_pub = node.create_publisher(PolygonStamped, self._topic(c.published_footprint_topic),
                                                    1)
+        # costmap_2d subscribes geometry_msgs/Polygon on footprint_topic; under its default name that
+        # topic is the published PolygonStamped one, which cannot carry both types, so it is skipped.
         self._footprint_sub = None
         if self._topic(c.footprint_topic) != self._topic(c.published_footprint_topic):
             self._footprint_sub = node.create_subscription(Polygon, self._topic(c.footprint_topic),
@@ -315,7 +318,8 @@ class Costmap2DROS:
             if inp.subscription is not None:
                 self.node.destroy_subscription(inp.subscription)
                 inp.subscription = None
-            inp.queue.clear()
+            with self._queue_lock:
+                inp.queue.clear()
         for sub in self._static_subscriptions:
             self.node.destroy_subscription(sub)
         self._static_subscriptions = []
@@ -360,24 +364,25 @@ class Costmap2DROS:
                 self.logger.warning(f"{self.name}: Discarding message from [{inp.source.topic}] due to empty "
                                     "frame_id (and no sensor_frame is configured)")
             return
-        if len(inp.queue) >= MESSAGE_FILTER_QUEUE:
-            dropped = inp.queue.popleft()
-            self._warn_drop(inp, dropped, "discarding message because the queue is full")
-        inp.queue.append(_Pending(msg, frame, self._now_s()))
-        self._process_queue(inp)
-        if inp.queue:
-            if self._retry_timer.is_canceled():
+        with self._queue_lock:
+            if len(inp.queue) >= MESSAGE_FILTER_QUEUE:
+                dropped = inp.queue.popleft()
+                self._warn_drop(inp, dropped, "discarding message because the queue is full")
+            inp.queue.append(_Pending(msg, frame, self._now_s()))
+            self._process_queue(inp)
+            if inp.queue and self._retry_timer.is_canceled():
                 self._retry_timer.reset()
 
     def _retry_pending(self) -> None:
-        for inp in self._inputs:
-            self._process_queue(inp)
-        if not any(inp.queue for inp in self._inputs):
-            self._retry_timer.cancel()
+        with self._queue_lock:
+            for inp in self._inputs:
+                self._process_queue(inp)
+            if not any(inp.queue for inp in self._inputs):
+                self._retry_timer.cancel()
 
     def _process_queue(self, inp: _SourceInput) -> None:
         """Apply every queued message whose transform is available, in arrival order; drop those
-        that waited longer than transform_tolerance."""
+        that waited longer than transform_tolerance. Caller holds _queue_lock."""
         if not inp.queue:
             return
         now = self._now_s()
@@ -448,6 +453,7 @@ class Costmap2DROS:
                 self._touch_window(0, 0, self.costmap.size_x, self.costmap.size_y)
         except ValueError as err:
             self.logger.error(f"{self.name}: map on {layer.map_topic} rejected: {err}")
+            return
         finally:
             _ACTIVE.reset(token)
         self.logger.info(f"{self.name}: received a {info.width} X {info.height} map at "
@@ -495,9 +501,13 @@ class Costmap2DROS:
         at most once a second) when missing or older than transform_tolerance."""
         pose, reason = self._lookup_robot_pose()
         self.last_pose_error = reason
-        if pose is None and self._throttle("pose", 1.0):
+        if pose is not None or not self._throttle("pose", 1.0):
+            return pose
+        if reason.startswith("Costmap2DROS transform timeout"):
             self.logger.warning(f"{self.name}: {reason}")
-        return pose
+        else:
+            self.logger.error(f"{self.name}: {reason}")
+        return None
 
     # -- update loop ---------------------------------------------------------------------------------
     def _update_cycle(self) -> None:

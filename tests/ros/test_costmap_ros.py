@@ -437,3 +437,130 @@ def test_parameters_are_declared_with_their_effective_values(lab):
     assert node.get_parameter("global_costmap.obstacles.front_laser.min_obstacle_height").value == 0.0
     assert node.get_parameter("global_costmap.robot_radius").value == 0.46
     assert not node.has_parameter("local_costmap.always_send_full_costmap")
+
+
+def test_reset_layers_clears_and_publishes_the_whole_grid(lab):
+    fake = lab()
+    costmap = fake.costmap("global_costmap")
+    mirror = GridMirror(fake.robot, "global_costmap")
+    fake.spin_until(lambda: walls_seen(mirror), what="both walls")
+    fake.publish_scans = False
+    fake.spin_for(0.15)
+    costmap.reset_layers()
+    costmap.publish_costmap()
+    fake.spin_until(lambda: not (mirror.grid == 100).any(), what="an update without the walls")
+    update = mirror.updates[-1]
+    assert (update.x, update.y, update.width, update.height) == (0, 0, 150, 150)
+    assert not (mirror.grid > 0).any()
+    # As in costmap_2d, the sources keep their last observation: the next update marks it again.
+    assert costmap.update_map_now()
+    costmap.publish_costmap()
+    fake.spin_until(lambda: walls_seen(mirror), what="the walls from the buffered scans")
+
+
+def test_stop_unsubscribes_and_start_subscribes_again(lab):
+    fake = lab()
+    costmap = fake.costmap("local_costmap")
+    front = fake.scan_pubs["front_laser_link"]
+    fake.spin_until(lambda: costmap.initialized and front.get_subscription_count() == 1, what="subscriptions")
+    costmap.stop()
+    fake.spin_until(lambda: front.get_subscription_count() == 0, what="the scan subscription to go")
+    costmap.start()
+    fake.spin_until(lambda: front.get_subscription_count() == 1, what="the scan subscription to come back")
+    fake.spin_until(lambda: costmap.update_map_now() and costmap.is_current(), what="a current costmap")
+
+
+def test_static_layer_takes_its_size_from_the_map(lab):
+    fake = lab(**{"global_costmap.plugins": ["static_layer", "obstacles", "inflation_layer"],
+                  "global_costmap.static_layer.plugin": "costmap_2d::StaticLayer"})
+    grid = np.zeros((30, 40), dtype=np.int8)        # 4 x 3 m at 0.1, origin (-2, -1.5)
+    grid[:, :4] = -1                                # unknown behind the back wall (x < -1.6)
+    grid[23:25, 25:27] = 100                        # a block at x 0.5 .. 0.7, y 0.8 .. 1.0
+    msg = OccupancyGrid()
+    msg.header.frame_id = "odom"
+    msg.info.resolution, msg.info.width, msg.info.height = 0.1, 40, 30
+    msg.info.origin.position.x, msg.info.origin.position.y = -2.0, -1.5
+    msg.info.origin.orientation.w = 1.0
+    msg.data = grid.ravel().tolist()
+    fake.robot.create_publisher(OccupancyGrid, "/map", LATCHED).publish(msg)
+    costmap = fake.costmap("global_costmap")
+    mirror = GridMirror(fake.robot, "global_costmap")
+    back = (4, 15)                                  # (x, y) = (-1.52, 0.05) in the map's cells
+
+    def back_wall_seen():
+        return mirror.grid is not None and mirror.grid.shape == (30, 40) and mirror.grid[back[::-1]] == 100
+
+    fake.spin_until(back_wall_seen, what="the map-sized costmap with the back wall")
+    assert (mirror.info.origin.position.x, mirror.info.origin.position.y) == pytest.approx((-2.0, -1.5))
+    assert mirror.grid[23, 25] == 100 and mirror.grid[23, 24] == 99
+    assert mirror.grid[23, 23] == grid_value(2, 0.1)
+    # Unknown in the map and unseen stays unknown except within the inscribed radius of the wall.
+    assert mirror.cell(BACK_X, 0.05) == back
+    assert (mirror.grid[:, 0] == -1).all() and (mirror.grid[:, 1:4] == 99).all()
+
+
+def test_point_cloud_source_marks_through_a_rotated_frame(lab):
+    fake = lab(**{"local_costmap.obstacles.observation_sources": "front_laser back_laser camera",
+                  "local_costmap.obstacles.camera.data_type": "PointCloud2",
+                  "local_costmap.obstacles.camera.topic": "/camera/points"})
+    costmap = fake.costmap("local_costmap")
+    # Points 1.02 m ahead of the back laser, which looks backwards: x = -0.35 - 1.02 in odom.
+    ys = np.arange(-4, 4) * 0.05 + 0.025          # cell centres
+    points = np.stack([np.full(len(ys), 1.02), ys, np.zeros(len(ys))], axis=1)
+    cloud = cloud_msg(points, "back_laser_link")
+    pub = fake.robot.create_publisher(type(cloud), "/camera/points", qos_profile_sensor_data)
+    master = costmap.costmap
+
+    def marked():
+        with costmap.lock:
+            return costmap.initialized and all(master.get_cost(*master.world_to_map(-1.37, -y)) == 254 for y in ys)
+
+    def publish_and_check():
+        cloud.header.stamp = fake.robot.get_clock().now().to_msg()
+        pub.publish(cloud)
+        return marked()
+
+    fake.spin_until(publish_and_check, what="the cloud's points in the costmap")
+
+
+def cloud_msg(points: np.ndarray, frame: str, dtype="<f4", padding: int = 4):
+    """A PointCloud2 with x, y, z at offsets 0, s, 2s and `padding` unused bytes per point."""
+    from sensor_msgs.msg import PointCloud2, PointField
+    item = np.dtype(dtype).itemsize
+    kind = {4: PointField.FLOAT32, 8: PointField.FLOAT64}[item]
+    structured = np.zeros(len(points), dtype=np.dtype({"names": list("xyz"), "formats": [dtype] * 3,
+                                                       "offsets": [0, item, 2 * item],
+                                                       "itemsize": 3 * item + padding}))
+    for i, axis in enumerate("xyz"):
+        structured[axis] = points[:, i]
+    msg = PointCloud2()
+    msg.header.frame_id = frame
+    msg.height, msg.width = 1, len(points)
+    msg.fields = [PointField(name=a, offset=i * item, datatype=kind, count=1) for i, a in enumerate("xyz")]
+    msg.is_bigendian = dtype.startswith(">")
+    msg.point_step = structured.itemsize
+    msg.row_step = msg.point_step * len(points)
+    msg.data = structured.tobytes()
+    msg.is_dense = True
+    return msg
+
+
+@pytest.mark.parametrize("dtype", ["<f4", ">f8"])
+def test_point_cloud_fields_are_read_by_offset_type_and_endianness(dtype):
+    points = np.array([[1.0, 2.0, 3.0], [-0.5, 0.25, np.nan]])
+    xyz = costmap_ros.point_cloud_xyz(cloud_msg(points, "cam", dtype))
+    np.testing.assert_array_equal(xyz, points)
+    msg = cloud_msg(points, "cam")
+    msg.fields = msg.fields[:2]
+    with pytest.raises(ValueError, match="PointCloud2 has no 'z' field"):
+        costmap_ros.point_cloud_xyz(msg)
+
+
+def test_costmap_package_warnings_reach_the_node_logger(lab, capfd):
+    fake = lab()
+    fake.pose = (20.0, 0.0, 0.0)            # outside the 30 x 30 m global costmap
+    costmap = fake.costmap("global_costmap")
+    fake.spin_until(lambda: costmap.initialized, what="the first update")
+    fake.spin_for(0.3)
+    assert ("[move_base]: global_costmap: The origin for the sensor at (20.35, 0.00) is out of map bounds. "
+            "So, the costmap cannot raytrace for it.") in capfd.readouterr().err
