@@ -40,7 +40,8 @@ class LayeredCostmap:
         self.footprint = np.empty((0, 2))
         self.inscribed_radius = math.inf
         self.circumscribed_radius = 0.0
-        #: world bounds and cell window [x0, xn) x [y0, yn) of the last update_map
+        #: world bounds and cell window [x0, xn) x [y0, yn) of the last update_map that wrote cells
+        #: (an empty cycle keeps the previous window, as costmap_2d's getBounds)
         self.bounds = Bounds()
         self.update_window: tuple[int, int, int, int] | None = None
 
@@ -58,7 +59,6 @@ class LayeredCostmap:
     def update_map(self, robot_x: float, robot_y: float, robot_yaw: float) -> None:
         """One cycle: grow bounds through the enabled layers, reset that window, then let each layer write it."""
         master = self.costmap
-        self.update_window = None
         if self.rolling_window:
             master.update_origin(robot_x - master.size_in_meters_x / 2, robot_y - master.size_in_meters_y / 2)
         if not self.plugins:
