@@ -29,7 +29,7 @@ from rclpy.time import Time
 from sensor_msgs.msg import LaserScan, PointCloud2, PointField
 
 from simplebot_navigation.costmap.cost_values import OCCUPANCY_GRID_TABLE
-from simplebot_navigation.costmap.costmap import Costmap
+from simplebot_navigation.costmap.costmap import Costmap, warm_up
 from simplebot_navigation.costmap.costmap_2d import Costmap2D
 from simplebot_navigation.costmap.obstacle_layer import (Observation, ObservationSource, ObstacleLayer,
                                                          laser_scan_to_observation, point_cloud_to_observation)
@@ -63,8 +63,8 @@ def _seconds(t: Time) -> float:
 
 # -- Python logging of the costmap package -> the logger of the node whose costmap is working -------
 _ACTIVE: contextvars.ContextVar["Costmap2DROS | None"] = contextvars.ContextVar("active_costmap", default=None)
-_handler_lock = threading.Lock()
-_handler_installed = False
+_process_lock = threading.Lock()
+_process_prepared = False
 
 
 class _NodeLogHandler(logging.Handler):
@@ -89,12 +89,14 @@ class _NodeLogHandler(logging.Handler):
             costmap.logger.warning(f"{costmap.name}: {text}")
 
 
-def _install_log_handler() -> None:
-    global _handler_installed
-    with _handler_lock:
-        if not _handler_installed:
+def _prepare_process() -> None:
+    """Once per process: route the costmap package's warnings, load its compiled kernels."""
+    global _process_prepared
+    with _process_lock:
+        if not _process_prepared:
             logging.getLogger("simplebot_navigation.costmap").addHandler(_NodeLogHandler())
-            _handler_installed = True
+            warm_up()
+            _process_prepared = True
 
 
 class _Throttle:
@@ -177,7 +179,7 @@ class Costmap2DROS:
         self.lock = threading.RLock()
         self._queue_lock = threading.Lock()
         self._throttle = _Throttle()
-        _install_log_handler()
+        _prepare_process()
 
         given = given_parameter_tree(node, name)
         parents = [(node.get_fully_qualified_name(), given_parameter_tree(node))]
@@ -230,6 +232,8 @@ class Costmap2DROS:
                                                 callback_group=callback_group)
                               if self._update_period > 0 else None)
         self._publish_period = 1.0 / c.publish_frequency if c.publish_frequency > 0 else 0.0
+        # Subscribing now lets discovery run while TF is awaited; messages wait in the filter queues.
+        self._activate()
 
     # -- parameters -------------------------------------------------------------------------------
     def _resolved_tree(self, given: dict, parents) -> dict:
@@ -265,7 +269,7 @@ class Costmap2DROS:
 
     # -- start-up, start/stop ---------------------------------------------------------------------
     def _wait_for_tf(self) -> None:
-        """Poll TF until global_frame <- robot_base_frame exists, then subscribe the sensors; the ROS 1
+        """Poll TF until global_frame <- robot_base_frame exists, then start updating; the ROS 1
         constructor blocks here instead, which would stall the node's executor."""
         try:
             self.tf.lookup_transform(self.global_frame, self.robot_base_frame, Time())
@@ -280,11 +284,10 @@ class Costmap2DROS:
         self._tf_wait_timer.cancel()
         self.node.destroy_timer(self._tf_wait_timer)
         self._tf_ready = True
-        if not self._stopped:
-            self._activate()
+        self._restart_staleness_clocks()
 
     def _activate(self) -> None:
-        """Subscribe every source (ObstacleLayer::activate also restarts their staleness clocks)."""
+        """Subscribe every source (ObstacleLayer::activate, which also restarts their staleness clocks)."""
         if self._active:
             return
         node, group = self.node, self.callback_group
@@ -305,13 +308,16 @@ class Costmap2DROS:
                 self._static_subscriptions.append(node.create_subscription(
                     OccupancyGridUpdate, layer.map_topic + "_updates",
                     lambda msg, layer=layer: self._on_map_update(layer, msg), UPDATES_QOS, callback_group=group))
+        self._restart_staleness_clocks()
+        self._active = True
+
+    def _restart_staleness_clocks(self) -> None:
         now = self._now_s()
         with self.lock:
             for layer in self.cm.layered.plugins:
                 if isinstance(layer, ObstacleLayer):
                     for buffer in layer.buffers.values():
                         buffer.reset_last_updated(now)
-        self._active = True
 
     def _deactivate(self) -> None:
         for inp in self._inputs:
@@ -329,8 +335,7 @@ class Costmap2DROS:
         """Re-subscribe after stop() (move_base restarts its costmaps on a new goal)."""
         self._stopped = False
         self._paused = False
-        if self._tf_ready:
-            self._activate()
+        self._activate()
 
     def stop(self) -> None:
         """Unsubscribe every source and stop updating."""
@@ -402,7 +407,8 @@ class Costmap2DROS:
         inp.queue = kept
 
     def _warn_drop(self, inp: _SourceInput, pending: _Pending, reason: str) -> None:
-        if self._throttle(("drop", inp.key), 5.0):
+        """Throttled per source; quiet while the start-up wait for TF is being reported instead."""
+        if self._tf_ready and self._throttle(("drop", inp.key), 5.0):
             stamp = _seconds(Time.from_msg(pending.msg.header.stamp))
             self.logger.warning(f"{self.name}: Message Filter dropping message on {inp.source.topic}: frame "
                                 f"'{pending.frame}' at time {stamp:.3f} for reason '{reason}'")
