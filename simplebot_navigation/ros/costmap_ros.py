@@ -202,8 +202,7 @@ class Costmap2DROS:
         self._stopped = False
         self._paused = False
         self._tf_ready = False
-        self._wait_started = time.monotonic()
-        self._last_wait_warning = self._wait_started
+        self._last_wait_warning = time.monotonic()
 
         # Publishing state: cells changed since the last publish, geometry of the last full grid.
         self._pending_window: tuple[int, int, int, int] | None = None
@@ -284,7 +283,6 @@ class Costmap2DROS:
         self._tf_wait_timer.cancel()
         self.node.destroy_timer(self._tf_wait_timer)
         self._tf_ready = True
-        self._restart_staleness_clocks()
 
     def _activate(self) -> None:
         """Subscribe every source (ObstacleLayer::activate, which also restarts their staleness clocks)."""
@@ -292,14 +290,10 @@ class Costmap2DROS:
             return
         node, group = self.node, self.callback_group
         for inp in self._inputs:
-            if inp.source.data_type == "LaserScan":
-                inp.subscription = node.create_subscription(
-                    LaserScan, inp.source.topic, lambda msg, inp=inp: self._on_sensor(inp, msg),
-                    qos_profile_sensor_data, callback_group=group)
-            else:
-                inp.subscription = node.create_subscription(
-                    PointCloud2, inp.source.topic, lambda msg, inp=inp: self._on_sensor(inp, msg),
-                    qos_profile_sensor_data, callback_group=group)
+            msg_type = LaserScan if inp.source.data_type == "LaserScan" else PointCloud2
+            inp.subscription = node.create_subscription(
+                msg_type, inp.source.topic, lambda msg, inp=inp: self._on_sensor(inp, msg),
+                qos_profile_sensor_data, callback_group=group)
         for layer in self._static_layers:
             self._static_subscriptions.append(node.create_subscription(
                 OccupancyGrid, layer.map_topic, lambda msg, layer=layer: self._on_map(layer, msg), LATCHED,
@@ -519,6 +513,10 @@ class Costmap2DROS:
     def _update_cycle(self) -> None:
         if self._stopped or self._paused or not self._tf_ready:
             return
+        if not self.cm.layered.initialized:
+            # Sensors are judged from the first update on: before it, the wait for TF (and, under
+            # use_sim_time, for /clock) is not their fault.
+            self._restart_staleness_clocks()
         start = self._now_s()
         self.update_map_now()
         if (self._publish_period > 0 and self.cm.layered.initialized

@@ -136,6 +136,7 @@ class FakeLab:
         self.publish_tf = True
         self.publish_scans = True
         self.tf_age = 0.0               # seconds the odom -> base_link stamps lag behind now
+        self.header_frames = {frame: frame for frame in LASERS}
         self.robot.create_timer(0.1, self.tick)
         self.executor = SingleThreadedExecutor(context=context)
         self.executor.add_node(self.node)
@@ -155,7 +156,7 @@ class FakeLab:
         if frame in self.edit_ranges:
             ranges = self.edit_ranges[frame](ranges)
         msg = LaserScan()
-        msg.header.frame_id, msg.header.stamp = frame, stamp
+        msg.header.frame_id, msg.header.stamp = self.header_frames[frame], stamp
         msg.angle_min, msg.angle_max, msg.angle_increment = -HALF_FOV, HALF_FOV, 2 * HALF_FOV / (N_BEAMS - 1)
         msg.range_min, msg.range_max, msg.scan_time = RANGE_MIN, RANGE_MAX, 0.1
         msg.ranges = ranges.astype(np.float32).tolist()
@@ -564,3 +565,12 @@ def test_costmap_package_warnings_reach_the_node_logger(lab, capfd):
     fake.spin_for(0.3)
     assert ("[move_base]: global_costmap: The origin for the sensor at (20.35, 0.00) is out of map bounds. "
             "So, the costmap cannot raytrace for it.") in capfd.readouterr().err
+
+
+def test_configured_sensor_frame_overrides_the_message_frame(lab):
+    fake = lab()
+    fake.header_frames = {"front_laser_link": "laser_from_another_driver", "back_laser_link": ""}
+    costmap = fake.costmap("local_costmap")
+    mirror = GridMirror(fake.robot, "local_costmap")
+    fake.spin_until(lambda: walls_seen(mirror), what="both walls, located through the configured sensor_frame")
+    assert costmap.is_current()
