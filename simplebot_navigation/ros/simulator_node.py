@@ -8,6 +8,7 @@ node steps the simulation against the wall clock at ``real_time_factor``; with
 
 from __future__ import annotations
 
+import array
 import io
 import math
 import sys
@@ -19,28 +20,31 @@ import yourdfpy
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import TransformStamped, Twist
 from nav_msgs.msg import Odometry
+from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
-from rclpy.time import Time
 from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import String
 
 from simplebot_description import robot_description
-from simplebot_navigation.ros.conversions import yaw_to_quaternion
-from simplebot_navigation.ros.tf import StaticTransformBroadcaster, TransformBroadcaster
+from simplebot_navigation.ros.tf import StaticTransformBroadcaster, TransformBroadcaster, compose
 from simplebot_navigation.sim.simulator import SimplebotSim
 from simplebot_navigation.sim.world import load_world
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 WALL_TICK_S = 0.005
 MAX_LAG_S = 0.5
+# Launch files and `-p name:=2` give whole numbers as integers; the numeric parameters take both.
+PARAMETERS = {"world": "lab", "robot": "box", "radius": 0.3, "real_time_factor": 1.0, "physics_rate": 100.0,
+              "odom_rate": 50.0, "seed": 0, "range_noise_std": 0.0}
 
 
-def _stamp(t: float):
-    return Time(nanoseconds=int(round(t * 1e9))).to_msg()
+def _set_stamp(stamp, t: float) -> None:
+    """Write t seconds into a builtin_interfaces/Time in place (messages are reused every step)."""
+    stamp.sec, stamp.nanosec = divmod(round(t * 1e9), 1_000_000_000)
 
 
 def _quaternion_from_matrix(m: np.ndarray) -> tuple[float, float, float, float]:
@@ -48,34 +52,50 @@ def _quaternion_from_matrix(m: np.ndarray) -> tuple[float, float, float, float]:
     x = math.copysign(math.sqrt(max(0.0, 1.0 + m[0, 0] - m[1, 1] - m[2, 2])) / 2.0, m[2, 1] - m[1, 2])
     y = math.copysign(math.sqrt(max(0.0, 1.0 - m[0, 0] + m[1, 1] - m[2, 2])) / 2.0, m[0, 2] - m[2, 0])
     z = math.copysign(math.sqrt(max(0.0, 1.0 - m[0, 0] - m[1, 1] + m[2, 2])) / 2.0, m[1, 0] - m[0, 1])
-    return x, y, z, w
+    return float(x), float(y), float(z), float(w)
 
 
-def _transform(parent: str, child: str, stamp, xyz, quat) -> TransformStamped:
+def _transform(parent: str, child: str, xyz=(0.0, 0.0, 0.0), quat=(0.0, 0.0, 0.0, 1.0)) -> TransformStamped:
     tf = TransformStamped()
     tf.header.frame_id = parent
-    tf.header.stamp = stamp
     tf.child_frame_id = child
-    tf.transform.translation.x, tf.transform.translation.y, tf.transform.translation.z = (float(v) for v in xyz)
-    r = tf.transform.rotation
-    r.x, r.y, r.z, r.w = (float(v) for v in quat)
+    _set_transform(tf, (*xyz, *quat))
     return tf
+
+
+def _set_transform(tf: TransformStamped, value) -> None:
+    """value: (x, y, z, qx, qy, qz, qw)."""
+    t, r = tf.transform.translation, tf.transform.rotation
+    t.x, t.y, t.z, r.x, r.y, r.z, r.w = (float(v) for v in value)
+
+
+def _odometry(source) -> Odometry:
+    msg = Odometry()
+    msg.header.frame_id = source.frame_id
+    msg.child_frame_id = source.child_frame_id
+    return msg
 
 
 class SimulatorNode(Node):
     def __init__(self, **kwargs):
         super().__init__("simulator", **kwargs)
-        p = {name: self.declare_parameter(name, default).value for name, default in (
-            ("world", "lab"), ("robot", "box"), ("radius", 0.3), ("real_time_factor", 1.0),
-            ("physics_rate", 100.0), ("odom_rate", 50.0), ("seed", 0), ("range_noise_std", 0.0))}
-        self.description = robot_description(str(p["robot"]), float(p["radius"]))
-        self.world = load_world(str(p["world"]), robot_radius=self.description.inscribed_radius)
-        self.sim = SimplebotSim(self.world, self.description, physics_rate=float(p["physics_rate"]),
-                                seed=int(p["seed"]), range_noise_std=float(p["range_noise_std"]))
-        self.rtf = float(p["real_time_factor"])
-        if not (self.rtf >= 0.0 and math.isfinite(self.rtf)):
-            raise ValueError(f"real_time_factor must be >= 0, got {p['real_time_factor']!r}")
-        self._odom_every = max(1, round(float(p["physics_rate"]) / float(p["odom_rate"])))
+        try:
+            self._setup()
+        except BaseException:
+            self.destroy_node()
+            raise
+
+    def _setup(self) -> None:
+        p = self._checked_parameters()
+        self.description = robot_description(p["robot"], p["radius"])
+        try:
+            self.world = load_world(p["world"], robot_radius=self.description.inscribed_radius)
+        except (ValueError, FileNotFoundError) as err:
+            raise ValueError(f"simulator parameter 'world': {err}") from err
+        self.sim = SimplebotSim(self.world, self.description, physics_rate=p["physics_rate"], seed=p["seed"],
+                                range_noise_std=p["range_noise_std"])
+        self.rtf = p["real_time_factor"]
+        self._odom_every = max(1, round(p["physics_rate"] / p["odom_rate"]))
 
         self.clock_pub = self.create_publisher(ClockMsg, "/clock", 10)
         self.odom_pub = self.create_publisher(Odometry, "/simplebot_controller/odom", 10)
@@ -87,10 +107,17 @@ class SimulatorNode(Node):
         self.tf_broadcaster = TransformBroadcaster(self)
         self.create_publisher(String, "/robot_description", LATCHED).publish(String(data=self.description.urdf))
         StaticTransformBroadcaster(self).send_transform([
-            _transform(j.parent, j.child, _stamp(0.0), j.xyz, rpy_to_quaternion(j.rpy))
-            for j in self.description.fixed_joints])
-        self._wheel_joints = self._wheel_geometry()
+            _transform(j.parent, j.child, j.xyz, rpy_to_quaternion(j.rpy)) for j in self.description.fixed_joints])
         self.create_subscription(Twist, "/simplebot_controller/cmd_vel", self._on_cmd_vel, 10)
+
+        # Messages are built once and refilled: constructing them costs more than a physics step.
+        self._clock_msg = ClockMsg()
+        odom, truth = self.sim.odometry(), self.sim.ground_truth()
+        self._odom_msgs = [(self.odom_pub, _odometry(odom)), (self.truth_pub, _odometry(truth))]
+        self._odom_tf = _transform(odom.frame_id, odom.child_frame_id)
+        self._wheel_joints = self._wheel_geometry()
+        self._wheel_tfs = {name: _transform(parent, child) for name, (parent, child, _, _) in self._wheel_joints.items()}
+        self._scan_msgs = {frame: LaserScan() for frame in self.scan_pubs}
 
         self._reported_collisions = -1
         self._publish_collisions()
@@ -102,8 +129,27 @@ class SimulatorNode(Node):
         start = self.world.start
         self.get_logger().info(
             f"world '{self.world.name}', {self.description.body} robot at ({start.x:.2f}, {start.y:.2f}, "
-            f"yaw {start.yaw:.2f}), physics {p['physics_rate']:.0f} Hz, "
+            f"yaw {start.yaw:.2f}), physics {p['physics_rate']:g} Hz, "
             + (f"real-time factor {self.rtf:g}" if self.rtf > 0 else "lockstep (stepped by its driver)"))
+
+    def _checked_parameters(self) -> dict:
+        """Declared parameters, checked before anything is built (pybullet, publishers)."""
+        values = {}
+        for name, default in PARAMETERS.items():
+            value = self.declare_parameter(name, default, ParameterDescriptor(dynamic_typing=True)).value
+            if isinstance(default, float) and isinstance(value, int) and not isinstance(value, bool):
+                value = float(value)
+            if type(value) is not type(default):
+                raise ValueError(f"simulator parameter {name!r} must be a {type(default).__name__}, "
+                                 f"got {value!r}")
+            values[name] = value
+        for name in ("physics_rate", "odom_rate"):
+            if not (math.isfinite(values[name]) and values[name] > 0):
+                raise ValueError(f"simulator parameter {name!r} must be a positive number of Hz, got {values[name]!r}")
+        if not (math.isfinite(values["real_time_factor"]) and values["real_time_factor"] >= 0):
+            raise ValueError(f"simulator parameter 'real_time_factor' must be >= 0 (0: stepped by a driver), "
+                             f"got {values['real_time_factor']!r}")
+        return values
 
     # -- stepping -------------------------------------------------------------------------------
     def advance(self, duration: float) -> None:
@@ -127,45 +173,50 @@ class SimulatorNode(Node):
         self.sim.step()
         self._steps += 1
         now = self.sim.sim_time
-        stamp = _stamp(now)
-        self.clock_pub.publish(ClockMsg(clock=stamp))
+        _set_stamp(self._clock_msg.clock, now)
+        self.clock_pub.publish(self._clock_msg)
         if self._steps % self._odom_every == 0:
-            self._publish_odometry(stamp)
+            self._publish_odometry()
         for scan in self.sim.due_scans():
             self.scan_pubs[scan.frame].publish(self._scan_msg(scan))
         if self.sim.collisions().count != self._reported_collisions:
             self._publish_collisions()
 
     # -- publishing -----------------------------------------------------------------------------
-    def _publish_odometry(self, stamp) -> None:
-        odom, truth = self.sim.odometry(), self.sim.ground_truth()
-        for source, pub in ((odom, self.odom_pub), (truth, self.truth_pub)):
-            msg = Odometry()
+    def _publish_odometry(self) -> None:
+        stamp = self._clock_msg.clock
+        odom = self.sim.odometry()
+        for source, (pub, msg) in zip((odom, self.sim.ground_truth()), self._odom_msgs):
             msg.header.stamp = stamp
-            msg.header.frame_id = source.frame_id
-            msg.child_frame_id = source.child_frame_id
-            msg.pose.pose.position.x, msg.pose.pose.position.y = source.x, source.y
-            msg.pose.pose.orientation = yaw_to_quaternion(source.yaw)
-            msg.twist.twist.linear.x, msg.twist.twist.linear.y = source.vx, source.vy
-            msg.twist.twist.angular.z = source.wz
+            pose, twist = msg.pose.pose, msg.twist.twist
+            pose.position.x, pose.position.y = source.x, source.y
+            pose.orientation.z, pose.orientation.w = math.sin(source.yaw / 2), math.cos(source.yaw / 2)
+            twist.linear.x, twist.linear.y, twist.angular.z = source.vx, source.vy, source.wz
             pub.publish(msg)
-        transforms = [_transform(odom.frame_id, odom.child_frame_id, stamp, (odom.x, odom.y, 0.0),
-                                 (0.0, 0.0, math.sin(odom.yaw / 2), math.cos(odom.yaw / 2)))]
+        self._odom_tf.header.stamp = stamp
+        _set_transform(self._odom_tf, (odom.x, odom.y, 0.0, 0.0, 0.0, math.sin(odom.yaw / 2), math.cos(odom.yaw / 2)))
+        transforms = [self._odom_tf]
         joints = self.sim.joint_states()
         for name, angle in zip(joints.names, joints.positions):
-            parent, child, origin, axis = self._wheel_joints[name]
-            transforms.append(_transform(parent, child, stamp, origin[:3, 3],
-                                         _quaternion_from_matrix(origin[:3, :3] @ _axis_rotation(axis, angle))))
+            _, _, origin, axis = self._wheel_joints[name]
+            s = math.sin(angle / 2)
+            tf = self._wheel_tfs[name]
+            tf.header.stamp = stamp
+            _set_transform(tf, compose(origin, (0.0, 0.0, 0.0, axis[0] * s, axis[1] * s, axis[2] * s,
+                                                math.cos(angle / 2))))
+            transforms.append(tf)
         self.tf_broadcaster.send_transform(transforms)
 
     def _scan_msg(self, scan) -> LaserScan:
-        msg = LaserScan()
-        msg.header.stamp = _stamp(scan.stamp)
+        msg = self._scan_msgs[scan.frame]
+        _set_stamp(msg.header.stamp, scan.stamp)
         msg.header.frame_id = scan.frame
         msg.angle_min, msg.angle_max, msg.angle_increment = scan.angle_min, scan.angle_max, scan.angle_increment
         msg.time_increment, msg.scan_time = scan.time_increment, scan.scan_time
         msg.range_min, msg.range_max = scan.range_min, scan.range_max
-        msg.ranges = scan.ranges.astype(np.float32, copy=False).tolist()
+        ranges = array.array("f")
+        ranges.frombytes(scan.ranges.astype(np.float32, copy=False).tobytes())
+        msg.ranges = ranges
         return msg
 
     def _publish_collisions(self) -> None:
@@ -189,20 +240,24 @@ class SimulatorNode(Node):
             self.get_logger().warn(f"/simplebot_controller/cmd_vel: {err}", throttle_duration_sec=2.0)
 
     def _wheel_geometry(self) -> dict:
+        """joint -> (parent, child, origin as (x, y, z, qx, qy, qz, qw), unit axis) of the wheel joints."""
         urdf = yourdfpy.URDF.load(io.StringIO(self.description.urdf), build_scene_graph=False,
                                   load_meshes=False)
-        return {name: (j.parent, j.child, j.origin if j.origin is not None else np.eye(4), np.asarray(j.axis, float))
-                for name, j in urdf.joint_map.items() if j.type in ("continuous", "revolute")}
+        joints = {}
+        for name, j in urdf.joint_map.items():
+            if j.type in ("continuous", "revolute"):
+                origin = j.origin if j.origin is not None else np.eye(4)
+                axis = np.asarray(j.axis, float)
+                joints[name] = (j.parent, j.child, (*(float(v) for v in origin[:3, 3]),
+                                                    *_quaternion_from_matrix(origin[:3, :3])),
+                                tuple(float(v) for v in axis / np.linalg.norm(axis)))
+        return joints
 
     def destroy_node(self) -> None:
-        self.sim.close()
+        sim = getattr(self, "sim", None)
+        if sim is not None:
+            sim.close()
         super().destroy_node()
-
-
-def _axis_rotation(axis: np.ndarray, angle: float) -> np.ndarray:
-    k = axis / np.linalg.norm(axis)
-    kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + math.sin(angle) * kx + (1 - math.cos(angle)) * kx @ kx
 
 
 def rpy_to_quaternion(rpy) -> tuple[float, float, float, float]:
