@@ -49,6 +49,8 @@ class EdgeSet:
     h_index: dict = field(default_factory=dict)
     g_index: dict = field(default_factory=dict)
     bandwidth: int = 0
+    h_all: np.ndarray = None
+    g_all: np.ndarray = None
 
     @property
     def n_vars(self) -> int:
@@ -69,6 +71,8 @@ class EdgeSet:
         for name, c in extra.items():
             self.cols[name] = c
             self.h_index[name], self.g_index[name] = _scatter_indices(c, self.n_vars, self.bandwidth)
+        self.h_all = np.concatenate([self.h_index[name] for name in self.cols])
+        self.g_all = np.concatenate([self.g_index[name] for name in self.cols])
 
 
 class StaticLayout:
@@ -128,6 +132,12 @@ class TebOptimizer:
         self.cfg = cfg
         self.model = model
         self._layouts: dict = {}
+        # (v, omega) column constants of the stacked velocity and acceleration families
+        self._vel_weight = np.sqrt([[cfg.weight_max_vel_x], [cfg.weight_max_vel_theta]])
+        self._vel_lower = np.array([[-cfg.max_vel_x_backwards], [-cfg.max_vel_theta]])
+        self._vel_upper = np.array([[cfg.max_vel_x], [cfg.max_vel_theta]])
+        self._acc_weight = np.sqrt([[cfg.weight_acc_lim_x], [cfg.weight_acc_lim_theta]])
+        self._acc_limit = np.array([[cfg.acc_lim_x], [cfg.acc_lim_theta]])
 
     # -- outer loop -------------------------------------------------------------------------
     def optimize(self, band: TimedElasticBand, obstacles: np.ndarray, via_points: np.ndarray | None,
@@ -231,15 +241,12 @@ class TebOptimizer:
             jw[:, 6] = -vw[1] * inv_dt
 
         # velocity
-        w = np.sqrt([[cfg.weight_max_vel_x], [cfg.weight_max_vel_theta]])
-        lo = np.array([[-cfg.max_vel_x_backwards], [-cfg.max_vel_theta]])
-        hi = np.array([[cfg.max_vel_x], [cfg.max_vel_theta]])
+        w, lo, hi = self._vel_weight, self._vel_lower, self._vel_upper
         e, de = bound_to_interval(vw, lo, hi, eps)
         out["vel"] = ((w * e).ravel(), ((w * de)[..., None] * jvw).reshape(2 * n, 7) if with_jacobian else None)
 
         # acceleration: interior triples, start (odometry velocity) and goal (zero unless free)
-        w = np.sqrt([[cfg.weight_acc_lim_x], [cfg.weight_acc_lim_theta]])
-        lim = np.array([[cfg.acc_lim_x], [cfg.acc_lim_theta]])
+        w, lim = self._acc_weight, self._acc_limit
         if n >= 2:
             ssum = dts[:-1] + dts[1:]
             acc = 2.0 * (vw[:, 1:] - vw[:, :-1]) / ssum
@@ -320,15 +327,14 @@ class TebOptimizer:
     def normal_equations(families: dict, edges: EdgeSet):
         """J^T J in LAPACK lower banded storage (ab[i - j, j] = H[i, j], i >= j) and g = J^T r,
         scattered from the local Jacobians with the precomputed indices (one bincount each)."""
-        h_val, g_val, h_idx, g_idx = [], [], [], []
-        for name, (res, jac) in families.items():
+        h_val, g_val = [], []
+        for name in edges.cols:
+            res, jac = families[name]
             h_val.append((jac[:, :, None] * jac[:, None, :]).ravel())
             g_val.append((jac * res[:, None]).ravel())
-            h_idx.append(edges.h_index[name])
-            g_idx.append(edges.g_index[name])
         size = (edges.bandwidth + 1) * edges.n_vars
-        h = np.bincount(np.concatenate(h_idx), np.concatenate(h_val), minlength=size + 1)
-        g = np.bincount(np.concatenate(g_idx), np.concatenate(g_val), minlength=edges.n_vars + 1)
+        h = np.bincount(edges.h_all, np.concatenate(h_val), minlength=size + 1)
+        g = np.bincount(edges.g_all, np.concatenate(g_val), minlength=edges.n_vars + 1)
         return h[:size].reshape(edges.bandwidth + 1, edges.n_vars), g[:edges.n_vars]
 
     # -- inner loop -----------------------------------------------------------------------
