@@ -23,6 +23,7 @@ from geometry_msgs.msg import Polygon, PolygonStamped
 from map_msgs.msg import OccupancyGridUpdate
 from nav_msgs.msg import OccupancyGrid
 from rclpy.clock import Clock, ClockType
+from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from rclpy.time import Time
@@ -207,10 +208,12 @@ class Costmap2DROS:
         # Publishing state: cells changed since the last publish, geometry of the last full grid.
         self._pending_window: tuple[int, int, int, int] | None = None
         self._sent_geometry = None
-        self._subscriber_count = 0
+        self._new_subscriber = False
         self._last_publish_s = -math.inf
 
-        self.costmap_pub = node.create_publisher(OccupancyGrid, f"/{name}/costmap", LATCHED)
+        self.costmap_pub = node.create_publisher(
+            OccupancyGrid, f"/{name}/costmap", LATCHED, callback_group=callback_group,
+            event_callbacks=PublisherEventCallbacks(matched=self._on_costmap_matched))
         self.updates_pub = node.create_publisher(OccupancyGridUpdate, f"/{name}/costmap_updates", UPDATES_QOS)
         self.footprint_pub = node.create_publisher(PolygonStamped, self._topic(c.published_footprint_topic),
                                                    1)
@@ -585,23 +588,26 @@ class Costmap2DROS:
             a = self._pending_window
             self._pending_window = (min(a[0], x0), min(a[1], y0), max(a[2], xn), max(a[3], yn))
 
+    def _on_costmap_matched(self, info) -> None:
+        """A new subscriber got the latched grid, which may be old: send it a current one."""
+        if info.total_count_change > 0:
+            self._new_subscriber = True
+
     def publish_costmap(self) -> None:
         """Costmap2DPublisher::publishCostmap: the full grid when the geometry changed (or always, or for
         a new subscriber), otherwise the cells changed since the last publish; nothing without
         subscribers (changes keep accumulating)."""
-        count = self.costmap_pub.get_subscription_count()
-        new_subscriber = count > self._subscriber_count
-        self._subscriber_count = count
-        if count == 0 and self.updates_pub.get_subscription_count() == 0:
+        if self.costmap_pub.get_subscription_count() == 0 and self.updates_pub.get_subscription_count() == 0:
             return
         stamp = self.node.get_clock().now().to_msg()
         with self.lock:
             master = self.costmap
             geometry = (master.size_x, master.size_y, master.resolution, master.origin_x, master.origin_y)
-            if self.config.always_send_full_costmap or new_subscriber or geometry != self._sent_geometry:
+            if self.config.always_send_full_costmap or self._new_subscriber or geometry != self._sent_geometry:
                 msg = occupancy_grid_msg(master.costmap, master.resolution, master.origin_x, master.origin_y,
                                          self.global_frame, stamp)
                 self._sent_geometry = geometry
+                self._new_subscriber = False
                 self._pending_window = None
                 self.costmap_pub.publish(msg)
                 return

@@ -345,6 +345,10 @@ def test_costmap_updates_carry_the_changed_cells(lab):
     assert update.width * update.height < 150 * 150
     with costmap.lock:
         np.testing.assert_array_equal(mirror.grid, costmap_ros.OCCUPANCY_GRID_TABLE[costmap.costmap.costmap])
+    # A late subscriber first gets the latched (old) grid, then a current full one.
+    late = GridMirror(fake.robot, "global_costmap")
+    fake.spin_until(lambda: late.full_count >= 2, what="a full grid for the late subscriber")
+    assert late.grid[late.cell(1.02, 0.6)[::-1]] == 100
 
 
 def test_footprint_is_published_padded_and_oriented(lab):
