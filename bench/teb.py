@@ -1,18 +1,25 @@
 """TEB control-cycle time for the lab robot, homotopy class planning off and on, side by side.
 
-    /work/devenv/bin/python bench/teb.py [--cycles N] [--profile]
+    /work/devenv/bin/python bench/teb.py [--cycles N] [--scene corridor|barrier|all] [--profile]
 
-Scene: a 3.2 m wide corridor (walls at y = +-1.6 m) with four 0.4 m boxes staggered 0.5 m off the
-centre line every 2 m, the lab robot (0.9 x 0.6 m box, padding 0.03, diff-drive) with the lab's
-teb_local_planner.yaml (two_circles model, offsets and radii 0.2) and TEB defaults otherwise.
-The local costmap is the lab's rolling window, 5 x 5 m at 0.05 m, re-cut around the robot every
-cycle; lethal cells are the wall lines and the box outlines (what the front and back scans mark
-together). The global plan is a slalom between the boxes to x = 10 m.
+The lab robot (0.9 x 0.6 m box, padding 0.03, diff-drive) with the lab's teb_local_planner.yaml
+(two_circles model, offsets and radii 0.2) and TEB defaults otherwise. The local costmap is the
+lab's rolling window, 5 x 5 m at 0.05 m, re-cut around the robot every cycle from a world grid
+whose lethal cells are what the front and back scans mark together: wall lines and box outlines.
+
+Scenes:
+  corridor  3.2 m wide corridor (walls at y = +-1.6 m), four 0.4 m boxes staggered 0.5 m off the
+            centre line every 2 m; the global plan is a slalom between them to x = 10 m.
+  barrier   open floor with a 2 m wall straight across a straight 3.5 m plan (an obstacle the
+            global plan did not know about): the case homotopy class planning exists for.
 
 Two robots run in lock step, one per planner configuration, each integrating its own (v, omega)
 with a unicycle model at the 10 Hz controller period, so both are timed in the same run under
 the same machine load. A cycle is one compute_velocity_commands call (plan pruning/transform,
-obstacle extraction, optimisation, feasibility check, command). Times are wall clock.
+obstacle extraction, optimisation of every band, feasibility check, command): wall clock, and
+the calling thread's CPU time ("cpu"), which other processes on the machine disturb less.
+"bands" is the mean number of bands optimised per cycle, "failed" the cycles without a valid
+command, "clearance" the smallest distance from the unpadded robot box to a lethal cell centre.
 """
 
 from __future__ import annotations
@@ -34,9 +41,8 @@ from simplebot_navigation.teb.config import TebConfig  # noqa: E402
 from simplebot_navigation.teb.planner import TebLocalPlanner  # noqa: E402
 
 RES = 0.05
-WORLD_ORIGIN = (-3.0, -4.0)
-WORLD_CELLS = (340, 160)                # 17 x 8 m
-BOXES = [(2.0, 0.5), (4.0, -0.5), (6.0, 0.5), (8.0, -0.5)]
+WORLD_ORIGIN = (-4.0, -6.0)
+WORLD_CELLS = (360, 240)                # 18 x 12 m
 LAB_FOOTPRINT = np.array([[0.45, 0.3], [0.45, -0.3], [-0.45, -0.3], [-0.45, 0.3]])
 PADDING = 0.03
 LAB_PARAMS = {
@@ -48,18 +54,38 @@ LAB_PARAMS = {
 PERIOD = 0.1
 
 
-def world_grid() -> np.ndarray:
+def world_grid(walls, boxes) -> np.ndarray:
+    """Lethal world cells: horizontal wall lines at the given y and outlines of (cx, cy, hx, hy) boxes."""
     grid = np.zeros(WORLD_CELLS[::-1], dtype=np.uint8)
     xs = WORLD_ORIGIN[0] + (np.arange(WORLD_CELLS[0]) + 0.5) * RES
     ys = WORLD_ORIGIN[1] + (np.arange(WORLD_CELLS[1]) + 0.5) * RES
     X, Y = np.meshgrid(xs, ys)
-    for wall_y in (-1.6, 1.6):
+    for wall_y in walls:
         grid[np.abs(Y - wall_y) < RES / 2] = LETHAL_OBSTACLE
-    for bx, by in BOXES:
-        inside = (np.abs(X - bx) <= 0.2) & (np.abs(Y - by) <= 0.2)
-        interior = (np.abs(X - bx) <= 0.2 - RES) & (np.abs(Y - by) <= 0.2 - RES)
+    for bx, by, hx, hy in boxes:
+        inside = (np.abs(X - bx) <= hx) & (np.abs(Y - by) <= hy)
+        interior = (np.abs(X - bx) <= hx - RES) & (np.abs(Y - by) <= hy - RES)
         grid[inside & ~interior] = LETHAL_OBSTACLE
     return grid
+
+
+def corridor():
+    boxes = [(2.0, 0.5, 0.2, 0.2), (4.0, -0.5, 0.2, 0.2), (6.0, 0.5, 0.2, 0.2), (8.0, -0.5, 0.2, 0.2)]
+    xs = np.arange(0.0, 10.0 + 1e-9, RES)
+    # a slalom keeping about 0.8 m from the box edges, as a global planner on the inflated
+    # costmap would route it, with yaw along the path
+    ramp = np.clip(xs / 1.5, 0.0, 1.0) * np.clip((10.0 - xs) / 1.5, 0.0, 1.0)
+    ys = -0.55 * ramp * np.cos(np.pi * (xs - 2.0) / 2.0)
+    yaw = np.arctan2(np.gradient(ys), np.gradient(xs))
+    return world_grid((-1.6, 1.6), boxes), np.column_stack([xs, ys, yaw])
+
+
+def barrier():
+    xs = np.arange(0.0, 3.5 + 1e-9, RES)
+    return world_grid((), [(1.5, 0.0, 0.05, 1.0)]), np.column_stack([xs, np.zeros_like(xs), np.zeros_like(xs)])
+
+
+SCENES = {"corridor": corridor, "barrier": barrier}
 
 
 def local_costmap(world: np.ndarray, x: float, y: float) -> Costmap2D:
@@ -72,29 +98,19 @@ def local_costmap(world: np.ndarray, x: float, y: float) -> Costmap2D:
     return cm
 
 
-def make_planner(homotopy: bool) -> TebLocalPlanner:
+def make_planner(homotopy: bool, plan: np.ndarray) -> TebLocalPlanner:
     cfg = TebConfig.from_params({**LAB_PARAMS, "enable_homotopy_class_planning": homotopy})
     footprint = LAB_FOOTPRINT + np.sign(LAB_FOOTPRINT) * PADDING
     planner = TebLocalPlanner(cfg, footprint, PERIOD)
-    planner.set_plan(global_plan())
+    planner.set_plan(plan)
     return planner
 
 
-def global_plan() -> np.ndarray:
-    """A slalom keeping about 0.8 m from the box edges, as a global planner on the inflated
-    costmap would route it, sampled every cell, with yaw along the path."""
-    xs = np.arange(0.0, 10.0 + 1e-9, RES)
-    ramp = np.clip(xs / 1.5, 0.0, 1.0) * np.clip((10.0 - xs) / 1.5, 0.0, 1.0)
-    ys = -0.55 * ramp * np.cos(np.pi * (xs - 2.0) / 2.0)
-    yaw = np.arctan2(np.gradient(ys), np.gradient(xs))
-    return np.column_stack([xs, ys, yaw])
-
-
-def run(cycles: int, profile: bool) -> None:
-    world = world_grid()
+def run(scene: str, cycles: int, profile: bool) -> None:
+    world, plan = SCENES[scene]()
     obstacles = np.column_stack(np.nonzero(world.T == LETHAL_OBSTACLE)) * RES + np.array(WORLD_ORIGIN) + RES / 2
-    runs = {name: {"planner": make_planner(hcp), "pose": np.zeros(3), "vel": (0.0, 0.0), "times": [],
-                   "classes": [], "done": None, "failures": 0, "clearance": math.inf}
+    runs = {name: {"planner": make_planner(hcp, plan), "pose": np.zeros(3), "vel": (0.0, 0.0), "times": [], "cpu": [],
+                   "bands": [], "done": None, "failures": 0, "clearance": math.inf}
             for name, hcp in (("homotopy off", False), ("homotopy on", True))}
     profiler = None
     if profile:
@@ -107,10 +123,11 @@ def run(cycles: int, profile: bool) -> None:
                 continue
             pose, planner = r["pose"], r["planner"]
             costmap = local_costmap(world, pose[0], pose[1])
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.thread_time()
             cmd = planner.compute_velocity_commands(pose, r["vel"], costmap)
             r["times"].append(time.perf_counter() - t0)
-            r["classes"].append(len(planner.planner.candidates))
+            r["cpu"].append(time.thread_time() - c0)
+            r["bands"].append(planner.planner.bands_optimized)
             if cmd.goal_reached:
                 r["done"] = k * PERIOD
                 continue
@@ -124,15 +141,14 @@ def run(cycles: int, profile: bool) -> None:
     if profiler:
         profiler.stop()
         print(profiler.output_text(unicode=False, color=False, show_all=False))
-    print(f"{'mode':14s} {'cycles':>6s} {'median ms':>10s} {'p95 ms':>8s} {'max ms':>8s} "
-          f"{'classes':>8s} {'failed':>6s} {'arrived s':>9s} {'clearance m':>11s}")
     for name, r in runs.items():
-        t = np.array(r["times"]) * 1000.0
+        t, c = np.array(r["times"]) * 1000.0, np.array(r["cpu"]) * 1000.0
         arrived = f"{r['done']:.1f}" if r["done"] is not None else "no"
-        print(f"{name:14s} {len(t):6d} {np.median(t):10.1f} {np.percentile(t, 95):8.1f} {t.max():8.1f} "
-              f"{np.mean(r['classes']):8.2f} {r['failures']:6d} {arrived:>9s} {r['clearance']:11.3f}")
+        print(f"{scene:9s} {name:13s} {len(t):6d} {np.median(t):10.1f} {np.percentile(t, 95):8.1f} {t.max():8.1f} "
+              f"{np.median(c):8.1f} {np.percentile(c, 95):8.1f} "
+              f"{np.mean(r['bands']):6.2f} {r['failures']:6d} {arrived:>9s} {r['clearance']:11.3f}")
     off, on = (np.median(np.array(runs[n]["times"])) for n in runs)
-    print(f"median ratio on/off: {on / off:.2f}")
+    print(f"{scene:9s} median ratio on/off: {on / off:.2f}")
 
 
 def box_clearance(pose, obstacles) -> float:
@@ -147,9 +163,13 @@ def box_clearance(pose, obstacles) -> float:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cycles", type=int, default=400, help="control cycles per planner (default 400)")
+    parser.add_argument("--scene", choices=[*SCENES, "all"], default="all")
     parser.add_argument("--profile", action="store_true", help="print a pyinstrument profile of the run")
     args = parser.parse_args()
-    run(args.cycles, args.profile)
+    print(f"{'scene':9s} {'mode':13s} {'cycles':>6s} {'median ms':>10s} {'p95 ms':>8s} {'max ms':>8s} "
+          f"{'cpu med':>8s} {'cpu p95':>8s} {'bands':>6s} {'failed':>6s} {'arrived s':>9s} {'clearance m':>11s}")
+    for scene in (SCENES if args.scene == "all" else [args.scene]):
+        run(scene, args.cycles, args.profile)
 
 
 if __name__ == "__main__":

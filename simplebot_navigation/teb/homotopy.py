@@ -84,6 +84,8 @@ class HomotopyClassPlanner:
         self.candidates: list[Candidate] = []
         self.best: Candidate | None = None
         self.keypoints = np.zeros((0, 2))
+        #: bands optimised in the last cycle (candidates before duplicates and detours are dropped)
+        self.bands_optimized = 0
         # Signatures of seeds that merged into another class or were dropped as detours,
         # with the cycles left during which the same seed is not tried again.
         self.rejected: list[tuple[np.ndarray, int]] = []
@@ -123,6 +125,7 @@ class HomotopyClassPlanner:
         if not cfg.optimization_activate:
             self.best = self.candidates[0] if self.candidates else None
             return self.best is not None
+        self.bands_optimized = len(self.candidates)
         for cand in self.candidates:
             if cand.fresh_seed:
                 # A new class gets half the budget now and competes from the next cycle on.

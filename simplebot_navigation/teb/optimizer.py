@@ -348,7 +348,7 @@ class TebOptimizer:
         chi = self.chi2(families)
         lam = None
         nu = 2.0
-        for _ in range(iterations):
+        for iteration in range(iterations):
             h, g = self.normal_equations(families, edges)
             if lam is None:
                 lam = 1e-5 * float(np.max(h[0]))
@@ -373,7 +373,7 @@ class TebOptimizer:
                     break
                 lam *= nu
                 nu *= 2.0
-            if not accepted:
+            if not accepted or iteration == iterations - 1:
                 break
             families = self.evaluate(poses, dts, edges, True)
         band.poses, band.time_diffs = poses, dts
