@@ -6,20 +6,29 @@ Every runner drives the same run: the lab robot in a world, a controller-like cm
 (0.3 m/s along the corridor, weaving
 without touching the walls), odometry, ground truth and contacts read at 50 Hz, both 683-beam lidars
 at 10 Hz, physics at its step rate. A runner returns the wall time of `sim_seconds` of simulated
-time; RTF = sim_seconds / wall (>= 10 is the target). Set-up (URDF, world, pybullet) is not timed.
+time; RTF = sim_seconds / wall (>= 10 is the target). Set-up (URDF, world, pybullet, DDS discovery)
+is not timed.
 
 Columns, side by side in the same run:
   raw       the pure simulator loop (SimplebotSim, no ROS): the limit any node can reach.
             "rays" is the share of its time spent in the lidar ray batches.
   no lidar  the same loop with the ray casting skipped: what physics + drive + odometry cost.
-A runner for the ROS simulator node is added to RUNNERS with the same signature
-(Config -> wall seconds); the table then gets its column and its ratio to raw.
+  node      the ROS simulator node in lockstep (real_time_factor 0), driven by advance() as fast as
+            it goes, publishing everything (/clock every physics step, odometry, ground truth and
+            TF at 50 Hz, both scans, contacts); cmd_vel arrives over DDS from a driver node at 10 Hz.
+            No other subscribers: messages are converted and handed to DDS, nobody reads them.
+  node+sub  the same with a second process subscribed to both scans (the costmaps' share): the
+            scans are serialised and delivered, and that reader competes for the 2 cores.
+Target: node >= 10x real time and within 1.5x of raw (ratio column).
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import os
+import signal
+import subprocess
 import sys
 import time
 from dataclasses import dataclass
@@ -30,7 +39,17 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+os.environ.setdefault("ROS_DOMAIN_ID", str(10 + os.getpid() % 90))
+
+import rclpy  # noqa: E402
+from geometry_msgs.msg import Twist  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.node import Node  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+
 from simplebot_description import robot_description  # noqa: E402
+from simplebot_navigation.ros.simulator_node import SimulatorNode  # noqa: E402
 from simplebot_navigation.sim import SimplebotSim, load_world  # noqa: E402
 
 CMD_PERIOD = 0.1
@@ -96,7 +115,75 @@ def run_no_lidar(cfg: Config) -> float:
     return wall
 
 
-RUNNERS = {"raw": run_raw, "no lidar": run_no_lidar}
+SCAN_TOPICS = ("/front_laser/front_scan", "/back_laser/back_scan")
+# The node+sub runner lives in its own ROS domain, shared only with its scan reader process.
+READER_DOMAIN = 10 + (int(os.environ["ROS_DOMAIN_ID"]) - 10 + 45) % 90
+READER = """
+import rclpy
+from rclpy.qos import qos_profile_sensor_data
+from sensor_msgs.msg import LaserScan
+rclpy.init()
+node = rclpy.create_node("scan_reader")
+for topic in {topics!r}:
+    node.create_subscription(LaserScan, topic, lambda msg: None, qos_profile_sensor_data)
+try:
+    rclpy.spin(node)
+except KeyboardInterrupt:
+    pass
+"""
+
+
+def run_node(cfg: Config, domain_id: int | None = None) -> float:
+    """The simulator node stepped by its lockstep driver; cmd_vel comes over DDS."""
+    context = rclpy.Context()
+    rclpy.init(args=["--ros-args", "--log-level", "warn"], context=context, domain_id=domain_id)
+    sim = SimulatorNode(context=context, parameter_overrides=[
+        Parameter("world", value=cfg.world), Parameter("robot", value=cfg.body),
+        Parameter("physics_rate", value=cfg.physics_rate), Parameter("real_time_factor", value=0.0)])
+    driver = Node("bench_driver", context=context)
+    cmd_vel = driver.create_publisher(Twist, "/simplebot_controller/cmd_vel", 10)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(sim)
+    readers = 0 if domain_id is None else 1
+    deadline = time.monotonic() + 10.0
+    while cmd_vel.get_subscription_count() < 1 or any(sim.count_subscribers(t) < readers for t in SCAN_TOPICS):
+        if time.monotonic() > deadline:
+            raise RuntimeError("simulator node and its peers did not discover each other within 10 s")
+        executor.spin_once(timeout_sec=0.05)
+    twist = Twist()
+    start = time.perf_counter()
+    while sim.sim.sim_time < cfg.sim_seconds - 1e-9:
+        twist.linear.x, twist.angular.z = 0.3, 0.3 * math.cos(sim.sim.sim_time)
+        cmd_vel.publish(twist)
+        executor.spin_once(timeout_sec=1.0)  # the only callback the node has in lockstep: cmd_vel
+        sim.advance(CMD_PERIOD)
+    wall = time.perf_counter() - start
+    executor.shutdown()
+    driver.destroy_node()
+    sim.destroy_node()
+    rclpy.shutdown(context=context)
+    return wall
+
+
+def run_node_with_reader(cfg: Config) -> float:
+    return run_node(cfg, READER_DOMAIN)
+
+
+def start_reader() -> subprocess.Popen:
+    env = dict(os.environ, ROS_DOMAIN_ID=str(READER_DOMAIN))
+    return subprocess.Popen([sys.executable, "-c", READER.format(topics=SCAN_TOPICS)], env=env)
+
+
+def stop(process: subprocess.Popen) -> None:
+    process.send_signal(signal.SIGINT)
+    try:
+        process.wait(timeout=5.0)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        process.wait()
+
+
+RUNNERS = {"raw": run_raw, "no lidar": run_no_lidar, "node": run_node, "node+sub": run_node_with_reader}
 
 
 def main() -> None:
@@ -118,22 +205,29 @@ def main() -> None:
     header += f" {'rays':>5} | ratios (median wall / raw)"
     print(header)
     print("-" * len(header))
-    for world, body, rate in rows:
-        cfg = Config(world, body, rate, sim_seconds)
-        walls = {name: [] for name in RUNNERS}
-        for _ in range(repeats):
-            # Interleave the runners so machine load hits all columns alike.
-            for name, runner in RUNNERS.items():
-                walls[name].append(runner(cfg))
-        line = f"{world:8} {body:6} {rate:>6g}Hz |"
-        for name in RUNNERS:
-            med, p95 = np.median(walls[name]), np.percentile(walls[name], 95)
-            line += f" {sim_seconds / med:>15.1f}x {sim_seconds / p95:>5.1f}x |"
-        share = sum(RAY_SECONDS[cfg]) / sum(walls["raw"])
-        ratios = ", ".join(f"{name} {np.median(walls[name]) / np.median(walls['raw']):.2f}"
-                           for name in RUNNERS if name != "raw")
-        line += f" {share:>5.0%} | {ratios}"
-        print(line)
+    reader = start_reader()
+    try:
+        for world, body, rate in rows:
+            print_row(Config(world, body, rate, sim_seconds), repeats)
+    finally:
+        stop(reader)
+
+
+def print_row(cfg: Config, repeats: int) -> None:
+    walls = {name: [] for name in RUNNERS}
+    for _ in range(repeats):
+        # Interleave the runners so machine load hits all columns alike.
+        for name, runner in RUNNERS.items():
+            walls[name].append(runner(cfg))
+    line = f"{cfg.world:8} {cfg.body:6} {cfg.physics_rate:>6g}Hz |"
+    for name in RUNNERS:
+        med, p95 = np.median(walls[name]), np.percentile(walls[name], 95)
+        line += f" {cfg.sim_seconds / med:>15.1f}x {cfg.sim_seconds / p95:>5.1f}x |"
+    share = sum(RAY_SECONDS[cfg]) / sum(walls["raw"])
+    ratios = ", ".join(f"{name} {np.median(walls[name]) / np.median(walls['raw']):.2f}"
+                       for name in RUNNERS if name != "raw")
+    line += f" {share:>5.0%} | {ratios}"
+    print(line, flush=True)
 
 
 if __name__ == "__main__":
