@@ -9,7 +9,8 @@ pi. New candidates are seeded by offset initial paths passing left and right of 
 closest to the start-goal line, at most max_number_classes bands in total. To keep the control
 cycle bounded in Python, at most one new class is seeded per cycle, it gets half the outer
 iterations in that cycle and competes from the next one, and a seed that merges into another
-class or is dropped as a detour is not tried again for REJECTED_SEED_CYCLES cycles.
+class or is dropped as a detour is not tried again near the same detour point for
+REJECTED_SEED_CYCLES cycles.
 
 With enable_homotopy_class_planning false the planner keeps exactly one band (TebOptimalPlanner).
 """
@@ -33,11 +34,14 @@ class Candidate:
     cost: float = math.inf
     signature: np.ndarray = field(default_factory=lambda: np.zeros(0))
     fresh_seed: bool = False
+    seed_point: np.ndarray | None = None      # the detour point a seed was built through
 
 
 #: Control cycles during which a seed that did not survive its first optimisation is not re-seeded
 #: (TEB re-explores every cycle; in Python each wasted candidate costs a full optimisation).
 REJECTED_SEED_CYCLES = 10
+#: ... through a detour point closer than this to the rejected seed's one [m]
+REJECTED_SEED_RADIUS = 0.5
 
 
 def obstacle_clusters(obstacles: np.ndarray, gap: float) -> list[np.ndarray]:
@@ -86,8 +90,8 @@ class HomotopyClassPlanner:
         self.keypoints = np.zeros((0, 2))
         #: bands optimised in the last cycle (candidates before duplicates and detours are dropped)
         self.bands_optimized = 0
-        # Signatures of seeds that merged into another class or were dropped as detours,
-        # with the cycles left during which the same seed is not tried again.
+        # Detour points of seeds that merged into another class or were dropped as detours,
+        # with the cycles left during which no seed is built through their neighbourhood.
         self.rejected: list[tuple[np.ndarray, int]] = []
 
     @property
@@ -137,7 +141,7 @@ class HomotopyClassPlanner:
                 cand.cost = self.optimizer.optimize(cand.band, obstacles, via_points, start_velocity,
                                                     free_goal_vel, compute_cost=self.enabled)
         if self.enabled:
-            seeds = {id(c): c.signature for c in self.candidates if c.fresh_seed}
+            seeds = {id(c): c.seed_point for c in self.candidates if c.fresh_seed}
             for cand in self.candidates:
                 cand.signature = homotopy_signature(cand.band.poses[:, :2], self.keypoints)
                 cand.fresh_seed = False
@@ -145,7 +149,7 @@ class HomotopyClassPlanner:
             self._delete_detours()
             kept = {id(c) for c in self.candidates}
             self.rejected = [(sig, ttl - 1) for sig, ttl in self.rejected if ttl > 1]
-            self.rejected += [(sig, REJECTED_SEED_CYCLES) for key, sig in seeds.items() if key not in kept]
+            self.rejected += [(via, REJECTED_SEED_CYCLES) for key, via in seeds.items() if key not in kept]
             self._select_best()
         else:
             self.best = self.candidates[0]
@@ -243,10 +247,12 @@ class HomotopyClassPlanner:
                 seed = np.column_stack([path, np.zeros(len(path))])
                 seed[0], seed[-1] = start, goal
                 sig = homotopy_signature(seed[:, :2], self.keypoints)
-                if self._has_class(sig) is None and not any(same_class(r, sig) for r, _ in self.rejected):
+                if self._has_class(sig) is None and not any(
+                        np.hypot(*(via - r)) < REJECTED_SEED_RADIUS for r, _ in self.rejected):
                     cand = self._new_candidate(seed, False)
                     cand.signature = sig
                     cand.fresh_seed = True
+                    cand.seed_point = via
                     self.candidates.append(cand)
                     return  # one new class per cycle bounds the cycle time
 
