@@ -31,6 +31,7 @@ def bound_to_interval(value, lower, upper, eps):
 
 
 def bound_from_below(value, lower, eps):
+    """Penalty and its derivative: zero above lower+eps, linear shortfall below."""
     err = np.maximum(lower + eps - value, 0.0)
     return err, -(err > 0.0).astype(float)
 

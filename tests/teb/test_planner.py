@@ -201,3 +201,9 @@ def test_bad_inputs():
 def test_small_model_warns_against_the_costmap_footprint():
     planner = lab_planner(min_obstacle_dist=0.05)
     assert any("inscribed radius" in w for w in planner.warnings)
+
+
+def test_unsupported_features_are_reported():
+    planner = lab_planner(min_turning_radius=0.5, exact_arc_length=True)
+    assert sum("not supported" in w for w in planner.warnings) == 2
+    assert any("min_turning_radius" in w for w in planner.warnings)
