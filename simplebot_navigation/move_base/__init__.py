@@ -1,0 +1,1 @@
+"""move_base's decision logic (state machine, recoveries), free of ROS."""

@@ -1,0 +1,408 @@
+"""The move_base node: costmaps, planner and controller plugins, the state machine, and its interfaces.
+
+A thin shell: MoveBaseCore (simplebot_navigation/move_base) decides, this node converts messages,
+owns the ROS interfaces of DESIGN §7, and runs the control cycle on a timer of the node's clock.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+import uuid
+
+import numpy as np
+import rclpy
+from actionlib_msgs.msg import GoalID, GoalStatus as ActionlibStatus, GoalStatusArray
+from geometry_msgs.msg import PoseStamped, Twist
+from nav_msgs.srv import GetPlan
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.task import Future
+from std_srvs.srv import Empty
+
+from move_base_msgs.action import MoveBase
+from simplebot_navigation.move_base.config import MoveBaseConfig
+from simplebot_navigation.move_base.recovery import ClearCostmapRecovery, RotateRecovery
+from simplebot_navigation.move_base.state_machine import MoveBaseCore, State
+from simplebot_navigation.ros.conversions import path_msg, pose_to_xyyaw, xyyaw_to_pose
+from simplebot_navigation.ros.costmap_ros import Costmap2DROS
+from simplebot_navigation.ros.global_planner_ros import GlobalPlannerROS
+from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
+from simplebot_navigation.ros.teb_local_planner_ros import TebLocalPlannerROS
+from simplebot_navigation.ros.tf import Buffer, TransformException, TransformListener, strip_frame
+from simplebot_navigation.teb.feasibility import footprint_costs
+
+STATUS_PERIOD_S = 0.2
+FINISHED_STATUS_KEEP_S = 5.0
+
+
+class _Goal:
+    """One goal, from the action server or from /move_base_simple/goal."""
+
+    def __init__(self, pose: PoseStamped, handle=None):
+        self.pose = pose
+        self.handle = handle
+        self.id = str(uuid.UUID(bytes=bytes(handle.goal_id.uuid))) if handle is not None else uuid.uuid4().hex
+        self.stamp = pose.header.stamp
+        self.done: Future | None = None
+        self.status = ActionlibStatus.PENDING
+        self.text = ""
+        self.finished_wall = None
+
+
+def validate_goal(pose: PoseStamped) -> str | None:
+    """Why a goal cannot be used (move_base's isQuaternionValid plus finite position), or None."""
+    p, q = pose.pose.position, pose.pose.orientation
+    values = (p.x, p.y, p.z, q.x, q.y, q.z, q.w)
+    if not all(math.isfinite(v) for v in values):
+        return f"goal has a NaN or inf: position ({p.x}, {p.y}, {p.z}), orientation ({q.x}, {q.y}, {q.z}, {q.w})"
+    norm2 = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w
+    if norm2 < 1e-6:
+        return "goal has an invalid quaternion (length close to zero)"
+    n = math.sqrt(norm2)
+    x, y = q.x / n, q.y / n
+    z_axis_z = 1.0 - 2.0 * (x * x + y * y)
+    if abs(z_axis_z - 1.0) > 1e-3:
+        return "goal orientation is not upright: the quaternion must only rotate about z"
+    if not pose.header.frame_id:
+        return "goal has an empty frame_id"
+    return None
+
+
+class MoveBaseNode(Node):
+    def __init__(self, **kwargs):
+        kwargs.setdefault("automatically_declare_parameters_from_overrides", True)
+        super().__init__("move_base", **kwargs)
+        self.cfg = MoveBaseConfig.from_params(given_parameter_tree(self))
+        for warning in self.cfg.warnings:
+            self.get_logger().warn(warning)
+        self._declare_own_defaults()
+        self.tf = Buffer(node=self)
+        self.tf_listener = TransformListener(self.tf, self)
+        self.global_costmap = Costmap2DROS(self, "global_costmap", self.tf)
+        self.local_costmap = Costmap2DROS(self, "local_costmap", self.tf)
+        self.planner = GlobalPlannerROS(self, self.cfg.base_global_planner, self.global_costmap)
+        self.controller = TebLocalPlannerROS(self, self.cfg.base_local_planner, self.local_costmap, self.tf,
+                                             self.cfg.controller_frequency)
+        self.core = MoveBaseCore(self.cfg, self._build_recoveries(), self._plan_to, _ControllerAdapter(self))
+
+        self.cmd_vel_pub = self.create_publisher(Twist, "cmd_vel", 1)
+        self.current_goal_pub = self.create_publisher(PoseStamped, "~/current_goal", 1)
+        self.status_pub = self.create_publisher(GoalStatusArray, "~/status", 1)
+        group = ReentrantCallbackGroup()
+        self.action_server = ActionServer(self, MoveBase, "move_base", execute_callback=self._execute,
+                                          goal_callback=lambda _req: GoalResponse.ACCEPT,
+                                          cancel_callback=lambda _handle: CancelResponse.ACCEPT,
+                                          callback_group=group)
+        self.create_subscription(PoseStamped, "move_base_simple/goal", self._on_simple_goal, 1)
+        self.create_subscription(GoalID, "~/cancel", self._on_cancel, 1)
+        self.create_service(GetPlan, "~/make_plan", self._on_make_plan)
+        self.create_service(Empty, "~/clear_costmaps", self._on_clear_costmaps)
+
+        self.goal: _Goal | None = None
+        self.finished: list[_Goal] = []
+        self.controller_cycle_times: list[float] = []
+        self.period = 1.0 / self.cfg.controller_frequency
+        self.create_timer(self.period, self._control_cycle)
+        self.create_timer(STATUS_PERIOD_S, self._publish_status)
+        self._last_tf_wait_log = -math.inf
+        self.get_logger().info(f"move_base ready: {self.cfg.base_global_planner} + {self.cfg.base_local_planner}, "
+                               f"controller {self.cfg.controller_frequency:g} Hz, "
+                               f"{len(self.core.recoveries)} recovery behaviours")
+
+    # -- public state for tests and the scenario runner ---------------------------------------------
+    @property
+    def state(self) -> str:
+        return self.core.state.value
+
+    @property
+    def replans(self) -> int:
+        return self.core.replans
+
+    @property
+    def recoveries(self) -> int:
+        return self.core.recoveries_run
+
+    # -- set-up ---------------------------------------------------------------------------------
+    def _declare_own_defaults(self) -> None:
+        own = {k: v for k, v in vars(self.cfg).items() if k not in ("warnings", "recovery_behaviors")}
+        declare_defaults(self, own)
+
+    def _build_recoveries(self) -> list:
+        tree = given_parameter_tree(self)
+        costmaps = {"global": self.global_costmap, "local": self.local_costmap}
+        behaviors, instances = [], {}
+        for entry in self.cfg.recovery_behaviors:
+            name = entry["name"]
+            if name in instances:
+                behaviors.append(instances[name])
+                continue
+            params = tree.get(name, {}) if isinstance(tree.get(name), dict) else {}
+            if entry["type"] == "rotate_recovery/RotateRecovery":
+                borrowed = tree.get("TrajectoryPlannerROS", {})
+                params = {**{k: borrowed[k] for k in ("acc_lim_theta", "max_vel_theta", "min_in_place_vel_theta",
+                                                      "yaw_goal_tolerance") if k in borrowed}, **params}
+                recovery = RotateRecovery(name, params, self._footprint_free)
+            else:
+                default_distance = (self.cfg.conservative_reset_dist if name == "conservative_reset"
+                                    else 4.0 * self.local_costmap.circumscribed_radius)
+                recovery = ClearCostmapRecovery(name, params, costmaps, self._clear_costmap, default_distance)
+                for warning in recovery.warnings:
+                    self.get_logger().warn(warning)
+            instances[name] = recovery
+            behaviors.append(recovery)
+        return behaviors
+
+    def _footprint_free(self, poses: np.ndarray) -> bool:
+        with self.local_costmap.lock:
+            return bool((footprint_costs(self.local_costmap.costmap, self.local_costmap.footprint, poses) >= 0).all())
+
+    def _clear_costmap(self, costmap_ros, x, y, reset_distance, layer_names, invert, force_updating) -> list[str]:
+        pose = costmap_ros.get_robot_pose()
+        if pose is not None:
+            x, y = pose[0], pose[1]
+        with costmap_ros.lock:
+            cleared = costmap_ros.clear_layers_outside(x, y, reset_distance, layer_names, invert)
+        if force_updating:
+            costmap_ros.update_map_now()
+        return [f"{costmap_ros.name}/{name}" for name in cleared]
+
+    # -- planning ---------------------------------------------------------------------------------
+    def _robot_pose_global(self):
+        return self.global_costmap.get_robot_pose()
+
+    def _plan_to(self, goal_xyyaw):
+        start = self._robot_pose_global()
+        if start is None:
+            self.get_logger().warn(f"cannot plan: no robot pose in {self.global_costmap.global_frame}: "
+                                   f"{self.global_costmap.last_pose_error}", throttle_duration_sec=2.0)
+            return None
+        result = self.planner.make_plan(start[:3], goal_xyyaw)
+        return result.poses if result.ok else None
+
+    # -- goals --------------------------------------------------------------------------------------
+    def _on_simple_goal(self, msg: PoseStamped) -> None:
+        self._accept_goal(_Goal(msg))
+
+    async def _execute(self, handle):
+        goal = _Goal(handle.request.target_pose, handle)
+        goal.done = Future()
+        self._accept_goal(goal)
+        status = await goal.done
+        if status == ActionlibStatus.SUCCEEDED:
+            handle.succeed()
+        elif status == ActionlibStatus.PREEMPTED and handle.is_cancel_requested:
+            handle.canceled()
+        else:
+            handle.abort()
+        return MoveBase.Result()
+
+    def _accept_goal(self, goal: _Goal) -> None:
+        if self.goal is not None:
+            self._finish(self.goal, ActionlibStatus.PREEMPTED, "preempted by a new goal")
+        goal.status = ActionlibStatus.ACTIVE
+        self.goal = goal
+        reason = validate_goal(goal.pose)
+        target = None
+        if reason is None:
+            target, reason = self._goal_in_global_frame(goal.pose)
+        if reason is not None:
+            self.get_logger().error(f"Aborting on goal because it was sent with an invalid goal: {reason}")
+            self.core.reset()
+            self._publish_zero()
+            self._finish(goal, ActionlibStatus.ABORTED, reason)
+            return
+        self.current_goal_pub.publish(target)
+        xyyaw = pose_to_xyyaw(target.pose)
+        self.get_logger().info(f"new goal ({xyyaw[0]:.2f}, {xyyaw[1]:.2f}, yaw {xyyaw[2]:.2f}) "
+                               f"in {target.header.frame_id}")
+        self._publish_zero()
+        self.core.set_goal(xyyaw, self._now())
+
+    def _goal_in_global_frame(self, pose: PoseStamped):
+        frame = self.global_costmap.global_frame
+        if strip_frame(pose.header.frame_id) == frame:
+            target = PoseStamped()
+            target.header.frame_id = frame
+            target.header.stamp = pose.header.stamp
+            target.pose = pose.pose
+        else:
+            try:
+                target = self.tf.transform_pose(pose, frame, latest=True)
+            except TransformException as err:
+                return None, f"cannot transform the goal from {pose.header.frame_id} to {frame}: {err}"
+        x, y = target.pose.position.x, target.pose.position.y
+        master = self.global_costmap.costmap
+        if master.world_to_map(x, y) is None:
+            x1, y1 = master.origin_x + master.size_x * master.resolution, \
+                master.origin_y + master.size_y * master.resolution
+            return None, (f"goal ({x:.2f}, {y:.2f}) is outside the global costmap "
+                          f"[{master.origin_x:.2f}, {x1:.2f}] x [{master.origin_y:.2f}, {y1:.2f}] in {frame}")
+        return target, None
+
+    def _on_cancel(self, msg: GoalID) -> None:
+        if self.goal is not None and (not msg.id or msg.id == self.goal.id):
+            self.get_logger().info("goal canceled")
+            self.core.reset()
+            self._publish_zero()
+            self._finish(self.goal, ActionlibStatus.PREEMPTED, "canceled")
+
+    def _finish(self, goal: _Goal, status: int, text: str) -> None:
+        goal.status, goal.text = status, text
+        goal.finished_wall = time.monotonic()
+        if goal is self.goal:
+            self.goal = None
+        self.finished.append(goal)
+        if goal.done is not None and not goal.done.done():
+            goal.done.set_result(status)
+        self._publish_status()
+
+    # -- the control cycle --------------------------------------------------------------------------
+    def _now(self) -> float:
+        return self.get_clock().now().nanoseconds / 1e9
+
+    def _control_cycle(self) -> None:
+        goal = self.goal
+        if goal is None:
+            return
+        if goal.handle is not None and goal.handle.is_cancel_requested:
+            self.core.reset()
+            self._publish_zero()
+            self._finish(goal, ActionlibStatus.PREEMPTED, "canceled")
+            return
+        started = time.perf_counter()
+        pose = self._robot_pose_global()
+        if pose is None:
+            self._publish_zero()
+            self.get_logger().warn(f"waiting for the robot pose: {self.global_costmap.last_pose_error}",
+                                   throttle_duration_sec=5.0)
+            return
+        if goal.handle is not None:
+            feedback = MoveBase.Feedback()
+            feedback.base_position.header.frame_id = self.global_costmap.global_frame
+            feedback.base_position.header.stamp = pose.stamp.to_msg()
+            feedback.base_position.pose = xyyaw_to_pose(*pose[:3])
+            goal.handle.publish_feedback(feedback)
+        stale = self.local_costmap.stale_sources()
+        out = self.core.cycle(self._now(), pose[:3], self.local_costmap.is_current(),
+                              ", ".join(f"local_costmap/{s}" for s in stale))
+        if out.cmd is not None:
+            self._publish_cmd(*out.cmd)
+        if out.event:
+            self.get_logger().info(out.event)
+        if out.outcome == "succeeded":
+            self.get_logger().info("Goal reached")
+            self._finish(goal, ActionlibStatus.SUCCEEDED, out.message)
+        elif out.outcome == "aborted":
+            self.get_logger().error(out.message)
+            self._finish(goal, ActionlibStatus.ABORTED, out.message)
+        elif out.message:
+            self.get_logger().warn(out.message, throttle_duration_sec=2.0)
+        elapsed = time.perf_counter() - started
+        if self.core.state in (State.CONTROLLING, State.PLANNING, State.CLEARING):
+            self.controller_cycle_times.append(elapsed)
+        if elapsed > self.period and self.core.state == State.CONTROLLING:
+            self.get_logger().warn(f"Control loop missed its desired rate of {self.cfg.controller_frequency:.4f}Hz"
+                                   f"... the loop actually took {elapsed:.4f} seconds", throttle_duration_sec=5.0)
+
+    def _publish_cmd(self, v: float, omega: float) -> None:
+        twist = Twist()
+        twist.linear.x, twist.angular.z = float(v), float(omega)
+        self.cmd_vel_pub.publish(twist)
+
+    def _publish_zero(self) -> None:
+        self._publish_cmd(0.0, 0.0)
+
+    # -- status, services -----------------------------------------------------------------------
+    def _publish_status(self) -> None:
+        now = time.monotonic()
+        self.finished = [g for g in self.finished if now - g.finished_wall < FINISHED_STATUS_KEEP_S]
+        msg = GoalStatusArray()
+        msg.header.stamp = self.get_clock().now().to_msg()
+        for goal in self.finished + ([self.goal] if self.goal is not None else []):
+            status = ActionlibStatus(status=goal.status, text=goal.text)
+            status.goal_id.id = goal.id
+            status.goal_id.stamp = goal.stamp
+            msg.status_list.append(status)
+        self.status_pub.publish(msg)
+
+    def _on_make_plan(self, request: GetPlan.Request, response: GetPlan.Response) -> GetPlan.Response:
+        frame = self.global_costmap.global_frame
+        response.plan.header.frame_id = frame
+        if self.goal is not None:
+            self.get_logger().error("move_base must be in an inactive state to make a plan for an external user")
+            return response
+        if request.start.header.frame_id:
+            start, reason = self._goal_in_global_frame(request.start)
+            start = pose_to_xyyaw(start.pose) if start is not None else None
+        else:
+            pose = self._robot_pose_global()
+            start, reason = (pose[:3], None) if pose is not None else (None, "no robot pose")
+        goal, goal_reason = self._goal_in_global_frame(request.goal)
+        reason = reason or goal_reason or (validate_goal(request.goal) if goal is not None else None)
+        if reason is not None or start is None:
+            self.get_logger().error(f"make_plan: {reason}")
+            return response
+        tolerance = request.tolerance if math.isfinite(request.tolerance) and request.tolerance > 0 else None
+        result = self.planner.make_plan(start, pose_to_xyyaw(goal.pose), tolerance)
+        if result.ok:
+            response.plan = path_msg(result.poses, frame, self.get_clock().now().to_msg())
+        return response
+
+    def _on_clear_costmaps(self, _request, response):
+        for costmap in (self.global_costmap, self.local_costmap):
+            with costmap.lock:
+                costmap.reset_layers()
+        self.get_logger().info("costmaps cleared")
+        return response
+
+    def destroy_node(self) -> None:
+        if self.context.ok():
+            self._publish_zero()
+        super().destroy_node()
+
+
+class _ControllerAdapter:
+    """The controller interface MoveBaseCore expects, over TebLocalPlannerROS."""
+
+    def __init__(self, node: MoveBaseNode):
+        self.node = node
+
+    def set_plan(self, plan) -> bool:
+        return self.node.controller.set_plan(plan, self.node.global_costmap.global_frame)
+
+    def compute(self):
+        return self.node.controller.compute()
+
+    def is_goal_reached(self) -> bool:
+        return self.node.controller.is_goal_reached()
+
+    def reset(self) -> None:
+        self.node.controller.reset()
+
+
+def main(args=None) -> int:
+    rclpy.init(args=args if args is not None else sys.argv)
+    try:
+        node = MoveBaseNode()
+    except ValueError as err:
+        print(f"move_base: {err}", file=sys.stderr, flush=True)
+        rclpy.try_shutdown()
+        return 2
+    executor = rclpy.executors.SingleThreadedExecutor()
+    executor.add_node(node)
+    try:
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,135 @@
+"""TebLocalPlannerROS: the ROS shell move_base owns around the pure TebLocalPlanner.
+
+It converts the global plan into the local costmap's frame, feeds odometry, holds the local
+costmap's lock while planning, and publishes what the lab visualises (REFERENCE §4.6).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+
+import numpy as np
+from geometry_msgs.msg import Point, PoseArray
+from nav_msgs.msg import Odometry, Path
+from rclpy.duration import Duration
+from rclpy.node import Node
+from rclpy.time import Time
+from std_msgs.msg import ColorRGBA
+from visualization_msgs.msg import Marker, MarkerArray
+
+from simplebot_navigation.move_base.state_machine import ControlResult
+from simplebot_navigation.ros.conversions import path_msg, pose_array_msg, transform_to_xyyaw
+from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
+from simplebot_navigation.ros.tf import Buffer, TransformException
+from simplebot_navigation.teb import TebConfig, TebLocalPlanner
+
+PLUGIN_TYPES = {"teb_local_planner/TebLocalPlannerROS": "TebLocalPlannerROS"}
+ODOM_STALE_S = 1.0
+
+
+def _transform_poses(poses: np.ndarray, tf_xyyaw) -> np.ndarray:
+    x, y, yaw = tf_xyyaw
+    c, s = math.cos(yaw), math.sin(yaw)
+    out = np.empty_like(poses)
+    out[:, 0] = x + c * poses[:, 0] - s * poses[:, 1]
+    out[:, 1] = y + s * poses[:, 0] + c * poses[:, 1]
+    out[:, 2] = poses[:, 2] + yaw
+    return out
+
+
+class TebLocalPlannerROS:
+    def __init__(self, node: Node, plugin_type: str, costmap_ros, tf_buffer: Buffer, controller_frequency: float):
+        if plugin_type not in PLUGIN_TYPES:
+            raise ValueError(f"base_local_planner {plugin_type!r} is not available; "
+                             f"known: {', '.join(PLUGIN_TYPES)}")
+        self.name = PLUGIN_TYPES[plugin_type]
+        self.node = node
+        self.costmap_ros = costmap_ros
+        self.tf = tf_buffer
+        self.logger = node.get_logger()
+        self.config = TebConfig.from_params(given_parameter_tree(node, self.name))
+        self.planner = TebLocalPlanner(self.config, costmap_ros.footprint, 1.0 / controller_frequency)
+        for warning in self.planner.warnings:
+            self.logger.warn(warning)
+        declare_defaults(node, {f.name: getattr(self.config, f.name) for f in dataclasses.fields(self.config)
+                                if f.name != "warnings"}, self.name)
+        self.frame = costmap_ros.global_frame
+        base = f"/{node.get_name()}/{self.name}"
+        self.local_plan_pub = node.create_publisher(Path, f"{base}/local_plan", 1)
+        self.global_plan_pub = node.create_publisher(Path, f"{base}/global_plan", 1)
+        self.poses_pub = node.create_publisher(PoseArray, f"{base}/teb_poses", 1)
+        self.markers_pub = node.create_publisher(MarkerArray, f"{base}/teb_markers", 1)
+        self.odom_topic = self.config.odom_topic
+        self._velocity = (0.0, 0.0)
+        self._odom_wall = None
+        node.create_subscription(Odometry, self.odom_topic, self._on_odom, 10)
+
+    # -- odometry -------------------------------------------------------------------------------
+    def _on_odom(self, msg: Odometry) -> None:
+        v, w = msg.twist.twist.linear.x, msg.twist.twist.angular.z
+        if math.isfinite(v) and math.isfinite(w):
+            self._velocity = (v, w)
+            self._odom_wall = time.monotonic()
+
+    def _robot_velocity(self) -> tuple[float, float]:
+        if self._odom_wall is None or time.monotonic() - self._odom_wall > ODOM_STALE_S:
+            self.logger.warn(f"no odometry on {self.odom_topic} (odom_topic): planning from zero velocity",
+                             throttle_duration_sec=10.0)
+            return (0.0, 0.0)
+        return self._velocity
+
+    # -- the controller interface of move_base ---------------------------------------------------
+    def set_plan(self, plan: np.ndarray, plan_frame: str) -> bool:
+        """Take a global plan ((N, 3) in plan_frame); it is kept in the local costmap frame."""
+        if plan_frame != self.frame:
+            try:
+                tf = self.tf.lookup_transform(self.frame, plan_frame, Time(), Duration(seconds=0.0))
+            except TransformException as err:
+                self.logger.error(f"Could not transform the global plan to the frame of the controller: {err}")
+                return False
+            plan = _transform_poses(plan, transform_to_xyyaw(tf))
+        self.planner.set_plan(plan)
+        return True
+
+    def reset(self) -> None:
+        self.planner.reset()
+
+    def compute(self) -> ControlResult:
+        pose = self.costmap_ros.get_robot_pose()
+        if pose is None:
+            return ControlResult(False, message=f"no robot pose: {self.costmap_ros.last_pose_error}")
+        with self.costmap_ros.lock:
+            result = self.planner.compute_velocity_commands(pose[:3], self._robot_velocity(),
+                                                            self.costmap_ros.costmap)
+        self._publish(pose)
+        return ControlResult(result.ok, result.v, result.omega, result.message)
+
+    def is_goal_reached(self) -> bool:
+        pose = self.costmap_ros.get_robot_pose()
+        return pose is not None and self.planner.is_goal_reached(pose[:3], self._robot_velocity())
+
+    # -- visualisation ------------------------------------------------------------------------
+    def _publish(self, pose) -> None:
+        stamp = self.node.get_clock().now().to_msg()
+        band = self.planner.band_poses
+        self.local_plan_pub.publish(path_msg(band, self.frame, stamp))
+        self.global_plan_pub.publish(path_msg(self.planner.transformed_plan, self.frame, stamp))
+        self.poses_pub.publish(pose_array_msg(band, self.frame, stamp))
+        if self.markers_pub.get_subscription_count() == 0:
+            return
+        obstacles = Marker(ns="PointObstacles", id=0, type=Marker.POINTS, action=Marker.ADD)
+        obstacles.scale.x = obstacles.scale.y = 0.1
+        obstacles.color = ColorRGBA(r=1.0, a=1.0)
+        obstacles.points = [Point(x=float(x), y=float(y)) for x, y in self.planner.obstacles]
+        footprint = Marker(ns="FootprintModel", id=0, type=Marker.LINE_LIST, action=Marker.ADD)
+        footprint.scale.x = 0.01
+        footprint.color = ColorRGBA(b=1.0, a=0.8)
+        for outline in self.planner.footprint_outlines():
+            for (x0, y0), (x1, y1) in zip(outline[:-1], outline[1:]):
+                footprint.points += [Point(x=float(x0), y=float(y0)), Point(x=float(x1), y=float(y1))]
+        for marker in (obstacles, footprint):
+            marker.header.frame_id = self.frame
+            marker.header.stamp = stamp
+        self.markers_pub.publish(MarkerArray(markers=[obstacles, footprint]))
