@@ -206,7 +206,11 @@ def run_single_process(config: LaunchConfig) -> int:
             nodes.append(node)
             executor.add_node(node)
             _log(f"started {spec.full_name} in this process")
-        executor.spin()
+        from simplebot_navigation.ros.lockstep import LockstepDriver
+        lockstep = LockstepDriver.of(nodes)
+        if lockstep is not None:
+            _log("lockstep: the simulator steps whenever every node is idle (real_time_factor 0)")
+        (lockstep or executor).spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
