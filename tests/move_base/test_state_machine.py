@@ -1,0 +1,210 @@
+"""move_base's decision logic with a scripted planner and controller (REFERENCE §1.3, §1.5)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from simplebot_navigation.move_base.config import MoveBaseConfig
+from simplebot_navigation.move_base.recovery import ClearCostmapRecovery, RecoveryStep, RotateRecovery
+from simplebot_navigation.move_base.state_machine import ABORT_MESSAGES, ControlResult, MoveBaseCore, State, Trigger
+
+PLAN = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+
+
+class ScriptedController:
+    def __init__(self, results=(), reached_after=None):
+        self.results = list(results)
+        self.reached_after = reached_after
+        self.computes = 0
+        self.plans = 0
+
+    def set_plan(self, plan):
+        self.plans += 1
+        return True
+
+    def compute(self):
+        self.computes += 1
+        return self.results.pop(0) if self.results else ControlResult(True, 0.3, 0.0)
+
+    def is_goal_reached(self):
+        return self.reached_after is not None and self.computes >= self.reached_after
+
+    def reset(self):
+        pass
+
+
+class CountingRecovery:
+    def __init__(self, name, log):
+        self.name = name
+        self.log = log
+
+    def start(self, now, pose):
+        self.log.append(self.name)
+
+    def tick(self, now, pose):
+        return RecoveryStep(None, True, f"{self.name} done")
+
+
+def run(core, seconds, dt=0.05, pose=(0.0, 0.0, 0.0), current=True, start=0.0):
+    outputs = []
+    t = start
+    while t < start + seconds - 1e-9:
+        out = core.cycle(t, pose, current)
+        outputs.append((t, out))
+        if out.outcome:
+            break
+        t += dt
+    return outputs
+
+
+def make_core(plan=lambda goal: PLAN, controller=None, recoveries=None, **cfg):
+    config = MoveBaseConfig.from_params(cfg)
+    log = []
+    recoveries = recoveries if recoveries is not None else [
+        CountingRecovery(b["name"], log) for b in config.recovery_behaviors]
+    core = MoveBaseCore(config, recoveries, plan, controller or ScriptedController())
+    core.set_goal((1.0, 0.0, 0.0), 0.0)
+    return core, log
+
+
+def test_plans_controls_and_succeeds():
+    controller = ScriptedController(reached_after=10)
+    core, _ = make_core(controller=controller)
+    outputs = run(core, 5.0)
+    t, last = outputs[-1]
+    assert last.outcome == "succeeded"
+    assert core.replans == 1 and controller.plans == 1
+    assert all(out.cmd == (0.3, 0.0) for _, out in outputs[1:-1])
+    assert core.state == State.IDLE and core.goal is None
+
+
+def test_no_plan_clears_for_planner_patience_then_runs_every_recovery_then_aborts():
+    core, log = make_core(plan=lambda goal: None)
+    outputs = run(core, 60.0)
+    t, last = outputs[-1]
+    assert last.outcome == "aborted" and last.message == ABORT_MESSAGES[Trigger.PLANNING_R]
+    assert log == ["conservative_reset", "rotate_recovery", "aggressive_reset", "rotate_recovery"]
+    first_recovery = next(t for t, out in outputs if "conservative_reset" in out.event)
+    assert first_recovery == pytest.approx(5.05, abs=0.051)     # planner_patience 5 s
+    assert 4 * 5.0 < t < 4 * 5.0 + 5.5                           # patience again after every recovery
+
+
+def test_max_planning_retries_short_circuits_the_patience():
+    core, log = make_core(plan=lambda goal: None, max_planning_retries=2)
+    outputs = run(core, 1.0)
+    assert log[:1] == ["conservative_reset"]
+    # the third failed plan (retries 3 > 2) starts the first recovery in the same cycle
+    assert next(i for i, (_, out) in enumerate(outputs) if out.event) == 2
+
+
+def test_failed_control_replans_at_once_and_clears_after_controller_patience():
+    failing = [ControlResult(False, message="no trajectory")] * 10_000
+    controller = ScriptedController(failing)
+    core, log = make_core(controller=controller, controller_patience=2.0)
+    outputs = run(core, 30.0)
+    assert core.replans > 10                      # every failure sends move_base back to PLANNING
+    first = next(t for t, out in outputs if out.event.startswith("executing recovery"))
+    assert first == pytest.approx(2.1, abs=0.11)
+    t, last = outputs[-1]
+    assert last.outcome == "aborted" and last.message == ABORT_MESSAGES[Trigger.CONTROLLING_R]
+
+
+def test_oscillation_timeout_triggers_recoveries_when_the_robot_does_not_move():
+    core, log = make_core(oscillation_timeout=3.0, oscillation_distance=0.5)
+    outputs = run(core, 30.0)
+    t, last = outputs[-1]
+    assert last.outcome == "aborted" and last.message == ABORT_MESSAGES[Trigger.OSCILLATION_R]
+    assert log[0] == "conservative_reset"
+
+
+def test_moving_robot_does_not_oscillate():
+    core, log = make_core(oscillation_timeout=1.0, oscillation_distance=0.1)
+    for i in range(100):
+        out = core.cycle(i * 0.05, (i * 0.05 * 0.3, 0.0, 0.0), True)
+        assert not out.outcome
+    assert log == []
+
+
+def test_stale_sensors_stop_the_robot_and_name_the_source():
+    core, _ = make_core()
+    out = core.cycle(0.0, (0.0, 0.0, 0.0), False, "local_costmap/obstacles/front_laser")
+    assert out.cmd == (0.0, 0.0)
+    assert "Sensor data is out of date" in out.message and "obstacles/front_laser" in out.message
+    assert core.replans == 0
+
+
+def test_a_new_plan_after_a_planning_recovery_restarts_the_recovery_sequence():
+    answers = iter([None] * 102 + [PLAN] * 1000)
+    controller = ScriptedController([ControlResult(False)] * 1000)
+    core, log = make_core(plan=lambda goal: next(answers), controller=controller, controller_patience=100.0)
+    run(core, 6.0)
+    assert log == ["conservative_reset"] and core.trigger == Trigger.PLANNING_R
+    run(core, 0.2, start=6.0)
+    assert core.recovery_index == 0
+
+
+def test_periodic_replanning_while_controlling():
+    core, _ = make_core(planner_frequency=2.0)
+    run(core, 5.0)
+    assert core.replans == pytest.approx(10, abs=1)
+
+
+@pytest.mark.parametrize("params, fragment", [
+    ({"controller_frequency": "fast"}, "controller_frequency: expected a number"),
+    ({"max_planning_retries": 1.5}, "max_planning_retries: expected an int"),
+    ({"recovery_behavior_enabled": "yes"}, "recovery_behavior_enabled: expected true or false"),
+])
+def test_bad_parameters_are_named(params, fragment):
+    with pytest.raises(ValueError, match=fragment):
+        MoveBaseConfig.from_params(params)
+
+
+def test_recovery_list_defaults_and_fallback():
+    assert [b["name"] for b in MoveBaseConfig.from_params({}).recovery_behaviors] == [
+        "conservative_reset", "rotate_recovery", "aggressive_reset", "rotate_recovery"]
+    no_rotation = MoveBaseConfig.from_params({"clearing_rotation_allowed": False})
+    assert [b["name"] for b in no_rotation.recovery_behaviors] == ["conservative_reset", "aggressive_reset"]
+    broken = MoveBaseConfig.from_params({"recovery_behaviors": [{"name": "x", "type": "no/Such"}]})
+    assert len(broken.recovery_behaviors) == 4 and "using the default recovery behaviours" in broken.warnings[0]
+    custom = MoveBaseConfig.from_params({"recovery_behaviors": [
+        {"name": "reset", "type": "clear_costmap_recovery/ClearCostmapRecovery"}]})
+    assert custom.recovery_behaviors == [{"name": "reset", "type": "clear_costmap_recovery/ClearCostmapRecovery"}]
+
+
+def test_rotate_recovery_turns_a_full_circle_counter_clockwise():
+    rotate = RotateRecovery("rotate_recovery", {}, lambda poses: True)
+    yaw, t, dt = 0.3, 0.0, 0.05
+    rotate.start(t, (0.0, 0.0, yaw))
+    turned = 0.0
+    for _ in range(1000):
+        step = rotate.tick(t, (0.0, 0.0, yaw))
+        if step.done:
+            break
+        assert step.cmd[0] == 0.0 and 0.4 <= step.cmd[1] <= 1.0
+        yaw = math.remainder(yaw + step.cmd[1] * dt, 2 * math.pi)
+        turned += step.cmd[1] * dt
+        t += dt
+    assert step.done and turned == pytest.approx(2 * math.pi, abs=0.1)
+
+
+def test_rotate_recovery_stops_before_a_collision():
+    rotate = RotateRecovery("rotate_recovery", {}, lambda poses: bool((poses[:, 2] < 1.0).all()))
+    rotate.start(0.0, (0.0, 0.0, 0.0))
+    step = rotate.tick(0.0, (0.0, 0.0, 0.0))
+    assert step.done and "can't rotate in place because there is a potential collision" in step.message
+
+
+def test_clear_costmap_recovery_clears_the_affected_maps():
+    calls = []
+
+    def clear(costmap, x, y, distance, layers, invert, force):
+        calls.append((costmap, x, y, distance, layers, invert))
+        return ["obstacles"]
+
+    recovery = ClearCostmapRecovery("aggressive_reset", {"affected_maps": "local"},
+                                    {"global": "G", "local": "L"}, clear, 1.84)
+    recovery.start(0.0, (1.0, 2.0, 0.0))
+    step = recovery.tick(0.0, (1.0, 2.0, 0.0))
+    assert calls == [("L", 1.0, 2.0, 1.84, None, False)]
+    assert step.done and "outside a 1.84 m square" in step.message
