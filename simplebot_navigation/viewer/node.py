@@ -1,0 +1,279 @@
+"""The viewer node: subscribes to what the lab shows in RViz and serves it to a browser page.
+
+Callbacks only copy message contents into a Scene; the HTTP server (own threads)
+encodes frames at a bounded rate. The page's 2D Nav Goal comes back as a POST and
+is published as a PoseStamped on /move_base_simple/goal in the fixed frame.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import sys
+
+import numpy as np
+import rclpy
+import yourdfpy
+from actionlib_msgs.msg import GoalStatus, GoalStatusArray
+from geometry_msgs.msg import PolygonStamped, PoseArray, PoseStamped, Twist
+from map_msgs.msg import OccupancyGridUpdate
+from nav_msgs.msg import OccupancyGrid, Odometry, Path
+from rcl_interfaces.msg import Log, ParameterDescriptor
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from rclpy.time import Time
+from rosgraph_msgs.msg import Clock
+from scipy.spatial import ConvexHull
+from sensor_msgs.msg import LaserScan
+from std_msgs.msg import String
+
+from simplebot_navigation.ros.conversions import path_to_array, pose_to_xyyaw, transform_to_xyyaw, xyyaw_to_pose
+from simplebot_navigation.ros.tf import Buffer, TransformException, TransformListener, strip_frame
+from simplebot_navigation.viewer.scene import Scene
+from simplebot_navigation.viewer.server import ViewerServer
+
+LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+UPDATES = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+ROSOUT = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
+
+COSTMAPS = {"global_costmap": "/global_costmap", "local_costmap": "/local_costmap"}
+SCANS = {"front_scan": "/front_laser/front_scan", "back_scan": "/back_laser/back_scan"}
+PATHS = {"global_plan": "/move_base/GlobalPlanner/plan",
+         "local_plan": "/move_base/TebLocalPlannerROS/local_plan"}
+TEB_POSES = "/move_base/TebLocalPlannerROS/teb_poses"
+FOOTPRINT = "/local_costmap/footprint"
+CURRENT_GOAL = "/move_base/current_goal"
+STATUS = "/move_base/status"
+ODOM = "/simplebot_controller/odom"
+CMD_VEL = "/simplebot_controller/cmd_vel"
+GOAL = "/move_base_simple/goal"
+
+PARAMETERS = {"host": "127.0.0.1", "port": 8765, "fixed_frame": "odom", "base_frame": "base_link",
+              "rate": 20.0, "costmap_rate": 5.0, "max_costmap_side": 400, "trail_points": 5000}
+STATUS_NAMES = {getattr(GoalStatus, n): n for n in ("PENDING", "ACTIVE", "PREEMPTED", "SUCCEEDED", "ABORTED",
+                                                    "REJECTED", "PREEMPTING", "RECALLING", "RECALLED", "LOST")}
+LOG_LEVELS = {10: "DEBUG", 20: "INFO", 30: "WARN", 40: "ERROR", 50: "FATAL"}
+CIRCLE_POINTS = 24
+
+
+def _stamp_ns(stamp) -> int:
+    return stamp.sec * 1_000_000_000 + stamp.nanosec
+
+
+def body_outlines(urdf: str, base_frame: str = "base_link") -> list[np.ndarray]:
+    """Top views of the robot's visual boxes, cylinders and spheres in base_frame, lowest first.
+
+    Each outline is the convex hull of the shape's points projected to the floor, so a
+    wheel (a cylinder on its side) shows as its rectangle and the round body as a disc.
+    """
+    robot = yourdfpy.URDF.load(io.StringIO(urdf), build_scene_graph=True, load_meshes=False)
+    shapes = []
+    ring = np.linspace(0.0, 2.0 * math.pi, CIRCLE_POINTS, endpoint=False)
+    for name, link in robot.link_map.items():
+        if not link.visuals:
+            continue
+        link_pose = robot.get_transform(name, base_frame)
+        for visual in link.visuals:
+            g = visual.geometry
+            if g.box is not None:
+                half = np.asarray(g.box.size, float) / 2.0
+                points = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * half
+            elif g.cylinder is not None:
+                r, h = g.cylinder.radius, g.cylinder.length / 2.0
+                disc = np.stack([r * np.cos(ring), r * np.sin(ring)], axis=1)
+                points = np.vstack([np.column_stack([disc, np.full(len(ring), z)]) for z in (-h, h)])
+            elif g.sphere is not None:
+                r = g.sphere.radius
+                points = np.column_stack([r * np.cos(ring), r * np.sin(ring), np.zeros(len(ring))])
+            else:
+                continue  # meshes: the footprint still shows where the robot is
+            pose = link_pose @ (visual.origin if visual.origin is not None else np.eye(4))
+            world = points @ pose[:3, :3].T + pose[:3, 3]
+            xy = world[:, :2]
+            hull = ConvexHull(xy)
+            shapes.append((float(world[:, 2].max()), xy[hull.vertices]))
+    return [outline for _, outline in sorted(shapes, key=lambda s: s[0])]
+
+
+class ViewerNode(Node):
+    def __init__(self, **kwargs):
+        super().__init__("viewer", **kwargs)
+        try:
+            self._setup()
+        except BaseException:
+            self.destroy_node()
+            raise
+
+    def _setup(self) -> None:
+        p = self._checked_parameters()
+        self.fixed_frame = strip_frame(p["fixed_frame"])
+        self.base_frame = strip_frame(p["base_frame"])
+        self.scene = Scene(self.fixed_frame, max_costmap_side=p["max_costmap_side"],
+                           costmap_period_s=1.0 / p["costmap_rate"], trail_points=p["trail_points"])
+        self.tf = Buffer(node=self)
+        self.listener = TransformListener(self.tf, self)
+        self.goal_pub = self.create_publisher(PoseStamped, GOAL, 1)
+        self._subscribe()
+        try:
+            self.server = ViewerServer(self.scene, self._lookup, self.publish_goal, host=p["host"], port=p["port"],
+                                       rate=p["rate"], base_frame=self.base_frame)
+        except OSError as err:
+            raise OSError(f"viewer cannot listen on {p['host']}:{p['port']}: {err.strerror or err} "
+                          "(set the 'port' parameter, 0 picks a free one)") from err
+        self.server.start()
+        self.get_logger().info(f"viewer on {self.server.url} (fixed frame {self.fixed_frame})")
+
+    @property
+    def url(self) -> str:
+        return self.server.url
+
+    def _checked_parameters(self) -> dict:
+        values = {}
+        for name, default in PARAMETERS.items():
+            value = self.declare_parameter(name, default, ParameterDescriptor(dynamic_typing=True)).value
+            if isinstance(default, float) and isinstance(value, int) and not isinstance(value, bool):
+                value = float(value)
+            if type(value) is not type(default):
+                raise ValueError(f"viewer parameter {name!r} must be a {type(default).__name__}, got {value!r}")
+            values[name] = value
+        for name in ("rate", "costmap_rate"):
+            if not (math.isfinite(values[name]) and values[name] > 0):
+                raise ValueError(f"viewer parameter {name!r} must be a positive number of Hz, got {values[name]!r}")
+        if not 0 <= values["port"] <= 65535:
+            raise ValueError(f"viewer parameter 'port' must be 0..65535, got {values['port']}")
+        return values
+
+    def _subscribe(self) -> None:
+        scene = self.scene
+        for name, ns in COSTMAPS.items():
+            self.create_subscription(OccupancyGrid, f"{ns}/costmap", lambda m, n=name: self._on_grid(n, m), LATCHED)
+            self.create_subscription(OccupancyGridUpdate, f"{ns}/costmap_updates",
+                                     lambda m, n=name: self._on_grid_update(n, m), UPDATES)
+        for name, topic in SCANS.items():
+            self.create_subscription(LaserScan, topic, lambda m, n=name: scene.set_scan(
+                n, strip_frame(m.header.frame_id), _stamp_ns(m.header.stamp), m.angle_min, m.angle_increment,
+                np.asarray(m.ranges, dtype=np.float32), m.range_min, m.range_max), qos_profile_sensor_data)
+        for name, topic in PATHS.items():
+            self.create_subscription(Path, topic, lambda m, n=name: scene.set_poses(
+                n, strip_frame(m.header.frame_id), _stamp_ns(m.header.stamp), path_to_array(m)), 1)
+        self.create_subscription(PoseArray, TEB_POSES, lambda m: scene.set_poses(
+            "teb_poses", strip_frame(m.header.frame_id), _stamp_ns(m.header.stamp),
+            np.array([pose_to_xyyaw(p) for p in m.poses], dtype=float).reshape(-1, 3)), 1)
+        self.create_subscription(PolygonStamped, FOOTPRINT, lambda m: scene.set_poses(
+            "footprint", strip_frame(m.header.frame_id), _stamp_ns(m.header.stamp),
+            np.array([(p.x, p.y) for p in m.polygon.points], dtype=float).reshape(-1, 2)), 1)
+        self.create_subscription(PoseStamped, CURRENT_GOAL, lambda m: scene.set_goal(
+            strip_frame(m.header.frame_id), _stamp_ns(m.header.stamp), pose_to_xyyaw(m.pose)), 1)
+        self.create_subscription(GoalStatusArray, STATUS, self._on_status, 10)
+        self.create_subscription(Odometry, ODOM, self._on_odom, 10)
+        self.create_subscription(Twist, CMD_VEL, lambda m: scene.set_command(m.linear.x, m.angular.z), 10)
+        self.create_subscription(Clock, "/clock", lambda m: scene.set_clock(_stamp_ns(m.clock) / 1e9), 10)
+        self.create_subscription(String, "/robot_description", self._on_description, LATCHED)
+        self.create_subscription(Log, "/rosout", self._on_log, ROSOUT)
+
+    # -- callbacks --------------------------------------------------------------------------------
+    def _on_grid(self, name: str, msg: OccupancyGrid) -> None:
+        info = msg.info
+        cells = np.frombuffer(msg.data, dtype=np.int8) if isinstance(msg.data, (bytes, bytearray)) \
+            else np.asarray(msg.data, dtype=np.int8)
+        if cells.size != info.width * info.height:
+            self.get_logger().warn(f"{COSTMAPS[name]}/costmap: {cells.size} cells for a {info.width}x{info.height} "
+                                   "grid; not drawn", throttle_duration_sec=5.0)
+            return
+        origin = pose_to_xyyaw(info.origin)
+        self.scene.set_grid(name, cells.reshape(info.height, info.width), info.resolution, origin,
+                            strip_frame(msg.header.frame_id))
+
+    def _on_grid_update(self, name: str, msg: OccupancyGridUpdate) -> None:
+        cells = np.asarray(msg.data, dtype=np.int8)
+        if cells.size != msg.width * msg.height:
+            self.get_logger().warn(f"{COSTMAPS[name]}/costmap_updates: {cells.size} cells for a "
+                                   f"{msg.width}x{msg.height} window; not drawn", throttle_duration_sec=5.0)
+            return
+        try:
+            self.scene.update_grid(name, msg.x, msg.y, cells.reshape(msg.height, msg.width))
+        except ValueError as err:
+            self.get_logger().warn(str(err), throttle_duration_sec=5.0)
+
+    def _on_odom(self, msg: Odometry) -> None:
+        x, y, _ = pose_to_xyyaw(msg.pose.pose)
+        frame = strip_frame(msg.header.frame_id)
+        if frame != self.fixed_frame:
+            placed = self._lookup(frame, 0)
+            if placed is None:
+                return
+            c, s = math.cos(placed[2]), math.sin(placed[2])
+            x, y = placed[0] + c * x - s * y, placed[1] + s * x + c * y
+        self.scene.set_odometry(x, y, msg.twist.twist.linear.x, msg.twist.twist.angular.z)
+
+    def _on_status(self, msg: GoalStatusArray) -> None:
+        if not msg.status_list:
+            self.scene.set_status({"state": "idle", "goals": 0})
+            return
+        last = msg.status_list[-1]
+        self.scene.set_status({"state": STATUS_NAMES.get(last.status, str(last.status)), "text": last.text,
+                               "goal_id": last.goal_id.id, "goals": len(msg.status_list)})
+
+    def _on_description(self, msg: String) -> None:
+        try:
+            self.scene.set_body(body_outlines(msg.data, self.base_frame))
+        except Exception as err:  # noqa: BLE001 - any unreadable URDF: say so, keep the footprint view
+            self.get_logger().warn(f"/robot_description: cannot draw the robot body: {err}")
+
+    def _on_log(self, msg: Log) -> None:
+        if msg.level >= 20 and msg.name != self.get_logger().name:
+            self.scene.add_log(LOG_LEVELS.get(msg.level, str(msg.level)), msg.name, msg.msg)
+
+    # -- used by the server threads ---------------------------------------------------------------
+    def _lookup(self, frame: str, stamp_ns: int):
+        if frame == self.fixed_frame:
+            return (0.0, 0.0, 0.0)
+        try:
+            tf = self.tf.lookup_transform(self.fixed_frame, frame, Time(nanoseconds=stamp_ns))
+        except TransformException:
+            if stamp_ns == 0:
+                return None
+            try:  # a scan older than the buffer or newer than the last transform: draw it where the robot is
+                tf = self.tf.lookup_transform(self.fixed_frame, frame, Time())
+            except TransformException:
+                return None
+        return transform_to_xyyaw(tf)
+
+    def publish_goal(self, x: float, y: float, yaw: float) -> PoseStamped:
+        msg = PoseStamped()
+        msg.header.frame_id = self.fixed_frame
+        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.pose = xyyaw_to_pose(x, y, yaw)
+        self.goal_pub.publish(msg)
+        self.get_logger().info(f"2D Nav Goal: x {x:.3f}, y {y:.3f}, yaw {math.degrees(yaw):.1f} deg "
+                               f"in {self.fixed_frame}")
+        return msg
+
+    def destroy_node(self) -> None:
+        server = getattr(self, "server", None)
+        if server is not None:
+            server.stop()
+        super().destroy_node()
+
+
+def main(args=None) -> int:
+    rclpy.init(args=args if args is not None else sys.argv)
+    try:
+        node = ViewerNode()
+    except (ValueError, OSError) as err:
+        print(f"viewer: {err}", file=sys.stderr, flush=True)
+        rclpy.try_shutdown()
+        return 2
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,450 @@
+// simplebot viewer: draws the frames of /frame on a canvas, in the fixed frame (odom), and sends 2D Nav Goals.
+"use strict";
+
+(() => {
+  // Cost colours as RViz's "costmap" scheme: free clear, 1..98 blue to red, inscribed cyan, lethal purple.
+  const COST = {
+    unknown: [112, 128, 144, 90],
+    inscribed: [0, 255, 255, 255],
+    lethal: [160, 0, 200, 255],
+  };
+  const LAYERS = [
+    // name, label, colour (for the legend and the drawing)
+    ["global_costmap", "global costmap", "#a000c8"],
+    ["local_costmap", "local costmap", "#00c8c8"],
+    ["grid", "1 m grid", "#ccc"],
+    ["trail", "odometry trail", "#6a6"],
+    ["global_plan", "global plan (GlobalPlanner/plan)", "#00a000"],
+    ["local_plan", "local plan (TEB local_plan)", "#0050ff"],
+    ["teb_poses", "teb poses", "#b8860b"],
+    ["front_scan", "front scan", "#e00000"],
+    ["back_scan", "back scan", "#f07000"],
+    ["footprint", "footprint", "#222"],
+    ["robot", "robot body", "#777"],
+    ["goal", "current goal", "#c00060"],
+  ];
+  const COLOURS = Object.fromEntries(LAYERS.map(([name, , colour]) => [name, colour]));
+
+  const canvas = document.getElementById("canvas");
+  const ctx = canvas.getContext("2d");
+  const $ = (id) => document.getElementById(id);
+
+  const state = {
+    frame: null,           // last decoded header
+    layers: {},            // name -> Float32Array (and stride)
+    grids: {},             // name -> {meta, image (canvas)}
+    body: null,            // [Float32Array outline in the base frame]
+    bodyVersion: null,
+    version: -1,
+    view: { x: 0, y: 0, scale: 40 }, // centre in world metres, pixels per metre
+    fitted: false,
+    follow: false,
+    goalTool: false,
+    drag: null,            // {kind: "pan"|"goal", ...}
+    sentGoal: null,
+    frameTimes: [],
+    visible: Object.fromEntries(LAYERS.map(([name]) => [name, true])),
+  };
+
+  // -- palette -----------------------------------------------------------------------------------
+  const PALETTE = new Uint8ClampedArray(256 * 4);
+  for (let v = 0; v < 256; v++) {
+    let rgba;
+    if (v === 0) rgba = [0, 0, 0, 0];
+    else if (v <= 98) {
+      const t = (v - 1) / 97;
+      rgba = [Math.round(255 * t), 0, Math.round(255 * (1 - t)), 150 + Math.round(80 * t)];
+    } else if (v === 99) rgba = COST.inscribed;
+    else if (v === 100) rgba = COST.lethal;
+    else rgba = COST.unknown;  // 255: unknown
+    PALETTE.set(rgba, v * 4);
+  }
+
+  function gridImage(meta, cells) {
+    const image = document.createElement("canvas");
+    image.width = meta.width;
+    image.height = meta.height;
+    const g = image.getContext("2d");
+    const data = g.createImageData(meta.width, meta.height);
+    const px = data.data;
+    // Row 0 of the grid is the lowest y; the world transform flips y, so rows go in as they are.
+    for (let i = 0; i < cells.length; i++) {
+      const o = cells[i] * 4;
+      const j = i * 4;
+      px[j] = PALETTE[o]; px[j + 1] = PALETTE[o + 1]; px[j + 2] = PALETTE[o + 2]; px[j + 3] = PALETTE[o + 3];
+    }
+    g.putImageData(data, 0, 0);
+    return image;
+  }
+
+  // -- frames --------------------------------------------------------------------------------------
+  function decode(buffer) {
+    const view = new DataView(buffer);
+    const length = view.getUint32(0, true);
+    const header = JSON.parse(new TextDecoder().decode(new Uint8Array(buffer, 4, length)));
+    const base = Math.ceil((4 + length) / 8) * 8;
+    const arrays = header.buffers.map((b) => b.type === "u8"
+      ? new Uint8Array(buffer, base + b.offset, b.bytes)
+      : new Float32Array(buffer, base + b.offset, b.bytes / 4));
+    return { header, arrays };
+  }
+
+  function apply({ header, arrays }) {
+    state.frame = header;
+    state.version = header.version;
+    for (const [name, meta] of Object.entries(header.costmaps)) {
+      if (meta.buffer !== undefined) state.grids[name] = { meta, image: gridImage(meta, arrays[meta.buffer]) };
+    }
+    for (const name of Object.keys(state.grids)) if (!(name in header.costmaps)) delete state.grids[name];
+    state.layers = {};
+    for (const [name, layer] of Object.entries(header.layers)) {
+      state.layers[name] = { data: arrays[layer.buffer], stride: layer.stride, origin: layer.origin };
+    }
+    if (header.body) {
+      state.body = header.body.outlines.map((i) => arrays[i]);
+      state.bodyVersion = header.body.version;
+    }
+    if (!state.fitted && state.grids.global_costmap) { fit(); state.fitted = true; }
+    if (state.follow && header.robot) { state.view.x = header.robot[0]; state.view.y = header.robot[1]; }
+    const now = performance.now();
+    state.frameTimes.push(now);
+    while (state.frameTimes.length && state.frameTimes[0] < now - 2000) state.frameTimes.shift();
+    updatePanel();
+    draw();
+  }
+
+  async function poll() {
+    for (;;) {
+      const query = new URLSearchParams({ after: state.version });
+      for (const [name, grid] of Object.entries(state.grids)) query.set(name, grid.meta.version);
+      if (state.bodyVersion !== null) query.set("body", state.bodyVersion);
+      try {
+        const response = await fetch("frame?" + query);
+        if (!response.ok) throw new Error(await response.text());
+        apply(decode(await response.arrayBuffer()));
+        setLink(true);
+      } catch (err) {
+        setLink(false, String(err));
+        await new Promise((r) => setTimeout(r, 1000));
+      }
+    }
+  }
+
+  function setLink(ok, why) {
+    const link = $("link");
+    link.className = ok ? "ok" : "bad";
+    link.textContent = ok ? "live" : "disconnected";
+    link.title = why || "";
+  }
+
+  // -- view ----------------------------------------------------------------------------------------
+  function size() {
+    const ratio = window.devicePixelRatio || 1;
+    const w = canvas.clientWidth, h = canvas.clientHeight;
+    if (canvas.width !== Math.round(w * ratio) || canvas.height !== Math.round(h * ratio)) {
+      canvas.width = Math.round(w * ratio);
+      canvas.height = Math.round(h * ratio);
+    }
+    return { w, h, ratio };
+  }
+
+  // Canvas CSS pixels <-> fixed-frame metres (y up).
+  function toScreen(x, y) {
+    const { w, h } = size();
+    return [w / 2 + (x - state.view.x) * state.view.scale, h / 2 - (y - state.view.y) * state.view.scale];
+  }
+
+  function toWorld(sx, sy) {
+    const { w, h } = size();
+    return [state.view.x + (sx - w / 2) / state.view.scale, state.view.y - (sy - h / 2) / state.view.scale];
+  }
+
+  function fit() {
+    const grid = state.grids.global_costmap;
+    if (!grid) return;
+    const { w, h } = size();
+    const m = grid.meta;
+    const wm = m.width * m.resolution, hm = m.height * m.resolution;
+    const [ox, oy, yaw] = m.origin;
+    const c = Math.cos(yaw), s = Math.sin(yaw);
+    state.view.x = ox + c * wm / 2 - s * hm / 2;
+    state.view.y = oy + s * wm / 2 + c * hm / 2;
+    state.view.scale = Math.min(w / wm, h / hm) * 0.95;
+    draw();
+  }
+
+  // -- drawing -------------------------------------------------------------------------------------
+  let drawPending = false;
+  function draw() {
+    if (drawPending) return;
+    drawPending = true;
+    requestAnimationFrame(() => { drawPending = false; render(); });
+  }
+
+  function worldTransform() {
+    const { w, h, ratio } = size();
+    const k = state.view.scale * ratio;
+    ctx.setTransform(k, 0, 0, -k, (w / 2 - state.view.x * state.view.scale) * ratio,
+      (h / 2 + state.view.y * state.view.scale) * ratio);
+  }
+
+  function px(n) { return n / state.view.scale; }  // n screen pixels in metres
+
+  function polyline(data, stride, colour, width) {
+    if (!data || data.length < 2 * stride) return;
+    ctx.beginPath();
+    ctx.moveTo(data[0], data[1]);
+    for (let i = stride; i < data.length; i += stride) ctx.lineTo(data[i], data[i + 1]);
+    ctx.strokeStyle = colour;
+    ctx.lineWidth = px(width);
+    ctx.stroke();
+  }
+
+  function arrow(x, y, yaw, length, colour, width) {
+    const c = Math.cos(yaw), s = Math.sin(yaw);
+    const hx = x + c * length, hy = y + s * length, head = length * 0.35;
+    ctx.beginPath();
+    ctx.moveTo(x, y);
+    ctx.lineTo(hx, hy);
+    ctx.moveTo(hx - head * Math.cos(yaw - 0.5), hy - head * Math.sin(yaw - 0.5));
+    ctx.lineTo(hx, hy);
+    ctx.lineTo(hx - head * Math.cos(yaw + 0.5), hy - head * Math.sin(yaw + 0.5));
+    ctx.strokeStyle = colour;
+    ctx.lineWidth = px(width);
+    ctx.stroke();
+  }
+
+  function render() {
+    size();
+    ctx.setTransform(1, 0, 0, 1, 0, 0);
+    ctx.clearRect(0, 0, canvas.width, canvas.height);
+    worldTransform();
+    ctx.imageSmoothingEnabled = false;
+    for (const name of ["global_costmap", "local_costmap"]) {
+      const grid = state.grids[name];
+      if (!grid || !state.visible[name]) continue;
+      const m = grid.meta;
+      ctx.save();
+      ctx.translate(m.origin[0], m.origin[1]);
+      ctx.rotate(m.origin[2]);
+      ctx.scale(m.resolution, m.resolution);
+      ctx.drawImage(grid.image, 0, 0);
+      ctx.restore();
+    }
+    if (state.visible.grid) drawGrid();
+    const L = state.layers;
+    if (state.visible.trail && L.trail) polyline(L.trail.data, 2, COLOURS.trail, 1.5);
+    if (state.visible.global_plan && L.global_plan) polyline(L.global_plan.data, 3, COLOURS.global_plan, 2.5);
+    if (state.visible.local_plan && L.local_plan) polyline(L.local_plan.data, 3, COLOURS.local_plan, 2.5);
+    if (state.visible.teb_poses && L.teb_poses) {
+      const d = L.teb_poses.data;
+      for (let i = 0; i + 2 < d.length; i += 3) arrow(d[i], d[i + 1], d[i + 2], px(14), COLOURS.teb_poses, 1.5);
+    }
+    for (const name of ["front_scan", "back_scan"]) {
+      if (!state.visible[name] || !L[name]) continue;
+      const d = L[name].data, r = px(1.5);
+      ctx.fillStyle = COLOURS[name];
+      for (let i = 0; i + 1 < d.length; i += 2) ctx.fillRect(d[i] - r, d[i + 1] - r, 2 * r, 2 * r);
+    }
+    const robot = state.frame && state.frame.robot;
+    if (state.visible.robot && robot && state.body) {
+      ctx.save();
+      ctx.translate(robot[0], robot[1]);
+      ctx.rotate(robot[2]);
+      ctx.fillStyle = "rgba(110,110,110,0.45)";
+      ctx.strokeStyle = "#444";
+      ctx.lineWidth = px(1);
+      for (const outline of state.body) {  // lowest first, so wheels and lidars show on the deck
+        ctx.beginPath();
+        ctx.moveTo(outline[0], outline[1]);
+        for (let j = 2; j < outline.length; j += 2) ctx.lineTo(outline[j], outline[j + 1]);
+        ctx.closePath();
+        ctx.fill();
+        ctx.stroke();
+      }
+      ctx.restore();
+    }
+    if (state.visible.footprint && L.footprint && L.footprint.data.length >= 4) {
+      const d = L.footprint.data;
+      polyline(Float32Array.from([...d, d[0], d[1]]), 2, COLOURS.footprint, 1.5);
+    }
+    if (robot && state.visible.robot) arrow(robot[0], robot[1], robot[2], px(30), "#d00", 2.5);
+    if (state.visible.goal && L.goal) {
+      const d = L.goal.data;
+      arrow(d[0], d[1], d[2], px(40), COLOURS.goal, 3);
+    }
+    if (state.drag && state.drag.kind === "goal") {
+      const g = state.drag;
+      arrow(g.x, g.y, g.yaw, px(40), "#2a6", 3);
+    } else if (state.sentGoal && !(L.goal && sameGoal(L.goal.data, state.sentGoal))) {
+      const g = state.sentGoal;
+      arrow(g.x, g.y, g.yaw, px(40), "#2a6", 2);
+    }
+  }
+
+  function sameGoal(d, g) { return Math.abs(d[0] - g.x) < 1e-3 && Math.abs(d[1] - g.y) < 1e-3; }
+
+  function drawGrid() {
+    const { w, h } = size();
+    const [x0, y1] = toWorld(0, 0), [x1, y0] = toWorld(w, h);
+    if ((x1 - x0) > 400) return;
+    ctx.beginPath();
+    for (let x = Math.ceil(x0); x <= x1; x++) { ctx.moveTo(x, y0); ctx.lineTo(x, y1); }
+    for (let y = Math.ceil(y0); y <= y1; y++) { ctx.moveTo(x0, y); ctx.lineTo(x1, y); }
+    ctx.strokeStyle = "rgba(0,0,0,0.08)";
+    ctx.lineWidth = px(1);
+    ctx.stroke();
+  }
+
+  // -- panel ---------------------------------------------------------------------------------------
+  const f2 = (v) => (v === null || v === undefined ? "-" : (Math.abs(v) < 0.005 ? 0 : v).toFixed(2));
+  const deg = (a) => `${Math.round(a * 180 / Math.PI) || 0}°`;
+
+  function updatePanel() {
+    const h = state.frame;
+    const st = h.status || {};
+    $("mb-state").textContent = st.state ? st.state + (st.text ? " - " + st.text : "") : "no status yet";
+    const goal = state.layers.goal;
+    $("mb-goal").textContent = goal
+      ? `${f2(goal.data[0])}, ${f2(goal.data[1])}, ${deg(goal.data[2])}` : "none";
+    $("robot-pose").textContent = h.robot
+      ? `${f2(h.robot[0])}, ${f2(h.robot[1])}, ${deg(h.robot[2])}` : "no transform";
+    $("odom-speed").textContent = `${f2(h.velocity[0])} m/s, ${f2(h.velocity[1])} rad/s`;
+    $("cmd-speed").textContent = `${f2(h.command[0])} m/s, ${f2(h.command[1])} rad/s`;
+    $("sim-time").textContent = h.sim_time === null ? "no /clock" : h.sim_time.toFixed(1) + " s";
+    $("rtf").textContent = h.rtf === null ? "-" : h.rtf.toFixed(2);
+    $("fps").textContent = `${(state.frameTimes.length / 2).toFixed(0)} / s`;
+    $("missing").textContent = h.missing.length ? "no transform: " + h.missing.join(", ") : "";
+    const log = $("log");
+    log.replaceChildren(...h.log.map((line) => {
+      const li = document.createElement("li");
+      li.className = line.level;
+      li.textContent = `[${line.node}] ${line.text}`;
+      return li;
+    }));
+  }
+
+  function buildLayerToggles() {
+    const box = $("layers");
+    for (const [name, label, colour] of LAYERS) {
+      const row = document.createElement("label");
+      const input = document.createElement("input");
+      input.type = "checkbox";
+      input.checked = true;
+      input.dataset.layer = name;
+      input.addEventListener("change", () => { state.visible[name] = input.checked; draw(); });
+      const swatch = document.createElement("i");
+      swatch.style.background = colour;
+      row.append(input, swatch, label);
+      box.append(row);
+    }
+  }
+
+  // -- input ---------------------------------------------------------------------------------------
+  function setGoalTool(on) {
+    state.goalTool = on;
+    $("goal-tool").classList.toggle("on", on);
+    canvas.classList.toggle("goal", on);
+    $("hint").textContent = on ? "click the goal position, drag for the heading" : "";
+  }
+
+  function setFollow(on) {
+    state.follow = on;
+    $("follow").classList.toggle("on", on);
+    if (on && state.frame && state.frame.robot) {
+      state.view.x = state.frame.robot[0]; state.view.y = state.frame.robot[1]; draw();
+    }
+  }
+
+  function local(event) {
+    const r = canvas.getBoundingClientRect();
+    return [event.clientX - r.left, event.clientY - r.top];
+  }
+
+  async function sendGoal(goal) {
+    state.sentGoal = goal;
+    const response = await fetch("goal", { method: "POST", headers: { "Content-Type": "application/json" },
+      body: JSON.stringify(goal) });
+    $("hint").textContent = response.ok ? "" : "goal refused: " + await response.text();
+    draw();
+  }
+
+  canvas.addEventListener("mousedown", (event) => {
+    if (event.button !== 0 && event.button !== 1) return;
+    const [sx, sy] = local(event);
+    if (state.goalTool && event.button === 0) {
+      const [x, y] = toWorld(sx, sy);
+      state.drag = { kind: "goal", x, y, yaw: 0, sx, sy };
+    } else {
+      state.drag = { kind: "pan", sx, sy, vx: state.view.x, vy: state.view.y };
+      if (state.follow) setFollow(false);
+    }
+    event.preventDefault();
+  });
+
+  window.addEventListener("mousemove", (event) => {
+    const d = state.drag;
+    if (!d) return;
+    const [sx, sy] = local(event);
+    if (d.kind === "pan") {
+      state.view.x = d.vx - (sx - d.sx) / state.view.scale;
+      state.view.y = d.vy + (sy - d.sy) / state.view.scale;
+    } else if (Math.hypot(sx - d.sx, sy - d.sy) >= 3) {
+      d.yaw = Math.atan2(-(sy - d.sy), sx - d.sx);
+    }
+    draw();
+  });
+
+  window.addEventListener("mouseup", () => {
+    const d = state.drag;
+    state.drag = null;
+    if (d && d.kind === "goal") {
+      setGoalTool(false);
+      sendGoal({ x: d.x, y: d.y, yaw: d.yaw });
+    }
+    draw();
+  });
+
+  canvas.addEventListener("wheel", (event) => {
+    const [sx, sy] = local(event);
+    const [wx, wy] = toWorld(sx, sy);
+    const factor = Math.exp(-event.deltaY * 0.0015);
+    state.view.scale = Math.min(2000, Math.max(2, state.view.scale * factor));
+    const [nx, ny] = toWorld(sx, sy);  // keep the point under the cursor where it is
+    state.view.x += wx - nx;
+    state.view.y += wy - ny;
+    draw();
+    event.preventDefault();
+  }, { passive: false });
+
+  window.addEventListener("keydown", (event) => {
+    if (event.target.tagName === "INPUT") return;
+    if (event.key === "g") setGoalTool(!state.goalTool);
+    else if (event.key === "f") setFollow(!state.follow);
+    else if (event.key === "0") fit();
+    else if (event.key === "Escape") { state.drag = null; setGoalTool(false); draw(); }
+  });
+
+  $("goal-tool").addEventListener("click", () => setGoalTool(!state.goalTool));
+  $("follow").addEventListener("click", () => setFollow(!state.follow));
+  $("fit").addEventListener("click", fit);
+  window.addEventListener("resize", draw);
+
+  // For scripted use (tests, screenshots): coordinates in page pixels.
+  window.viewer = {
+    state,
+    worldToPage(x, y) {
+      const r = canvas.getBoundingClientRect();
+      const [sx, sy] = toScreen(x, y);
+      return [r.left + sx, r.top + sy];
+    },
+    setView(x, y, scale) {
+      state.view = { x, y, scale }; state.fitted = true; setFollow(false); render();
+    },
+    render,
+  };
+
+  buildLayerToggles();
+  setLink(false, "waiting for the first frame");
+  poll();
+})();
