@@ -20,7 +20,7 @@ from sensor_msgs.msg import LaserScan
 from std_msgs.msg import String
 
 from simplebot_description import robot_description
-from simplebot_navigation.ros.simulator_node import SimulatorNode
+from simplebot_navigation.ros.simulator_node import SimulatorNode, main as simulator_main
 from simplebot_navigation.ros.tf import Buffer, TransformListener
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -293,3 +293,12 @@ def test_real_time_factor_is_honoured(context):
 def test_bad_parameters_fail_with_a_clear_message(context, name, value, message):
     with pytest.raises(ValueError, match=message):
         SimulatorNode(context=context, parameter_overrides=[Parameter(name, value=value)])
+
+
+@pytest.mark.parametrize("param, message", [
+    ("real_time_factor:=0.0", "nothing steps the simulator: run the nodes in one process"),
+    ("world:=atlantis", "parameter 'world': unknown world 'atlantis'"),
+])
+def test_own_process_refuses_what_it_cannot_run(capfd, param, message):
+    assert simulator_main(["simulator", "--ros-args", "-p", param]) == 2
+    assert message in capfd.readouterr().err
