@@ -60,6 +60,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--list", action="store_true", help="list the launch files")
     parser.add_argument("--print-params", action="store_true", help="print the parameters each node gets, then exit")
     parser.add_argument("--single-process", action="store_true", help="run all nodes in this process, one executor")
+    parser.add_argument("--record", metavar="FILE.mcap", help="record every topic of the run to an MCAP file")
     opts, rest = parser.parse_known_args(argv)
 
     if opts.list:
@@ -80,6 +81,9 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"  {arg.name}:=VALUE  {arg.doc}{default}")
             return 0
         config = load_launch(path, _split_launch_args(rest, {a.name for a in declared}))
+        if opts.record:
+            from simplebot_navigation.launch.record import recorder_spec
+            config.nodes.insert(0, recorder_spec(opts.record))  # first up, so it misses the least
     except (LaunchError, ParamError, FileNotFoundError) as err:
         print(f"[launch] error: {err}", file=sys.stderr)
         return 2
