@@ -257,8 +257,10 @@ class HomotopyClassPlanner:
                     return  # one new class per cycle bounds the cycle time
 
     def _delete_detours(self) -> None:
-        """Drop bands that start backwards (delete_detours_backwards) or take far longer than the
-        fastest one (max_ratio_detours_duration_best_duration), while another band remains."""
+        """Drop bands with a pose heading against the start-goal direction (dot < -0.1, with
+        delete_detours_backwards) or taking longer than max_ratio_detours_duration_best_duration
+        times the fastest band. The band being followed is locked, as TEB locks the best class:
+        a detour the robot has committed to is not deleted under it."""
         cfg = self.cfg
         if len(self.candidates) < 2:
             return
@@ -268,10 +270,10 @@ class HomotopyClassPlanner:
             poses = cand.band.poses
             d = poses[-1, :2] - poses[0, :2]
             norm = float(np.hypot(*d))
-            backwards = (cfg.delete_detours_backwards and norm > 1e-9 and len(poses) > 2 and
-                         (math.cos(poses[1, 2]) * d[0] + math.sin(poses[1, 2]) * d[1]) / norm < -0.1)
+            backwards = (cfg.delete_detours_backwards and norm > 1e-9 and
+                         bool(np.any((np.cos(poses[:, 2]) * d[0] + np.sin(poses[:, 2]) * d[1]) / norm < -0.1)))
             too_long = cand.band.sum_of_time_diffs > cfg.max_ratio_detours_duration_best_duration * fastest
-            if (backwards or too_long) and not cand.from_initial_plan:
+            if (backwards or too_long) and cand is not self.best:
                 continue
             kept.append(cand)
         self.candidates = kept or self.candidates

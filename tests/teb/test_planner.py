@@ -140,19 +140,20 @@ def test_new_far_goal_reinitialises_the_band():
 
 
 def test_homotopy_classes_get_the_robot_around_a_barrier_that_traps_a_single_band():
-    # a 2 m wall straight across the plan: one band stays pinned to the plan's side and keeps
-    # failing the feasibility check; the homotopy planner seeds bands around either end
+    # a 2 m wall straight across the plan, 0.9 m ahead: one band stays pinned to the plan's side
+    # and keeps failing the feasibility check; the homotopy planner seeds bands around either end
     barrier = box_cells(1.5, 0.0, 0.05, 1.0)
+    start = (0.6, 0.0, 0.0)
     single = lab_planner(enable_homotopy_class_planning=False)
-    single.set_plan(straight_plan(0.0, 3.5))
-    poses, _, results = drive(single, 3.5, barrier, seconds=8.0)
+    single.set_plan(straight_plan(0.6, 3.5))
+    poses, _, results = drive(single, 3.5, barrier, seconds=3.0, pose=start)
     assert not results[-1].goal_reached
     assert np.abs(poses[:, 1]).max() < 0.5                   # never heads for either end
     assert any(r.message == "trajectory is not feasible. Resetting planner..." for r in results)
 
     planner = lab_planner(enable_homotopy_class_planning=True)
-    planner.set_plan(straight_plan(0.0, 3.5))
-    poses, _, results = drive(planner, 3.5, barrier, seconds=30.0)
+    planner.set_plan(straight_plan(0.6, 3.5))
+    poses, _, results = drive(planner, 3.5, barrier, seconds=30.0, pose=start)
     assert results[-1].goal_reached
     assert not any(footprint_hits(p, LAB_FOOTPRINT, barrier) for p in poses)
     assert np.abs(poses[:, 1]).max() > 1.0 + 0.3             # around the end of the wall
