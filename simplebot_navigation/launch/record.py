@@ -146,7 +146,8 @@ class Recorder(Node):
 
     def discover(self) -> None:
         for topic, types in self.get_topic_names_and_types():
-            if topic in self.counts or topic in self._skipped or _hidden(topic):
+            # A topic only subscribers know of yet waits: its QoS comes from the publishers.
+            if topic in self.counts or topic in self._skipped or _hidden(topic) or not self.count_publishers(topic):
                 continue
             if len(types) != 1:
                 self._skip(topic, f"it has more than one type ({', '.join(types)})")
@@ -239,7 +240,17 @@ def plot(mcap_path: str, png_path: str) -> dict:
     if not messages:
         raise ValueError(f"--plot: {mcap_path} has none of the topics to plot ({', '.join(topics)})")
 
-    fig, ax = plt.subplots(figsize=(9, 9), dpi=110)
+    everything = [np.array(t) for t in tracks.values() if t] + [np.array(g)[:2].reshape(1, 2) for g in goals]
+    if everything:  # frame the run, not the whole costmap
+        pts = np.vstack(everything)
+        lo, hi = pts.min(axis=0) - 2.0, pts.max(axis=0) + 2.0
+    elif grid is not None:
+        lo = np.array(grid["origin"])
+        hi = lo + grid["resolution"] * np.array(grid["cells"].shape[::-1])
+    else:
+        lo, hi = np.array([-5.0, -5.0]), np.array([5.0, 5.0])
+    aspect = min(2.0, max(0.5, (hi[1] - lo[1]) / (hi[0] - lo[0])))
+    fig, ax = plt.subplots(figsize=(9, 1.5 + 7.5 * aspect), dpi=110)
     if grid is not None:
         cells = grid["cells"].astype(float)
         shown = np.ma.masked_where(cells == 0, np.where(cells < 0, np.nan, cells))
@@ -249,7 +260,7 @@ def plot(mcap_path: str, png_path: str) -> dict:
         extent = (ox, ox + w * res, oy, oy + h * res)
         ax.imshow(np.where(cells < 0, 1.0, np.nan), origin="lower", extent=extent, cmap="Greys", vmin=0, vmax=4,
                   interpolation="nearest")
-        ax.imshow(shown, origin="lower", extent=extent, cmap="plasma_r", vmin=1, vmax=100, interpolation="nearest")
+        ax.imshow(shown, origin="lower", extent=extent, cmap="magma_r", vmin=1, vmax=100, interpolation="nearest")
     for name, colour, width in (("local plan", "tab:blue", 0.6), ("global plan", "tab:green", 0.8)):
         for path in plans[name]:
             if len(path):
@@ -273,12 +284,8 @@ def plot(mcap_path: str, png_path: str) -> dict:
     ax.set_xlabel("x [m] (odom)")
     ax.set_ylabel("y [m] (odom)")
     ax.set_aspect("equal")
-    everything = [np.array(t) for t in tracks.values() if t] + [np.array(g)[:2].reshape(1, 2) for g in goals]
-    if everything:  # frame the run, not the whole costmap
-        pts = np.vstack(everything)
-        lo, hi = pts.min(axis=0) - 2.0, pts.max(axis=0) + 2.0
-        ax.set_xlim(lo[0], hi[0])
-        ax.set_ylim(lo[1], hi[1])
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
     ax.legend(loc="best", fontsize=8)
     ax.grid(alpha=0.3)
     fig.tight_layout()

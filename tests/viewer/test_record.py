@@ -116,7 +116,7 @@ def test_plot_of_a_recorded_run(recording, tmp_path):
     assert result.returncode == 0, result.stderr
     assert "costmap True" in result.stdout and "odometry 50" in result.stdout
     with Image.open(png) as image:
-        assert image.size == (990, 990)
+        assert image.size[0] == 990  # 9 in at 110 dpi; the height follows the run's extent
         colours = np.asarray(image.convert("RGB")).reshape(-1, 3)
     assert len(np.unique(colours, axis=0)) > 20  # a picture, not a blank page
 

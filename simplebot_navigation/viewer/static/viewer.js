@@ -320,6 +320,7 @@
       const li = document.createElement("li");
       li.className = line.level;
       li.textContent = `[${line.node}] ${line.text}`;
+      li.title = li.textContent;
       return li;
     }));
   }

@@ -1,0 +1,127 @@
+"""The viewer's data path without a browser: costmap downsampling, frames over HTTP, goals by POST."""
+
+import json
+import math
+import urllib.error
+import urllib.request
+
+import numpy as np
+import pytest
+from rclpy.parameter import Parameter
+
+from simplebot_navigation.ros.conversions import quaternion_to_yaw
+from simplebot_navigation.viewer.node import ViewerNode, body_outlines
+from simplebot_navigation.viewer.scene import UNKNOWN_CELL, Scene, downsample_grid
+from simplebot_description import robot_description
+from tests.viewer.conftest import LETHAL_BLOCK, ORIGIN, RESOLUTION, cells
+
+
+def decode(frame: bytes):
+    """The page's decoding (viewer.js decode) in Python."""
+    length = int.from_bytes(frame[:4], "little")
+    header = json.loads(frame[4:4 + length])
+    base = (4 + length + 7) // 8 * 8
+    arrays = [np.frombuffer(frame, dtype=np.uint8 if b["type"] == "u8" else np.float32,
+                            count=b["bytes"] // (1 if b["type"] == "u8" else 4), offset=base + b["offset"])
+              for b in header["buffers"]]
+    return header, arrays
+
+
+def get(url: str) -> bytes:
+    with urllib.request.urlopen(url, timeout=5) as response:
+        return response.read()
+
+
+def post_goal(url: str, body: bytes):
+    request = urllib.request.Request(url + "goal", data=body, method="POST",
+                                     headers={"Content-Type": "application/json"})
+    try:
+        with urllib.request.urlopen(request, timeout=5) as response:
+            return response.status, response.read().decode()
+    except urllib.error.HTTPError as err:
+        return err.code, err.read().decode()
+
+
+def test_downsampling_keeps_the_highest_known_cost():
+    grid = np.zeros((600, 1000), dtype=np.int8)
+    grid[301, 502] = 100            # one lethal cell
+    grid[:30, :30] = -1             # unknown blocks
+    grid[0:3, 30:33] = -1
+    grid[0, 32] = 0                 # one known free cell in an otherwise unknown block
+    out, factor = downsample_grid(grid, 400)
+    assert factor == 3 and out.shape == (200, 334)
+    assert out[100, 167] == 100 and np.count_nonzero(out == 100) == 1
+    assert (out[:10, :10] == UNKNOWN_CELL).all()
+    assert out[0, 10] == 0
+    same, one = downsample_grid(grid[:200, :300], 400)
+    assert one == 1 and np.array_equal(same, np.where(grid[:200, :300] < 0, 255, grid[:200, :300].astype(int)))
+
+
+def test_costmap_updates_outside_the_grid_are_refused():
+    scene = Scene()
+    with pytest.raises(ValueError, match="update arrived before any full costmap"):
+        scene.update_grid("local_costmap", 0, 0, np.zeros((2, 2), np.int8))
+    scene.set_grid("local_costmap", np.zeros((10, 20), np.int8), 0.05, (0.0, 0.0, 0.0), "odom")
+    scene.update_grid("local_costmap", 18, 8, np.full((2, 2), 100, np.int8))
+    assert scene.grids["local_costmap"].cells[8:, 18:].tolist() == [[100, 100], [100, 100]]
+    with pytest.raises(ValueError, match="x=19 y=8 2x2 lies outside the 20x10 grid"):
+        scene.update_grid("local_costmap", 19, 8, np.zeros((2, 2), np.int8))
+
+
+def test_body_outlines_of_the_lab_robot():
+    outlines = body_outlines(robot_description("box").urdf)
+    chassis = max(outlines, key=lambda o: np.ptp(o[:, 0]) * np.ptp(o[:, 1]))
+    assert np.ptp(chassis[:, 0]) == pytest.approx(0.9) and np.ptp(chassis[:, 1]) == pytest.approx(0.6)
+    round_body = body_outlines(robot_description("round", 0.4).urdf)
+    disc = max(round_body, key=lambda o: np.ptp(o[:, 0]))
+    assert np.hypot(disc[:, 0], disc[:, 1]) == pytest.approx(0.4)
+
+
+def test_frames_carry_the_costmap_once_and_the_scans_in_odom(scenario):
+    url = scenario.viewer.url
+    scenario.wait_for(lambda: "global_costmap" in scenario.viewer.scene.grids
+                      and "front_scan" in scenario.viewer.scene.scans, what="costmap and scans")
+    header, arrays = decode(get(url + "frame?after=-1"))
+    grid = header["costmaps"]["global_costmap"]
+    # OccupancyGrid carries the resolution as float32
+    assert (grid["width"], grid["height"], grid["resolution"]) == (200, 200, float(np.float32(RESOLUTION)))
+    assert grid["origin"] == [ORIGIN[0], ORIGIN[1], 0.0]
+    image = arrays[grid["buffer"]].reshape(200, 200)
+    assert (image[cells(LETHAL_BLOCK)] == 100).all() and np.count_nonzero(image == 100) == 100
+    front = arrays[header["layers"]["front_scan"]["buffer"]].reshape(-1, 2)
+    assert front[:, 0].max() == pytest.approx(2.2, abs=0.02)  # the wall ahead, in odom
+    assert header["robot"] == pytest.approx([0.0, 0.0, 0.0], abs=0.01)
+    # A page that holds this costmap version gets the frame without it.
+    again, _ = decode(get(url + f"frame?after={header['version']}&global_costmap={grid['version']}"))
+    assert "buffer" not in again["costmaps"]["global_costmap"]
+    assert again["version"] > header["version"]
+
+
+def test_static_page_and_unknown_paths(scenario):
+    assert b"2D Nav Goal" in get(scenario.viewer.url)
+    assert b"worldToPage" in get(scenario.viewer.url + "viewer.js")
+    with pytest.raises(urllib.error.HTTPError, match="404"):
+        get(scenario.viewer.url + "nothing")
+
+
+def test_goal_post_is_checked_and_published(scenario):
+    url = scenario.viewer.url
+    assert post_goal(url, b'{"x": "one", "y": 0, "yaw": 0}') == (400, "goal: 'x' must be a finite number, got 'one'")
+    assert post_goal(url, b'{"x": 1, "y": NaN, "yaw": 0}') == (400, "goal: 'y' must be a finite number, got nan")
+    assert post_goal(url, b"[1, 2, 3]")[0] == 400
+    before = len(scenario.move_base.goals)
+    status, body = post_goal(url, b'{"x": -1.25, "y": 0.5, "yaw": -2.0}')
+    assert status == 200 and json.loads(body) == {"x": -1.25, "y": 0.5, "yaw": -2.0}
+    scenario.wait_for(lambda: len(scenario.move_base.goals) > before, what="the goal")
+    goal = scenario.move_base.goals[-1]
+    assert (goal.header.frame_id, goal.pose.position.x, goal.pose.position.y) == ("odom", -1.25, 0.5)
+    assert quaternion_to_yaw(goal.pose.orientation) == pytest.approx(-2.0, abs=1e-12)
+    assert not math.isnan(goal.pose.orientation.w)
+
+
+def test_a_taken_port_is_named(scenario, context):
+    port = int(scenario.viewer.url.rsplit(":", 1)[1].strip("/"))
+    with pytest.raises(OSError, match=f"viewer cannot listen on 127.0.0.1:{port}: .*set the 'port' parameter"):
+        ViewerNode(context=context, parameter_overrides=[Parameter("port", value=port)])
+    with pytest.raises(ValueError, match="viewer parameter 'rate' must be a positive number of Hz, got 0.0"):
+        ViewerNode(context=context, parameter_overrides=[Parameter("rate", value=0.0)])
