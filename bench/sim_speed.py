@@ -7,7 +7,8 @@ Every runner drives the same run: the lab robot in a world, a controller-like cm
 without touching the walls), odometry, ground truth and contacts read at 50 Hz, both 683-beam lidars
 at 10 Hz, physics at its step rate. A runner returns the wall time of `sim_seconds` of simulated
 time; RTF = sim_seconds / wall (>= 10 is the target). Set-up (URDF, world, pybullet, DDS discovery)
-is not timed.
+is not timed. The ratios to raw are given on wall time and on the CPU time of this process (which
+a loaded, shared machine disturbs less).
 
 Columns, side by side in the same run:
   raw       the pure simulator loop (SimplebotSim, no ROS): the limit any node can reach.
@@ -88,7 +89,18 @@ def drive(sim: SimplebotSim, sim_seconds: float) -> None:
 RAY_SECONDS: dict[Config, list[float]] = {}
 
 
-def run_raw(cfg: Config) -> float:
+class Timed:
+    """Wall and CPU seconds (all threads of this process, DDS's included) of the block."""
+
+    def __enter__(self):
+        self._wall, self._cpu = time.perf_counter(), time.process_time()
+        return self
+
+    def __exit__(self, *exc):
+        self.seconds = (time.perf_counter() - self._wall, time.process_time() - self._cpu)
+
+
+def run_raw(cfg: Config) -> tuple[float, float]:
     sim = make_sim(cfg)
     cast, ray_seconds = sim._cast, RAY_SECONDS.setdefault(cfg, [])
 
@@ -98,21 +110,19 @@ def run_raw(cfg: Config) -> float:
         ray_seconds.append(time.perf_counter() - start)
 
     sim._cast = timed_cast
-    start = time.perf_counter()
-    drive(sim, cfg.sim_seconds)
-    wall = time.perf_counter() - start
+    with Timed() as timed:
+        drive(sim, cfg.sim_seconds)
     sim.close()
-    return wall
+    return timed.seconds
 
 
-def run_no_lidar(cfg: Config) -> float:
+def run_no_lidar(cfg: Config) -> tuple[float, float]:
     sim = make_sim(cfg)
     sim._cast = lambda sensors: None
-    start = time.perf_counter()
-    drive(sim, cfg.sim_seconds)
-    wall = time.perf_counter() - start
+    with Timed() as timed:
+        drive(sim, cfg.sim_seconds)
     sim.close()
-    return wall
+    return timed.seconds
 
 
 SCAN_TOPICS = ("/front_laser/front_scan", "/back_laser/back_scan")
@@ -133,7 +143,7 @@ except KeyboardInterrupt:
 """
 
 
-def run_node(cfg: Config, domain_id: int | None = None) -> float:
+def run_node(cfg: Config, domain_id: int | None = None) -> tuple[float, float]:
     """The simulator node stepped by its lockstep driver; cmd_vel comes over DDS."""
     context = rclpy.Context()
     rclpy.init(args=["--ros-args", "--log-level", "warn"], context=context, domain_id=domain_id)
@@ -151,21 +161,20 @@ def run_node(cfg: Config, domain_id: int | None = None) -> float:
             raise RuntimeError("simulator node and its peers did not discover each other within 10 s")
         executor.spin_once(timeout_sec=0.05)
     twist = Twist()
-    start = time.perf_counter()
-    while sim.sim.sim_time < cfg.sim_seconds - 1e-9:
-        twist.linear.x, twist.angular.z = 0.3, 0.3 * math.cos(sim.sim.sim_time)
-        cmd_vel.publish(twist)
-        executor.spin_once(timeout_sec=1.0)  # the only callback the node has in lockstep: cmd_vel
-        sim.advance(CMD_PERIOD)
-    wall = time.perf_counter() - start
+    with Timed() as timed:
+        while sim.sim.sim_time < cfg.sim_seconds - 1e-9:
+            twist.linear.x, twist.angular.z = 0.3, 0.3 * math.cos(sim.sim.sim_time)
+            cmd_vel.publish(twist)
+            executor.spin_once(timeout_sec=1.0)  # the only callback the node has in lockstep: cmd_vel
+            sim.advance(CMD_PERIOD)
     executor.shutdown()
     driver.destroy_node()
     sim.destroy_node()
     rclpy.shutdown(context=context)
-    return wall
+    return timed.seconds
 
 
-def run_node_with_reader(cfg: Config) -> float:
+def run_node_with_reader(cfg: Config) -> tuple[float, float]:
     return run_node(cfg, READER_DOMAIN)
 
 
@@ -202,7 +211,7 @@ def main() -> None:
     header = f"{'world':8} {'body':6} {'physics':>8} |"
     for name in RUNNERS:
         header += f" {name + ' RTF med':>16} {'p95':>6} |"
-    header += f" {'rays':>5} | ratios (median wall / raw)"
+    header += f" {'rays':>5} | ratios to raw: median wall / median CPU time"
     print(header)
     print("-" * len(header))
     reader = start_reader()
@@ -214,17 +223,21 @@ def main() -> None:
 
 
 def print_row(cfg: Config, repeats: int) -> None:
-    walls = {name: [] for name in RUNNERS}
+    wall = {name: [] for name in RUNNERS}
+    cpu = {name: [] for name in RUNNERS}
     for _ in range(repeats):
         # Interleave the runners so machine load hits all columns alike.
         for name, runner in RUNNERS.items():
-            walls[name].append(runner(cfg))
+            seconds = runner(cfg)
+            wall[name].append(seconds[0])
+            cpu[name].append(seconds[1])
     line = f"{cfg.world:8} {cfg.body:6} {cfg.physics_rate:>6g}Hz |"
     for name in RUNNERS:
-        med, p95 = np.median(walls[name]), np.percentile(walls[name], 95)
+        med, p95 = np.median(wall[name]), np.percentile(wall[name], 95)
         line += f" {cfg.sim_seconds / med:>15.1f}x {cfg.sim_seconds / p95:>5.1f}x |"
-    share = sum(RAY_SECONDS[cfg]) / sum(walls["raw"])
-    ratios = ", ".join(f"{name} {np.median(walls[name]) / np.median(walls['raw']):.2f}"
+    share = sum(RAY_SECONDS[cfg]) / sum(wall["raw"])
+    ratios = ", ".join(f"{name} {np.median(wall[name]) / np.median(wall['raw']):.2f}"
+                       f" / {np.median(cpu[name]) / np.median(cpu['raw']):.2f}"
                        for name in RUNNERS if name != "raw")
     line += f" {share:>5.0%} | {ratios}"
     print(line, flush=True)
