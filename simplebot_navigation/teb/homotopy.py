@@ -7,8 +7,8 @@ key point, and a band's class is the vector of angles it sweeps around those key
 bands with the same start and goal are in the same class when every swept angle agrees to within
 pi. New candidates are seeded by offset initial paths passing left and right of the clusters
 closest to the start-goal line, at most max_number_classes bands in total. To keep the control
-cycle bounded in Python, at most one new class is seeded per cycle, it gets half the outer
-iterations in that cycle and competes from the next one, and a seed that merges into another
+cycle bounded in Python, at most one new class is seeded per cycle, it gets one outer
+iteration in that cycle and competes from the next one, and a seed that merges into another
 class or is dropped as a detour is not tried again near the same detour point for
 REJECTED_SEED_CYCLES cycles.
 
@@ -39,7 +39,7 @@ class Candidate:
 
 #: Control cycles during which a seed that did not survive its first optimisation is not re-seeded
 #: (TEB re-explores every cycle; in Python each wasted candidate costs a full optimisation).
-REJECTED_SEED_CYCLES = 10
+REJECTED_SEED_CYCLES = 20
 #: ... through a detour point closer than this to the rejected seed's one [m]
 REJECTED_SEED_RADIUS = 0.5
 
@@ -132,10 +132,10 @@ class HomotopyClassPlanner:
         self.bands_optimized = len(self.candidates)
         for cand in self.candidates:
             if cand.fresh_seed:
-                # A new class gets half the budget now and competes from the next cycle on.
+                # A new class gets one outer iteration now and competes from the next cycle on.
                 self.optimizer.optimize(cand.band, obstacles, via_points, start_velocity, free_goal_vel,
                                         compute_cost=False,
-                                        outer_iterations=max(1, cfg.no_outer_iterations // 2))
+                                        outer_iterations=1)
                 cand.cost = math.inf
             else:
                 cand.cost = self.optimizer.optimize(cand.band, obstacles, via_points, start_velocity,
