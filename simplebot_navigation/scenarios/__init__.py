@@ -1,0 +1,12 @@
+"""Scenario runner: simulator + move_base in this process, a list of goals, and how each went.
+
+``python -m simplebot_navigation.scenarios --help``; the same from Python::
+
+    results, worlds = run_scenarios(ScenarioOptions(world="lab", goals="nw_office;library"))
+"""
+
+from .runner import GoalResult, ScenarioOptions, parse_goals, run_goal, run_scenarios, time_budget
+from .session import GoalRun, NavigationSession
+
+__all__ = ["GoalResult", "GoalRun", "NavigationSession", "ScenarioOptions", "parse_goals", "run_goal",
+           "run_scenarios", "time_budget"]

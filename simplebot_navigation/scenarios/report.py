@@ -1,0 +1,126 @@
+"""The results of a scenario as a table, as JSON, and as a PNG of the trajectories over the world."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict
+
+import numpy as np
+
+from simplebot_navigation.sim.world import Cylinder, World
+
+from .runner import GoalResult, ScenarioOptions
+
+COLUMNS = [  # header, width, cell
+    ("run", 3, lambda r: f"{r.run + 1}"),
+    ("goal", 14, lambda r: r.goal[:14]),
+    ("status", 9, lambda r: r.status),
+    ("ok", 4, lambda r: "yes" if r.success else "NO"),
+    ("time s", 7, lambda r: f"{r.time_s:.1f}"),
+    ("budget", 6, lambda r: f"{r.budget_s:.0f}"),
+    ("path m", 6, lambda r: f"{r.path_length:.1f}"),
+    ("line m", 6, lambda r: f"{r.straight_line:.1f}"),
+    ("ratio", 5, lambda r: f"{r.path_length / r.straight_line:.2f}" if r.straight_line > 1e-6 else "-"),
+    ("coll", 4, lambda r: f"{r.collisions}"),
+    ("clear m", 7, lambda r: f"{r.min_clearance:.2f}"),
+    ("replans", 7, lambda r: f"{r.replans}"),
+    ("recov", 5, lambda r: f"{r.recoveries}"),
+    ("cyc p95 ms", 10, lambda r: f"{r.cycle_p95_ms:.1f}" if r.cycle_p95_ms is not None else "-"),
+]
+
+
+def summary(results: list[GoalResult]) -> dict:
+    ok = [r for r in results if r.success]
+    return {
+        "goals": len(results),
+        "succeeded": len(ok),
+        "success_rate": len(ok) / len(results) if results else math.nan,
+        "mean_time_s": float(np.mean([r.time_s for r in ok])) if ok else math.nan,
+        "collisions": sum(r.collisions for r in results),
+        "min_clearance": min((r.min_clearance for r in results), default=math.nan),
+        "recoveries": sum(r.recoveries for r in results),
+    }
+
+
+def table(results: list[GoalResult]) -> str:
+    lines = ["  ".join(f"{name:>{width}}" for name, width, _ in COLUMNS)]
+    lines.append("  ".join("-" * width for _, width, _ in COLUMNS))
+    for r in results:
+        lines.append("  ".join(f"{cell(r):>{width}}" for _, width, cell in COLUMNS))
+        if not r.success:
+            lines.append(f"{'':5}-> {'; '.join(r.failures)}")
+    s = summary(results)
+    lines.append(f"success {s['succeeded']}/{s['goals']} ({100 * s['success_rate']:.0f} %), "
+                 f"mean time to goal {s['mean_time_s']:.1f} s sim, collisions {s['collisions']}, "
+                 f"min clearance {s['min_clearance']:.2f} m, recoveries {s['recoveries']}")
+    return "\n".join(lines)
+
+
+def write_json(path: str, options: ScenarioOptions, results: list[GoalResult]) -> None:
+    """Strict JSON: an infinite clearance (nothing in the world) or an undefined mean become null."""
+    def finite(value):
+        if isinstance(value, float) and not math.isfinite(value):
+            return None
+        if isinstance(value, dict):
+            return {k: finite(v) for k, v in value.items()}
+        if isinstance(value, (list, tuple)):
+            return [finite(v) for v in value]
+        return value
+
+    with open(path, "w", encoding="utf-8") as handle:
+        json.dump(finite({"options": asdict(options), "summary": summary(results),
+                          "results": [r.to_dict() for r in results]}), handle, indent=1, allow_nan=False)
+
+
+def plot(path: str, world: World, results: list[GoalResult], title: str) -> None:
+    """Obstacles in grey, the start as a black triangle, goals as arrows, one colour per goal."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Circle, Polygon
+
+    xmin, ymin, xmax, ymax = world.bounds()
+    for r in results:
+        traj = np.asarray(r.trajectory)
+        xmin, xmax = min(xmin, r.x, traj[:, 1].min()), max(xmax, r.x, traj[:, 1].max())
+        ymin, ymax = min(ymin, r.y, traj[:, 2].min()), max(ymax, r.y, traj[:, 2].max())
+    width = 10.0
+    fig, ax = plt.subplots(figsize=(width, max(3.0, width * (ymax - ymin) / max(xmax - xmin, 1e-6)) + 0.8))
+    for _, shape in world.obstacles():
+        if isinstance(shape, Cylinder):
+            ax.add_patch(Circle(shape.center, shape.radius, color="0.45"))
+            continue
+        c, s = math.cos(shape.yaw), math.sin(shape.yaw)
+        hx, hy = shape.size[0] / 2, shape.size[1] / 2
+        corners = [(shape.center[0] + c * dx - s * dy, shape.center[1] + s * dx + c * dy)
+                   for dx, dy in ((hx, hy), (-hx, hy), (-hx, -hy), (hx, -hy))]
+        ax.add_patch(Polygon(corners, closed=True, color="0.45"))
+    start = world.start
+    ax.plot(start.x, start.y, marker=(3, 0, math.degrees(start.yaw) - 90), color="black", markersize=12,
+            linestyle="none", label="start")
+    colours = plt.get_cmap("tab10")
+    names = list(dict.fromkeys(r.goal for r in results))
+    for r in results:
+        colour = colours(names.index(r.goal) % 10)
+        traj = np.asarray(r.trajectory)
+        ax.plot(traj[:, 1], traj[:, 2], color=colour, linewidth=1.2, linestyle="-" if r.success else "--",
+                label=None if r.run else f"{r.goal}{'' if r.success else ' (failed)'}")
+        if not r.success:
+            ax.plot(traj[-1, 1], traj[-1, 2], marker="x", color="red", markersize=9)
+    for name in names:
+        r = next(r for r in results if r.goal == name)
+        colour = colours(names.index(name) % 10)
+        ax.arrow(r.x, r.y, 0.5 * math.cos(r.yaw), 0.5 * math.sin(r.yaw), width=0.06, color=colour)
+        ax.annotate(name, (r.x, r.y), textcoords="offset points", xytext=(6, 6), fontsize=8, color=colour)
+    ax.set_xlim(xmin - 0.5, xmax + 0.5)
+    ax.set_ylim(ymin - 0.5, ymax + 0.5)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title(title)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

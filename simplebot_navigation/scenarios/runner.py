@@ -1,0 +1,274 @@
+"""Goals, time budgets and what counts as success; the loop that runs a scenario and measures it."""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+import time
+from dataclasses import asdict, dataclass, field
+from typing import Callable
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import dijkstra
+
+from simplebot_description import RobotDescription
+from simplebot_navigation.sim.world import Pose2D, World, write_world
+from simplebot_navigation.sim.world_gen import clutter_world
+
+from .session import NavigationSession
+
+BUDGET_SLACK = 2.0        # budget = BUDGET_FIXED_S + BUDGET_SLACK * shortest path / max_vel_x
+BUDGET_FIXED_S = 20.0
+CANCEL_WAIT_S = 5.0       # sim seconds a goal over its budget gets to report CANCELED
+GRID_RESOLUTION = 0.1     # of the shortest-path estimate
+PATH_CLEARANCE = 0.2      # free space for that estimate (less than any body's half width: doors stay open)
+FOOTPRINT_SPACING = 0.02  # sampling of the box outline for the clearance
+TRAJECTORY_PERIOD_S = 0.1  # sampling of the trajectories kept in the results
+
+
+@dataclass
+class GoalResult:
+    run: int
+    goal: str
+    x: float
+    y: float
+    yaw: float
+    status: str                  # SUCCEEDED / ABORTED / CANCELED / REJECTED / TIMEOUT
+    success: bool
+    failures: list[str]          # why it is not a success
+    reason: str                  # move_base's status text
+    time_s: float                # sim seconds from sending to the result
+    budget_s: float
+    path_length: float           # driven, from ground truth
+    straight_line: float
+    collisions: int
+    min_clearance: float         # metres between the body and the nearest obstacle
+    replans: int
+    recoveries: int
+    cycle_p95_ms: float | None
+    final: tuple[float, float, float]
+    position_error: float
+    yaw_error: float
+    wall_s: float                # wall-clock seconds the goal took to simulate
+    trajectory: list[tuple[float, float, float, float]] = field(repr=False)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class ScenarioOptions:
+    world: str = "lab"
+    robot: str = "box"
+    radius: float = 0.3
+    goals: str | None = None       # None: the world file's goals; else "x,y,yaw;..." and/or names
+    rtf: float = 0.0
+    repeat: int = 1
+    seed: int = 0
+    range_noise: float = 0.0
+    time_budget: float | None = None  # sim s per goal; None: from the shortest path and max_vel_x
+    wall_timeout_s: float | None = None  # per goal, a guard against hangs
+
+
+# -- goals -----------------------------------------------------------------------------------------
+def parse_goals(text: str | None, world: World) -> list[Pose2D]:
+    """--goals: items separated by ';', each "x,y[,yaw]" (world frame) or goal names separated by ','."""
+    if text is None:
+        if not world.goals:
+            raise ValueError(f"world {world.name!r} ({world.source}) has no goals; give --goals")
+        return [g if g.name else Pose2D(g.x, g.y, g.yaw, f"goal_{i}") for i, g in enumerate(world.goals)]
+    goals: list[Pose2D] = []
+    for item in (part.strip() for part in text.split(";")):
+        if not item:
+            raise ValueError(f"--goals {text!r}: empty item (use 'x,y,yaw;x,y,yaw' or goal names)")
+        fields = [f.strip() for f in item.split(",")]
+        numbers = []
+        for value in fields:
+            try:
+                numbers.append(float(value))
+            except ValueError:
+                break
+        if len(numbers) == len(fields):
+            if len(numbers) not in (2, 3) or not all(math.isfinite(v) for v in numbers):
+                raise ValueError(f"--goals: {item!r} must be 'x,y' or 'x,y,yaw' with finite numbers")
+            x, y, yaw = (*numbers, 0.0)[:3]
+            goals.append(Pose2D(x, y, yaw, f"({x:g}, {y:g})"))
+        elif numbers:
+            raise ValueError(f"--goals: {item!r} mixes numbers and names")
+        else:
+            goals += [world.goal(name) for name in fields]
+    return goals
+
+
+def world_for_run(world: str, seed: int, folder: str) -> str:
+    """The world argument of one run: 'clutter' is regenerated with the run's seed, others as given."""
+    if world != "clutter":
+        return world
+    path = os.path.join(folder, f"clutter_{seed}.yaml")
+    write_world(clutter_world(seed), path, header=f"clutter_world(seed={seed})")
+    return path
+
+
+# -- budget ----------------------------------------------------------------------------------------
+def shortest_path_length(world: World, start: Pose2D, goal: Pose2D) -> float:
+    """Length of the shortest 8-connected path on a grid of the world, or the straight line if none."""
+    straight = math.hypot(goal.x - start.x, goal.y - start.y)
+    xmin, ymin, xmax, ymax = world.bounds()
+    xmin, ymin = min(xmin, start.x, goal.x) - 1.0, min(ymin, start.y, goal.y) - 1.0
+    xmax, ymax = max(xmax, start.x, goal.x) + 1.0, max(ymax, start.y, goal.y) + 1.0
+    xs = np.arange(xmin, xmax + GRID_RESOLUTION, GRID_RESOLUTION)
+    ys = np.arange(ymin, ymax + GRID_RESOLUTION, GRID_RESOLUTION)
+    gx, gy = np.meshgrid(xs, ys)
+    free = (world.distance(np.column_stack((gx.ravel(), gy.ravel()))) > PATH_CLEARANCE).reshape(gx.shape)
+    index = np.arange(free.size).reshape(free.shape)
+    rows, cols, weights = [], [], []
+    for di, dj in ((0, 1), (1, 0), (1, 1), (1, -1)):
+        a = free[max(0, -di):free.shape[0] - max(0, di), max(0, -dj):free.shape[1] - max(0, dj)]
+        b = free[max(0, di):, max(0, dj):][:a.shape[0], :a.shape[1]]
+        both = a & b
+        ia = index[max(0, -di):free.shape[0] - max(0, di), max(0, -dj):free.shape[1] - max(0, dj)][both]
+        ib = index[max(0, di):, max(0, dj):][:a.shape[0], :a.shape[1]][both]
+        rows += [ia, ib]
+        cols += [ib, ia]
+        weights += [np.full(2 * len(ia), math.hypot(di, dj) * GRID_RESOLUTION)]
+    graph = coo_matrix((np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))),
+                       shape=(free.size, free.size)).tocsr()
+
+    def cell(p: Pose2D) -> int:
+        i = int(np.clip(round((p.y - ymin) / GRID_RESOLUTION), 0, len(ys) - 1))
+        j = int(np.clip(round((p.x - xmin) / GRID_RESOLUTION), 0, len(xs) - 1))
+        return int(index[i, j])
+
+    length = float(dijkstra(graph, indices=cell(start))[cell(goal)])
+    return length if math.isfinite(length) else straight
+
+
+def time_budget(world: World, start: Pose2D, goal: Pose2D, max_vel_x: float) -> float:
+    return BUDGET_FIXED_S + BUDGET_SLACK * shortest_path_length(world, start, goal) / max_vel_x
+
+
+# -- measures --------------------------------------------------------------------------------------
+def body_outline(description: RobotDescription) -> np.ndarray | None:
+    """Points along the box outline in base_link (None for the round body, measured by its radius)."""
+    if description.radius is not None:
+        return None
+    corners = np.asarray(description.footprint, float)
+    points = []
+    for a, b in zip(corners, np.roll(corners, -1, axis=0)):
+        n = max(1, math.ceil(np.linalg.norm(b - a) / FOOTPRINT_SPACING))
+        points.append(a + (b - a) * np.arange(n)[:, None] / n)
+    return np.concatenate(points)
+
+
+def min_clearance(world: World, description: RobotDescription, poses: np.ndarray) -> float:
+    """Smallest distance between the robot body and any obstacle over (N, 3) world poses (0: touching)."""
+    if len(poses) == 0:
+        return math.nan
+    outline = body_outline(description)
+    if outline is None:
+        return float(max(0.0, np.min(world.distance(poses[:, :2])) - description.radius))
+    c, s = np.cos(poses[:, 2])[:, None], np.sin(poses[:, 2])[:, None]
+    px = poses[:, 0:1] + c * outline[:, 0] - s * outline[:, 1]
+    py = poses[:, 1:2] + s * outline[:, 0] + c * outline[:, 1]
+    return float(np.min(world.distance(np.column_stack((px.ravel(), py.ravel())))))
+
+
+def _controller_param(session: NavigationSession, name: str, default: float) -> float:
+    planner = session.move_base.get_parameter("base_local_planner").value.split("/")[-1]
+    full = f"{planner}.{name}"
+    return float(session.move_base.get_parameter(full).value) if session.move_base.has_parameter(full) \
+        else default
+
+
+# -- the loop --------------------------------------------------------------------------------------
+def run_goal(session: NavigationSession, goal: Pose2D, budget_s: float, run_index: int = 0,
+             wall_timeout_s: float | None = None) -> GoalResult:
+    """Send one goal, advance until its result or its budget (then cancel), and measure it."""
+    mb, client = session.move_base, session.client
+    start = session.pose()
+    collisions0, replans0, recoveries0 = client.collisions, mb.replans, mb.recoveries
+    cycles0 = len(mb.controller_cycle_times)
+    wall_start = time.monotonic()
+    run = session.send_goal(goal)
+    session.run_until(run.sent_at + budget_s, lambda: run.done, wall_timeout_s)
+    timed_out = not run.done
+    if timed_out:
+        session.cancel(run)
+        session.run_until(session.time + CANCEL_WAIT_S, lambda: run.done, wall_timeout_s)
+    end = run.finished_at if run.done else session.time
+    truth = np.array(session.truth_since(run.sent_at, end) or [(session.time, start.x, start.y, start.yaw)])
+    final = (float(truth[-1, 1]), float(truth[-1, 2]), float(truth[-1, 3]))
+    position_error = math.hypot(final[0] - goal.x, final[1] - goal.y)
+    yaw_error = abs(math.remainder(final[2] - goal.yaw, 2 * math.pi))
+    xy_tol = _controller_param(session, "xy_goal_tolerance", 0.2)
+    yaw_tol = _controller_param(session, "yaw_goal_tolerance", 0.1)
+    collisions = client.collisions - collisions0
+    cycles = mb.controller_cycle_times[cycles0:]
+    status = "TIMEOUT" if timed_out else run.status
+    time_s = end - run.sent_at
+    failures = []
+    if status != "SUCCEEDED":
+        failures.append(status.lower() + (f": {run.reason}" if run.reason else ""))
+    if position_error > xy_tol:
+        failures.append(f"{position_error:.2f} m from the goal (xy_goal_tolerance {xy_tol:g})")
+    if yaw_error > yaw_tol:
+        failures.append(f"yaw off by {yaw_error:.2f} rad (yaw_goal_tolerance {yaw_tol:g})")
+    if collisions:
+        failures.append(f"{collisions} collision(s)")
+    return GoalResult(
+        run=run_index, goal=goal.name or f"({goal.x:g}, {goal.y:g})", x=goal.x, y=goal.y, yaw=goal.yaw,
+        status=status, success=not failures, failures=failures, reason=run.reason, time_s=time_s,
+        budget_s=budget_s, path_length=float(np.sum(np.hypot(*np.diff(truth[:, 1:3], axis=0).T))),
+        straight_line=math.hypot(goal.x - start.x, goal.y - start.y), collisions=collisions,
+        min_clearance=min_clearance(session.world, session.description, truth[:, 1:4]),
+        replans=mb.replans - replans0, recoveries=mb.recoveries - recoveries0,
+        cycle_p95_ms=float(np.percentile(cycles, 95) * 1e3) if cycles else None,
+        final=final, position_error=position_error, yaw_error=yaw_error,
+        wall_s=time.monotonic() - wall_start, trajectory=_thinned(truth))
+
+
+def _thinned(truth: np.ndarray) -> list[tuple[float, ...]]:
+    """Ground-truth samples every TRAJECTORY_PERIOD_S (and the last one), for the results and the plot."""
+    keep, last = [], -math.inf
+    for row in truth[:-1]:
+        if row[0] >= last + TRAJECTORY_PERIOD_S - 1e-9:
+            keep.append(row)
+            last = row[0]
+    keep.append(truth[-1])
+    return [tuple(float(v) for v in row) for row in keep]
+
+
+def run_scenarios(options: ScenarioOptions, progress: Callable[[str], None] = print
+                  ) -> tuple[list[GoalResult], list[World]]:
+    """Every goal of the scenario, in order, options.repeat times (run i uses seed options.seed + i).
+
+    Returns the results and the world of each run (``clutter`` differs from seed to seed).
+    """
+    if options.repeat < 1:
+        raise ValueError(f"--repeat must be >= 1, got {options.repeat}")
+    if options.time_budget is not None and not (math.isfinite(options.time_budget) and options.time_budget > 0):
+        raise ValueError(f"--time-budget must be a positive number of sim seconds, got {options.time_budget}")
+    results: list[GoalResult] = []
+    worlds: list[World] = []
+    folder = tempfile.mkdtemp(prefix="simplebot_scenarios_")
+    for index in range(options.repeat):
+        seed = options.seed + index
+        with NavigationSession(world_for_run(options.world, seed, folder), options.robot, options.radius,
+                               options.rtf, seed, options.range_noise) as session:
+            goals = parse_goals(options.goals, session.world)
+            worlds.append(session.world)
+            session.wait_ready(wall_timeout_s=options.wall_timeout_s or 120.0)
+            max_vel_x = _controller_param(session, "max_vel_x", 0.4)
+            for number, goal in enumerate(goals, 1):
+                budget = options.time_budget or time_budget(session.world, session.pose(), goal, max_vel_x)
+                result = run_goal(session, goal, budget, index, options.wall_timeout_s)
+                results.append(result)
+                verdict = "ok  " if result.success else "FAIL"
+                why = "" if result.success else "  (" + "; ".join(result.failures) + ")"
+                progress(f"[run {index + 1}/{options.repeat} seed {seed}] goal {number}/{len(goals)} "
+                         f"{result.goal}: {verdict} {result.status} in {result.time_s:.1f} s sim "
+                         f"(budget {budget:.0f} s), path {result.path_length:.1f} m, "
+                         f"clearance {result.min_clearance:.2f} m, {result.wall_s:.0f} s wall{why}")
+    return results, worlds

@@ -1,0 +1,244 @@
+"""The simulator and move_base of the navigation launch file, in this process, with a goal client.
+
+Nodes get their parameters and remaps from ``load_launch('navigation', ...)`` through the same
+parameter files and ``--ros-args`` as ``python -m simplebot_navigation.launch navigation
+--single-process``; only the simulator's seed and lidar noise are added. With ``rtf == 0`` a
+LockstepDriver steps them (same seed, same run); with ``rtf > 0`` the simulator runs against the
+wall clock and one executor spins everything, so a machine too slow for that factor shows it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+import math
+import tempfile
+import time
+import uuid
+from dataclasses import dataclass
+from typing import Callable
+
+import rclpy
+from action_msgs.msg import GoalStatus
+from actionlib_msgs.msg import GoalStatusArray
+from diagnostic_msgs.msg import DiagnosticStatus
+from geometry_msgs.msg import PoseStamped
+from nav_msgs.msg import Odometry
+from rclpy.action import ActionClient
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+from move_base_msgs.action import MoveBase
+from simplebot_description import robot_description
+from simplebot_navigation.launch.loader import load_launch
+from simplebot_navigation.launch.nodes import resolve_executable
+from simplebot_navigation.launch.runner import ros_args, write_params_file
+from simplebot_navigation.ros.lockstep import LockstepDriver, LockstepError
+from simplebot_navigation.ros.simulator_node import SimulatorNode
+from simplebot_navigation.sim.world import Pose2D, load_world
+
+LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+WARM_UP_S = 2.0
+STATUS_NAMES = {GoalStatus.STATUS_SUCCEEDED: "SUCCEEDED", GoalStatus.STATUS_ABORTED: "ABORTED",
+                GoalStatus.STATUS_CANCELED: "CANCELED"}
+
+
+@dataclass
+class GoalRun:
+    """One goal sent through the move_base action: its futures and the ground truth while it ran."""
+
+    goal: Pose2D
+    sent_at: float
+    send_future: object
+    result_future: object | None = None
+    handle: object | None = None
+    finished_at: float | None = None
+    status: str | None = None       # SUCCEEDED, ABORTED, CANCELED, REJECTED
+    reason: str = ""                # move_base's status text for the goal
+
+    @property
+    def done(self) -> bool:
+        return self.status is not None
+
+
+class ScenarioClient(Node):
+    """The user's side: goals through the action, ground truth, collisions and status from topics."""
+
+    def __init__(self, context):
+        super().__init__("scenario_runner", context=context,
+                         parameter_overrides=[Parameter("use_sim_time", value=True)])
+        self.action = ActionClient(self, MoveBase, "move_base")
+        self.truth: list[tuple[float, float, float, float]] = []  # (t, x, y, yaw) in the world frame
+        self.collisions = 0
+        self.status: GoalStatusArray | None = None
+        self.create_subscription(Odometry, "/simplebot/ground_truth", self._on_truth, 100)
+        self.create_subscription(DiagnosticStatus, "/simplebot/collisions", self._on_collisions, LATCHED)
+        self.create_subscription(GoalStatusArray, "/move_base/status", self._on_status, 10)
+
+    def _on_truth(self, msg: Odometry) -> None:
+        p, q = msg.pose.pose.position, msg.pose.pose.orientation
+        stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+        self.truth.append((stamp, p.x, p.y, 2.0 * math.atan2(q.z, q.w)))
+
+    def _on_collisions(self, msg: DiagnosticStatus) -> None:
+        self.collisions = int(next(kv.value for kv in msg.values if kv.key == "count"))
+
+    def _on_status(self, msg: GoalStatusArray) -> None:
+        self.status = msg
+
+    def status_text(self, goal_id: str) -> str:
+        """move_base's text for a goal in /move_base/status (why it aborted, say)."""
+        if self.status is None:
+            return ""
+        return next((s.text for s in self.status.status_list if s.goal_id.id == goal_id), "")
+
+
+class NavigationSession:
+    """Simulator + move_base + ScenarioClient in one process; goals and poses in the world frame."""
+
+    def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, rtf: float = 0.0,
+                 seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation"):
+        if not (math.isfinite(rtf) and rtf >= 0):
+            raise ValueError(f"rtf must be >= 0 (0: lockstep), got {rtf!r}")
+        self.description = robot_description(robot, radius)
+        self.world = load_world(world, robot_radius=self.description.inscribed_radius)
+        self.rtf = rtf
+        config = load_launch(launch_file, {"world": str(world), "robot": robot, "radius": str(radius),
+                                           "rtf": str(rtf)})
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)
+        self.nodes: list[Node] = []
+        self.driver: LockstepDriver | None = None
+        self.executor: SingleThreadedExecutor | None = None
+        try:
+            run_dir = tempfile.mkdtemp(prefix="simplebot_scenario_")
+            for spec in config.nodes:
+                exe = resolve_executable(spec.pkg, spec.type)
+                if exe.node_class is None:
+                    raise ValueError(f"{spec.full_name}: {exe.module} runs only as its own process")
+                if spec.type == "simulator":
+                    spec = dataclasses.replace(spec, parameters={**spec.parameters, "seed": seed,
+                                                                 "range_noise_std": float(range_noise)})
+                cls = getattr(importlib.import_module(exe.module), exe.node_class)
+                self.nodes.append(cls(cli_args=ros_args(spec, write_params_file(spec, run_dir)),
+                                      use_global_arguments=False, context=self.context))
+            self.sim = next(n for n in self.nodes if isinstance(n, SimulatorNode))
+            self.move_base = next(n for n in self.nodes if n.get_name() == "move_base")
+            self.client = ScenarioClient(self.context)
+            others = [n for n in self.nodes if n is not self.sim] + [self.client]
+            if rtf == 0:
+                self.driver = LockstepDriver(self.sim, others)
+            else:
+                self.executor = SingleThreadedExecutor(context=self.context)
+                for node in (self.sim, *others):
+                    self.executor.add_node(node)
+        except BaseException:
+            self.close()
+            raise
+
+    # -- time -----------------------------------------------------------------------------------
+    @property
+    def time(self) -> float:
+        return self.sim.sim.sim_time
+
+    def run_until(self, sim_time_s: float | None = None, stop: Callable[[], bool] | None = None,
+                  wall_timeout_s: float | None = None) -> bool:
+        """Advance to sim_time_s or until stop(); True if stop() ended it. LockstepError on the wall guard."""
+        if self.driver is not None:
+            return self.driver.run_until(sim_time_s, stop, wall_timeout_s)
+        deadline = None if wall_timeout_s is None else time.monotonic() + wall_timeout_s
+        while True:
+            if stop is not None and stop():
+                return True
+            if sim_time_s is not None and self.time >= sim_time_s - self.sim.sim.dt / 2:
+                return False
+            if deadline is not None and time.monotonic() > deadline:
+                raise LockstepError(f"wall-clock guard of {wall_timeout_s:g} s expired at sim time {self.time:.2f} s")
+            self.executor.spin_once(timeout_sec=0.005)
+
+    def run_for(self, duration_s: float, stop: Callable[[], bool] | None = None,
+                wall_timeout_s: float | None = None) -> bool:
+        return self.run_until(self.time + duration_s, stop, wall_timeout_s)
+
+    def ready(self) -> bool:
+        mb = self.move_base
+        return (self.client.action.server_is_ready() and mb.global_costmap.is_current()
+                and mb.local_costmap.is_current())
+
+    def wait_ready(self, wall_timeout_s: float = 60.0) -> None:
+        """Warm up: costmaps current, action server up, and at least WARM_UP_S of sim time."""
+        self.run_until(WARM_UP_S, wall_timeout_s=wall_timeout_s)
+        if not self.run_until(None, self.ready, wall_timeout_s=wall_timeout_s):
+            raise LockstepError("move_base never became ready")
+
+    # -- goals ----------------------------------------------------------------------------------
+    def to_odom(self, x: float, y: float, yaw: float) -> tuple[float, float, float]:
+        """World pose -> the odom frame, which is the start pose (wheel odometry starts at zero)."""
+        s = self.world.start
+        dx, dy, c, si = x - s.x, y - s.y, math.cos(s.yaw), math.sin(s.yaw)
+        return c * dx + si * dy, -si * dx + c * dy, math.remainder(yaw - s.yaw, 2 * math.pi)
+
+    def goal_message(self, goal: Pose2D) -> MoveBase.Goal:
+        x, y, yaw = self.to_odom(goal.x, goal.y, goal.yaw)
+        msg = MoveBase.Goal()
+        pose: PoseStamped = msg.target_pose
+        pose.header.frame_id = "odom"
+        pose.header.stamp = self.client.get_clock().now().to_msg()
+        pose.pose.position.x, pose.pose.position.y = x, y
+        pose.pose.orientation.z, pose.pose.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
+        return msg
+
+    def send_goal(self, goal: Pose2D) -> GoalRun:
+        """Send a goal (world frame) and return at once; the run fills in as time advances."""
+        run = GoalRun(goal, self.time, self.client.action.send_goal_async(self.goal_message(goal)))
+        run.send_future.add_done_callback(lambda future: self._on_goal_response(run, future))
+        return run
+
+    def _on_goal_response(self, run: GoalRun, future) -> None:
+        run.handle = future.result()
+        if not run.handle.accepted:
+            self._finish(run, "REJECTED")
+            return
+        run.result_future = run.handle.get_result_async()
+        run.result_future.add_done_callback(
+            lambda result: self._finish(run, STATUS_NAMES.get(result.result().status,
+                                                              f"status {result.result().status}")))
+
+    def _finish(self, run: GoalRun, status: str) -> None:
+        run.status = status
+        run.finished_at = self.time
+        goal_id = str(uuid.UUID(bytes=bytes(run.handle.goal_id.uuid)))
+        run.reason = self.client.status_text(goal_id) if status != "SUCCEEDED" else ""
+
+    def cancel(self, run: GoalRun) -> None:
+        if run.handle is not None and not run.done:
+            run.handle.cancel_goal_async()
+
+    def truth_since(self, t0: float, t1: float | None = None) -> list[tuple[float, float, float, float]]:
+        return [s for s in self.client.truth if s[0] >= t0 - 1e-9 and (t1 is None or s[0] <= t1 + 1e-9)]
+
+    def pose(self) -> Pose2D:
+        g = self.sim.sim.ground_truth()
+        return Pose2D(g.x, g.y, g.yaw)
+
+    # -- teardown -------------------------------------------------------------------------------
+    def close(self) -> None:
+        if self.driver is not None:
+            self.driver.shutdown()
+        if self.executor is not None:
+            self.executor.shutdown()
+        for node in [*getattr(self, "nodes", []), getattr(self, "client", None)]:
+            if node is not None:
+                node.destroy_node()
+        self.nodes = []
+        self.client = None
+        if self.context.ok():
+            rclpy.shutdown(context=self.context)
+
+    def __enter__(self) -> NavigationSession:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
