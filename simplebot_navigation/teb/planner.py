@@ -43,6 +43,10 @@ class VelocityCommandResult:
 
 
 class TebLocalPlanner:
+    """One instance per move_base. Per control cycle: compute_velocity_commands(pose, (v, omega),
+    local Costmap2D). Between cycles the ROS shell reads band_poses / band_time_stamps (local_plan,
+    teb_poses), transformed_plan (global_plan), obstacles and footprint_outlines() (teb_markers)."""
+
     def __init__(self, config: TebConfig, costmap_footprint, controller_period: float):
         """costmap_footprint: the (padded) footprint polygon the local costmap uses, (K,2) in the
         robot frame -- the feasibility check uses it, the optimiser uses the footprint model."""
