@@ -244,7 +244,8 @@ class HomotopyClassPlanner:
                         np.array([start[:2], via, goal[:2]]), obstacles, self.model.inscribed_radius):
                     continue
                 path = _polyline(np.array([start[:2], via, goal[:2]]), cfg.max_vel_x * cfg.dt_ref)
-                seed = np.column_stack([path, np.zeros(len(path))])
+                heading = np.diff(path, axis=0)
+                seed = np.column_stack([path, np.append(np.arctan2(heading[:, 1], heading[:, 0]), 0.0)])
                 seed[0], seed[-1] = start, goal
                 sig = homotopy_signature(seed[:, :2], self.keypoints)
                 if self._has_class(sig) is None and not any(
