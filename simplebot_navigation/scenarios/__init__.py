@@ -6,7 +6,7 @@
 """
 
 from .runner import GoalResult, ScenarioOptions, parse_goals, run_goal, run_scenarios, time_budget
-from .session import GoalRun, NavigationSession
+from .session import GoalRun, NavigationSession, ProcessSession
 
-__all__ = ["GoalResult", "GoalRun", "NavigationSession", "ScenarioOptions", "parse_goals", "run_goal",
+__all__ = ["GoalResult", "GoalRun", "NavigationSession", "ProcessSession", "ScenarioOptions", "parse_goals", "run_goal",
            "run_scenarios", "time_budget"]

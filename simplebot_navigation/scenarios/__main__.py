@@ -34,6 +34,9 @@ def _parser() -> argparse.ArgumentParser:
                                    "('nw_office,library'); default: every goal of the world file")
     p.add_argument("--rtf", type=float, default=0.0,
                    help="real-time factor; 0 = lockstep, as fast as the nodes allow (default: 0)")
+    p.add_argument("--processes", action="store_true",
+                   help="run the launcher's processes (needs --rtf > 0) instead of the nodes in this process; "
+                        "replans, recoveries and cycle times are then not available")
     p.add_argument("--repeat", type=int, default=1, help="run the whole scenario N times (default: 1)")
     p.add_argument("--seed", type=int, default=0, help="seed of the first run; run i uses seed + i (default: 0)")
     p.add_argument("--range-noise", type=float, default=0.0,
@@ -55,6 +58,8 @@ def _check(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Scenari
     for name, value in {"--rtf": args.rtf, "--range-noise": args.range_noise}.items():
         if not (math.isfinite(value) and value >= 0):
             parser.error(f"{name} must be >= 0, got {value}")
+    if args.processes and args.rtf == 0:
+        parser.error("--processes needs --rtf > 0 (lockstep runs the nodes in this process)")
     if args.repeat < 1:
         parser.error(f"--repeat must be >= 1, got {args.repeat}")
     for option, path in (("--json", args.json), ("--plot", args.plot)):
@@ -69,7 +74,8 @@ def _check(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Scenari
         parser.error(str(err))
     return ScenarioOptions(world=args.world, robot=args.robot, radius=args.radius, goals=args.goals, rtf=args.rtf,
                            repeat=args.repeat, seed=args.seed, range_noise=args.range_noise,
-                           time_budget=args.time_budget, wall_timeout_s=args.wall_timeout)
+                           time_budget=args.time_budget, processes=args.processes,
+                           wall_timeout_s=args.wall_timeout)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -77,7 +83,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     options = _check(parser, args)
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    mode = "lockstep" if options.rtf == 0 else f"real-time factor {options.rtf:g}"
+    mode = "lockstep" if options.rtf == 0 else f"real-time factor {options.rtf:g}" + (
+        ", separate processes" if options.processes else "")
     print(f"scenario: world {options.world}, {options.robot} robot, {mode}, {options.repeat} run(s) from seed "
           f"{options.seed}", flush=True)
     try:

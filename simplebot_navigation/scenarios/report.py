@@ -24,8 +24,8 @@ COLUMNS = [  # header, width, cell
     ("ratio", 5, lambda r: f"{r.path_length / r.straight_line:.2f}" if r.straight_line > 1e-6 else "-"),
     ("coll", 4, lambda r: f"{r.collisions}"),
     ("clear m", 7, lambda r: f"{r.min_clearance:.2f}"),
-    ("replans", 7, lambda r: f"{r.replans}"),
-    ("recov", 5, lambda r: f"{r.recoveries}"),
+    ("replans", 7, lambda r: "-" if r.replans is None else f"{r.replans}"),
+    ("recov", 5, lambda r: "-" if r.recoveries is None else f"{r.recoveries}"),
     ("cyc p95 ms", 10, lambda r: f"{r.cycle_p95_ms:.1f}" if r.cycle_p95_ms is not None else "-"),
 ]
 
@@ -39,7 +39,7 @@ def summary(results: list[GoalResult]) -> dict:
         "mean_time_s": float(np.mean([r.time_s for r in ok])) if ok else math.nan,
         "collisions": sum(r.collisions for r in results),
         "min_clearance": min((r.min_clearance for r in results), default=math.nan),
-        "recoveries": sum(r.recoveries for r in results),
+        "recoveries": sum(r.recoveries or 0 for r in results),
     }
 
 

@@ -17,7 +17,7 @@ from simplebot_description import RobotDescription
 from simplebot_navigation.sim.world import Pose2D, World, write_world
 from simplebot_navigation.sim.world_gen import clutter_world
 
-from .session import NavigationSession
+from .session import NavigationSession, ProcessSession
 
 BUDGET_SLACK = 2.0        # budget = BUDGET_FIXED_S + BUDGET_SLACK * shortest path / max_vel_x
 BUDGET_FIXED_S = 20.0
@@ -45,8 +45,8 @@ class GoalResult:
     straight_line: float
     collisions: int
     min_clearance: float         # metres between the body and the nearest obstacle
-    replans: int
-    recoveries: int
+    replans: int | None          # None: move_base ran in another process
+    recoveries: int | None
     cycle_p95_ms: float | None
     final: tuple[float, float, float]
     position_error: float
@@ -69,6 +69,7 @@ class ScenarioOptions:
     seed: int = 0
     range_noise: float = 0.0
     time_budget: float | None = None  # sim s per goal; None: from the shortest path and max_vel_x
+    processes: bool = False        # the launcher's processes (rtf > 0) instead of nodes in this process
     wall_timeout_s: float | None = None  # per goal, a guard against hangs
 
 
@@ -175,21 +176,12 @@ def min_clearance(world: World, description: RobotDescription, poses: np.ndarray
     return float(np.min(world.distance(np.column_stack((px.ravel(), py.ravel())))))
 
 
-def _controller_param(session: NavigationSession, name: str, default: float) -> float:
-    planner = session.move_base.get_parameter("base_local_planner").value.split("/")[-1]
-    full = f"{planner}.{name}"
-    return float(session.move_base.get_parameter(full).value) if session.move_base.has_parameter(full) \
-        else default
-
-
 # -- the loop --------------------------------------------------------------------------------------
-def run_goal(session: NavigationSession, goal: Pose2D, budget_s: float, run_index: int = 0,
+def run_goal(session: NavigationSession | ProcessSession, goal: Pose2D, budget_s: float, run_index: int = 0,
              wall_timeout_s: float | None = None) -> GoalResult:
     """Send one goal, advance until its result or its budget (then cancel), and measure it."""
-    mb, client = session.move_base, session.client
     start = session.pose()
-    collisions0, replans0, recoveries0 = client.collisions, mb.replans, mb.recoveries
-    cycles0 = len(mb.controller_cycle_times)
+    collisions0, stats0 = session.client.collisions, session.stats()
     wall_start = time.monotonic()
     run = session.send_goal(goal)
     session.run_until(run.sent_at + budget_s, lambda: run.done, wall_timeout_s)
@@ -202,10 +194,11 @@ def run_goal(session: NavigationSession, goal: Pose2D, budget_s: float, run_inde
     final = (float(truth[-1, 1]), float(truth[-1, 2]), float(truth[-1, 3]))
     position_error = math.hypot(final[0] - goal.x, final[1] - goal.y)
     yaw_error = abs(math.remainder(final[2] - goal.yaw, 2 * math.pi))
-    xy_tol = _controller_param(session, "xy_goal_tolerance", 0.2)
-    yaw_tol = _controller_param(session, "yaw_goal_tolerance", 0.1)
-    collisions = client.collisions - collisions0
-    cycles = mb.controller_cycle_times[cycles0:]
+    xy_tol = session.controller_param("xy_goal_tolerance", 0.2)
+    yaw_tol = session.controller_param("yaw_goal_tolerance", 0.1)
+    collisions = session.client.collisions - collisions0
+    stats = session.stats()
+    cycles = stats.cycle_times[len(stats0.cycle_times):] if stats else []
     status = "TIMEOUT" if timed_out else run.status
     time_s = end - run.sent_at
     failures = []
@@ -223,7 +216,8 @@ def run_goal(session: NavigationSession, goal: Pose2D, budget_s: float, run_inde
         budget_s=budget_s, path_length=float(np.sum(np.hypot(*np.diff(truth[:, 1:3], axis=0).T))),
         straight_line=math.hypot(goal.x - start.x, goal.y - start.y), collisions=collisions,
         min_clearance=min_clearance(session.world, session.description, truth[:, 1:4]),
-        replans=mb.replans - replans0, recoveries=mb.recoveries - recoveries0,
+        replans=stats.replans - stats0.replans if stats else None,
+        recoveries=stats.recoveries - stats0.recoveries if stats else None,
         cycle_p95_ms=float(np.percentile(cycles, 95) * 1e3) if cycles else None,
         final=final, position_error=position_error, yaw_error=yaw_error,
         wall_s=time.monotonic() - wall_start, trajectory=_thinned(truth))
@@ -255,12 +249,13 @@ def run_scenarios(options: ScenarioOptions, progress: Callable[[str], None] = pr
     folder = tempfile.mkdtemp(prefix="simplebot_scenarios_")
     for index in range(options.repeat):
         seed = options.seed + index
-        with NavigationSession(world_for_run(options.world, seed, folder), options.robot, options.radius,
-                               options.rtf, seed, options.range_noise) as session:
+        session_class = ProcessSession if options.processes else NavigationSession
+        with session_class(world_for_run(options.world, seed, folder), options.robot, options.radius,
+                           options.rtf, seed, options.range_noise) as session:
             goals = parse_goals(options.goals, session.world)
             worlds.append(session.world)
             session.wait_ready(wall_timeout_s=options.wall_timeout_s or 120.0)
-            max_vel_x = _controller_param(session, "max_vel_x", 0.4)
+            max_vel_x = session.controller_param("max_vel_x", 0.4)
             for number, goal in enumerate(goals, 1):
                 budget = options.time_budget or time_budget(session.world, session.pose(), goal, max_vel_x)
                 result = run_goal(session, goal, budget, index, options.wall_timeout_s)

@@ -1,17 +1,23 @@
-"""The simulator and move_base of the navigation launch file, in this process, with a goal client.
+"""The simulator and move_base of the navigation launch file, with a goal client, in two ways.
 
-Nodes get their parameters and remaps from ``load_launch('navigation', ...)`` through the same
-parameter files and ``--ros-args`` as ``python -m simplebot_navigation.launch navigation
+NavigationSession builds the nodes in this process from ``load_launch('navigation', ...)``, with
+the same parameter files and ``--ros-args`` as ``python -m simplebot_navigation.launch navigation
 --single-process``; only the simulator's seed and lidar noise are added. With ``rtf == 0`` a
 LockstepDriver steps them (same seed, same run); with ``rtf > 0`` the simulator runs against the
 wall clock and one executor spins everything, so a machine too slow for that factor shows it.
+ProcessSession runs the launcher itself, each node in its own process, at ``rtf > 0``.
 """
 
 from __future__ import annotations
 
+import abc
 import dataclasses
 import importlib
 import math
+import os
+import signal
+import subprocess
+import sys
 import tempfile
 import time
 import uuid
@@ -31,13 +37,13 @@ from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from move_base_msgs.action import MoveBase
-from simplebot_description import robot_description
+from simplebot_description import RobotDescription, robot_description
 from simplebot_navigation.launch.loader import load_launch
 from simplebot_navigation.launch.nodes import resolve_executable
 from simplebot_navigation.launch.runner import ros_args, write_params_file
-from simplebot_navigation.ros.lockstep import LockstepDriver, LockstepError
+from simplebot_navigation.ros.lockstep import LockstepDriver
 from simplebot_navigation.ros.simulator_node import SimulatorNode
-from simplebot_navigation.sim.world import Pose2D, load_world
+from simplebot_navigation.sim.world import Pose2D, World, load_world
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 WARM_UP_S = 2.0
@@ -95,83 +101,70 @@ class ScenarioClient(Node):
         return next((s.text for s in self.status.status_list if s.goal_id.id == goal_id), "")
 
 
-class NavigationSession:
-    """Simulator + move_base + ScenarioClient in one process; goals and poses in the world frame."""
+@dataclass
+class MoveBaseStats:
+    """Counters only an in-process move_base can give: replans, recoveries, control cycle wall times."""
 
-    def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, rtf: float = 0.0,
-                 seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation"):
-        if not (math.isfinite(rtf) and rtf >= 0):
-            raise ValueError(f"rtf must be >= 0 (0: lockstep), got {rtf!r}")
-        self.description = robot_description(robot, radius)
-        self.world = load_world(world, robot_radius=self.description.inscribed_radius)
-        self.rtf = rtf
-        config = load_launch(launch_file, {"world": str(world), "robot": robot, "radius": str(radius),
-                                           "rtf": str(rtf)})
-        self.context = rclpy.Context()
-        rclpy.init(context=self.context)
-        self.nodes: list[Node] = []
-        self.driver: LockstepDriver | None = None
-        self.executor: SingleThreadedExecutor | None = None
-        try:
-            run_dir = tempfile.mkdtemp(prefix="simplebot_scenario_")
-            for spec in config.nodes:
-                exe = resolve_executable(spec.pkg, spec.type)
-                if exe.node_class is None:
-                    raise ValueError(f"{spec.full_name}: {exe.module} runs only as its own process")
-                if spec.type == "simulator":
-                    spec = dataclasses.replace(spec, parameters={**spec.parameters, "seed": seed,
-                                                                 "range_noise_std": float(range_noise)})
-                cls = getattr(importlib.import_module(exe.module), exe.node_class)
-                self.nodes.append(cls(cli_args=ros_args(spec, write_params_file(spec, run_dir)),
-                                      use_global_arguments=False, context=self.context))
-            self.sim = next(n for n in self.nodes if isinstance(n, SimulatorNode))
-            self.move_base = next(n for n in self.nodes if n.get_name() == "move_base")
-            self.client = ScenarioClient(self.context)
-            others = [n for n in self.nodes if n is not self.sim] + [self.client]
-            if rtf == 0:
-                self.driver = LockstepDriver(self.sim, others)
-            else:
-                self.executor = SingleThreadedExecutor(context=self.context)
-                for node in (self.sim, *others):
-                    self.executor.add_node(node)
-        except BaseException:
-            self.close()
-            raise
+    replans: int
+    recoveries: int
+    cycle_times: list[float]
 
-    # -- time -----------------------------------------------------------------------------------
+
+class _Session(abc.ABC):
+    """What every way of running the stack shares: the client node, goals, the world frame, time loops."""
+
+    world: World
+    description: RobotDescription
+    client: ScenarioClient
+    context: rclpy.Context
+    executor: SingleThreadedExecutor | None = None
+
     @property
+    @abc.abstractmethod
     def time(self) -> float:
-        return self.sim.sim.sim_time
+        """Simulated seconds."""
+
+    @abc.abstractmethod
+    def pose(self) -> Pose2D:
+        """Ground-truth pose of the robot in the world frame."""
+
+    @abc.abstractmethod
+    def ready(self) -> bool:
+        """move_base takes goals."""
+
+    @abc.abstractmethod
+    def close(self) -> None:
+        """Stop every node and process of the session."""
+
+    def stats(self) -> MoveBaseStats | None:
+        return None
 
     def run_until(self, sim_time_s: float | None = None, stop: Callable[[], bool] | None = None,
                   wall_timeout_s: float | None = None) -> bool:
-        """Advance to sim_time_s or until stop(); True if stop() ended it. LockstepError on the wall guard."""
-        if self.driver is not None:
-            return self.driver.run_until(sim_time_s, stop, wall_timeout_s)
+        """Advance to sim_time_s or until stop(); True if stop() ended it. TimeoutError on the wall guard."""
         deadline = None if wall_timeout_s is None else time.monotonic() + wall_timeout_s
         while True:
             if stop is not None and stop():
                 return True
-            if sim_time_s is not None and self.time >= sim_time_s - self.sim.sim.dt / 2:
+            if sim_time_s is not None and self.time >= sim_time_s - 1e-6:
                 return False
             if deadline is not None and time.monotonic() > deadline:
-                raise LockstepError(f"wall-clock guard of {wall_timeout_s:g} s expired at sim time {self.time:.2f} s")
+                raise TimeoutError(f"wall-clock guard of {wall_timeout_s:g} s expired at sim time {self.time:.2f} s")
             self.executor.spin_once(timeout_sec=0.005)
 
     def run_for(self, duration_s: float, stop: Callable[[], bool] | None = None,
                 wall_timeout_s: float | None = None) -> bool:
         return self.run_until(self.time + duration_s, stop, wall_timeout_s)
 
-    def ready(self) -> bool:
-        mb = self.move_base
-        return (self.client.action.server_is_ready() and mb.global_costmap.is_current()
-                and mb.local_costmap.is_current())
-
     def wait_ready(self, wall_timeout_s: float = 60.0) -> None:
-        """Warm up: costmaps current, action server up, and at least WARM_UP_S of sim time."""
+        """Warm up: move_base ready for goals, and at least WARM_UP_S of sim time."""
         self.run_until(WARM_UP_S, wall_timeout_s=wall_timeout_s)
         if not self.run_until(None, self.ready, wall_timeout_s=wall_timeout_s):
-            raise LockstepError("move_base never became ready")
+            raise TimeoutError("move_base never became ready")
+
+    @abc.abstractmethod
+    def controller_param(self, name: str, default: float) -> float:
+        """A parameter of the local planner (xy_goal_tolerance, max_vel_x...) as move_base runs it."""
 
     # -- goals ----------------------------------------------------------------------------------
     def to_odom(self, x: float, y: float, yaw: float) -> tuple[float, float, float]:
@@ -219,26 +212,170 @@ class NavigationSession:
     def truth_since(self, t0: float, t1: float | None = None) -> list[tuple[float, float, float, float]]:
         return [s for s in self.client.truth if s[0] >= t0 - 1e-9 and (t1 is None or s[0] <= t1 + 1e-9)]
 
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+class NavigationSession(_Session):
+    """Simulator + move_base + ScenarioClient in one process; goals and poses in the world frame."""
+
+    def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, rtf: float = 0.0,
+                 seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation"):
+        if not (math.isfinite(rtf) and rtf >= 0):
+            raise ValueError(f"rtf must be >= 0 (0: lockstep), got {rtf!r}")
+        self.description = robot_description(robot, radius)
+        self.world = load_world(world, robot_radius=self.description.inscribed_radius)
+        self.rtf = rtf
+        config = load_launch(launch_file, {"world": str(world), "robot": robot, "radius": str(radius),
+                                           "rtf": str(rtf)})
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)
+        self.nodes: list[Node] = []
+        self.client = None
+        self.driver: LockstepDriver | None = None
+        try:
+            run_dir = tempfile.mkdtemp(prefix="simplebot_scenario_")
+            for spec in config.nodes:
+                exe = resolve_executable(spec.pkg, spec.type)
+                if exe.node_class is None:
+                    raise ValueError(f"{spec.full_name}: {exe.module} runs only as its own process")
+                if spec.type == "simulator":
+                    spec = dataclasses.replace(spec, parameters={**spec.parameters, "seed": seed,
+                                                                 "range_noise_std": float(range_noise)})
+                cls = getattr(importlib.import_module(exe.module), exe.node_class)
+                self.nodes.append(cls(cli_args=ros_args(spec, write_params_file(spec, run_dir)),
+                                      use_global_arguments=False, context=self.context))
+            self.sim = next(n for n in self.nodes if isinstance(n, SimulatorNode))
+            self.move_base = next(n for n in self.nodes if n.get_name() == "move_base")
+            self.client = ScenarioClient(self.context)
+            others = [n for n in self.nodes if n is not self.sim] + [self.client]
+            if rtf == 0:
+                self.driver = LockstepDriver(self.sim, others)
+            else:
+                self.executor = SingleThreadedExecutor(context=self.context)
+                for node in (self.sim, *others):
+                    self.executor.add_node(node)
+        except BaseException:
+            self.close()
+            raise
+
+    @property
+    def time(self) -> float:
+        return self.sim.sim.sim_time
+
     def pose(self) -> Pose2D:
         g = self.sim.sim.ground_truth()
         return Pose2D(g.x, g.y, g.yaw)
 
-    # -- teardown -------------------------------------------------------------------------------
+    def run_until(self, sim_time_s: float | None = None, stop: Callable[[], bool] | None = None,
+                  wall_timeout_s: float | None = None) -> bool:
+        if self.driver is not None:
+            return self.driver.run_until(sim_time_s, stop, wall_timeout_s)
+        return super().run_until(sim_time_s, stop, wall_timeout_s)
+
+    def ready(self) -> bool:
+        mb = self.move_base
+        return (self.client.action.server_is_ready() and mb.global_costmap.is_current()
+                and mb.local_costmap.is_current())
+
+    def stats(self) -> MoveBaseStats:
+        mb = self.move_base
+        return MoveBaseStats(mb.replans, mb.recoveries, list(mb.controller_cycle_times))
+
+    def controller_param(self, name: str, default: float) -> float:
+        planner = self.move_base.get_parameter("base_local_planner").value.split("/")[-1]
+        full = f"{planner}.{name}"
+        return float(self.move_base.get_parameter(full).value) if self.move_base.has_parameter(full) else default
+
     def close(self) -> None:
         if self.driver is not None:
             self.driver.shutdown()
         if self.executor is not None:
             self.executor.shutdown()
-        for node in [*getattr(self, "nodes", []), getattr(self, "client", None)]:
+        for node in [*self.nodes, self.client]:
             if node is not None:
                 node.destroy_node()
-        self.nodes = []
-        self.client = None
+        self.nodes, self.client = [], None
         if self.context.ok():
             rclpy.shutdown(context=self.context)
 
-    def __enter__(self) -> NavigationSession:
-        return self
 
-    def __exit__(self, *exc) -> None:
-        self.close()
+WRAPPER_LAUNCH = """\
+# Written by the scenario runner: the navigation launch file plus the simulator's seed and noise.
+from simplebot_navigation.launch.description import Include, Param
+
+LAUNCH = [
+    Include(file={launch!r}, args={args!r}),
+    Param("/simulator/seed", {seed!r}),
+    Param("/simulator/range_noise_std", {noise!r}),
+]
+"""
+
+
+class ProcessSession(_Session):
+    """The launcher's processes (``python -m simplebot_navigation.launch``), a client node here.
+
+    Ground truth, collisions and status come over topics; move_base's counters (replans,
+    recoveries, cycle times) are not visible from outside and stay empty. The launcher's output
+    goes to ``log_file``.
+    """
+
+    def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, rtf: float = 1.0,
+                 seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation"):
+        if not (math.isfinite(rtf) and rtf > 0):
+            raise ValueError(f"separate processes need rtf > 0 (lockstep is single-process), got {rtf!r}")
+        self.description = robot_description(robot, radius)
+        self.world = load_world(world, robot_radius=self.description.inscribed_radius)
+        args = {"world": str(world), "robot": robot, "radius": str(radius), "rtf": str(rtf)}
+        self.launch = load_launch(launch_file, args)
+        run_dir = tempfile.mkdtemp(prefix="simplebot_scenario_")
+        wrapper = os.path.join(run_dir, "scenario_launch.py")
+        with open(wrapper, "w", encoding="utf-8") as handle:
+            handle.write(WRAPPER_LAUNCH.format(launch=self.launch.file, args=args, seed=seed,
+                                               noise=float(range_noise)))
+        self.log_file = os.path.join(run_dir, "launch.log")
+        with open(self.log_file, "w", encoding="utf-8") as log:
+            self.process = subprocess.Popen([sys.executable, "-u", "-m", "simplebot_navigation.launch", wrapper],
+                                            stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                            start_new_session=True)
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)
+        self.client = ScenarioClient(self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.client)
+
+    @property
+    def time(self) -> float:
+        return self.client.get_clock().now().nanoseconds * 1e-9
+
+    def pose(self) -> Pose2D:
+        if not self.client.truth:
+            return self.world.start
+        _, x, y, yaw = self.client.truth[-1]
+        return Pose2D(x, y, yaw)
+
+    def ready(self) -> bool:
+        if self.process.poll() is not None:
+            raise RuntimeError(f"the launcher ended with exit code {self.process.returncode}; see {self.log_file}")
+        return self.client.action.server_is_ready() and bool(self.client.truth)
+
+    def controller_param(self, name: str, default: float) -> float:
+        move_base = next(n for n in self.launch.nodes if n.name == "move_base")
+        planner = str(move_base.parameters.get("base_local_planner", "TebLocalPlannerROS")).split("/")[-1]
+        return float(move_base.parameters.get(f"{planner}.{name}", default))
+
+    def close(self) -> None:
+        if self.process.poll() is None:
+            os.killpg(self.process.pid, signal.SIGINT)
+            try:
+                self.process.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                os.killpg(self.process.pid, signal.SIGKILL)
+                self.process.wait()
+        self.executor.shutdown()
+        self.client.destroy_node()
+        if self.context.ok():
+            rclpy.shutdown(context=self.context)
