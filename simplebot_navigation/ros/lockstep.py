@@ -31,8 +31,10 @@ MAX_CALLBACKS_PER_ROUND = 20000
 QUIET_PASSES = 2
 
 
-class LockstepError(RuntimeError):
-    """The graph never became idle, or a wall-clock guard expired; the message says where it stood."""
+class LockstepError(TimeoutError):
+    """Time could not advance as asked: the graph never became idle, or a wall-clock guard expired.
+
+    The message says at which sim time and, for a busy graph, which callbacks kept it busy."""
 
 
 class _OrderedExecutor(SingleThreadedExecutor):

@@ -35,7 +35,7 @@ class GoalResult:
     x: float
     y: float
     yaw: float
-    status: str                  # SUCCEEDED / ABORTED / CANCELED / REJECTED / TIMEOUT
+    status: str                  # SUCCEEDED / ABORTED / CANCELED / REJECTED / TIMEOUT / HUNG
     success: bool
     failures: list[str]          # why it is not a success
     reason: str                  # move_base's status text
@@ -184,11 +184,15 @@ def run_goal(session: NavigationSession | ProcessSession, goal: Pose2D, budget_s
     collisions0, stats0 = session.client.collisions, session.stats()
     wall_start = time.monotonic()
     run = session.send_goal(goal)
-    session.run_until(run.sent_at + budget_s, lambda: run.done, wall_timeout_s)
-    timed_out = not run.done
-    if timed_out:
-        session.cancel(run)
-        session.run_until(session.time + CANCEL_WAIT_S, lambda: run.done, wall_timeout_s)
+    hung, timed_out = "", False
+    try:
+        session.run_until(run.sent_at + budget_s, lambda: run.done, wall_timeout_s)
+        timed_out = not run.done
+        if timed_out:
+            session.cancel(run)
+            session.run_until(session.time + CANCEL_WAIT_S, lambda: run.done, wall_timeout_s)
+    except TimeoutError as err:  # the wall-clock guard: the session is not fit for more goals
+        hung = str(err)
     end = run.finished_at if run.done else session.time
     truth = np.array(session.truth_since(run.sent_at, end) or [(session.time, start.x, start.y, start.yaw)])
     final = (float(truth[-1, 1]), float(truth[-1, 2]), float(truth[-1, 3]))
@@ -199,10 +203,14 @@ def run_goal(session: NavigationSession | ProcessSession, goal: Pose2D, budget_s
     collisions = session.client.collisions - collisions0
     stats = session.stats()
     cycles = stats.cycle_times[len(stats0.cycle_times):] if stats else []
-    status = "TIMEOUT" if timed_out else run.status
+    status = "HUNG" if hung else "TIMEOUT" if timed_out else run.status
     time_s = end - run.sent_at
     failures = []
-    if status != "SUCCEEDED":
+    if hung:
+        failures.append(f"hung: {hung}")
+    elif timed_out:
+        failures.append(f"timeout: no result within the {budget_s:.0f} s budget")
+    elif status != "SUCCEEDED":
         failures.append(status.lower() + (f": {run.reason}" if run.reason else ""))
     if position_error > xy_tol:
         failures.append(f"{position_error:.2f} m from the goal (xy_goal_tolerance {xy_tol:g})")
@@ -266,4 +274,8 @@ def run_scenarios(options: ScenarioOptions, progress: Callable[[str], None] = pr
                          f"{result.goal}: {verdict} {result.status} in {result.time_s:.1f} s sim "
                          f"(budget {budget:.0f} s), path {result.path_length:.1f} m, "
                          f"clearance {result.min_clearance:.2f} m, {result.wall_s:.0f} s wall{why}")
+                if result.status == "HUNG":
+                    progress(f"[run {index + 1}/{options.repeat}] the nodes hung: "
+                             f"{len(goals) - number} goal(s) of this run skipped")
+                    break
     return results, worlds
