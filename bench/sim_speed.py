@@ -26,6 +26,7 @@ Target: node >= 10x real time and within 1.5x of raw (ratio column).
 from __future__ import annotations
 
 import argparse
+import gc
 import math
 import os
 import signal
@@ -90,14 +91,22 @@ RAY_SECONDS: dict[Config, list[float]] = {}
 
 
 class Timed:
-    """Wall and CPU seconds (all threads of this process, DDS's included) of the block."""
+    """Wall and CPU seconds (all threads of this process, DDS's included) of the block.
+
+    The objects alive at the start are frozen out of the garbage collector, as the simulator node
+    does in its own process: otherwise each full collection (~80 ms with yourdfpy's imports loaded)
+    lands in whichever runner happens to trigger it.
+    """
 
     def __enter__(self):
+        gc.collect()
+        gc.freeze()
         self._wall, self._cpu = time.perf_counter(), time.process_time()
         return self
 
     def __exit__(self, *exc):
         self.seconds = (time.perf_counter() - self._wall, time.process_time() - self._cpu)
+        gc.unfreeze()
 
 
 def run_raw(cfg: Config) -> tuple[float, float]:

@@ -12,6 +12,7 @@ node steps the simulation against the wall clock at ``real_time_factor``; with
 from __future__ import annotations
 
 import array
+import gc
 import io
 import math
 import sys
@@ -38,7 +39,9 @@ from simplebot_navigation.sim.simulator import SimplebotSim
 from simplebot_navigation.sim.world import load_world
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-WALL_TICK_S = 0.005
+# Wall-clock ticks come once per physics step but no faster than this: an executor round costs
+# about as much as a physics step, so at high real-time factors each tick steps several times.
+MIN_WALL_TICK_S = 0.005
 MAX_LAG_S = 0.5
 # Launch files and `-p name:=2` give whole numbers as integers; the numeric parameters take both.
 PARAMETERS = {"world": "lab", "robot": "box", "radius": 0.3, "real_time_factor": 1.0, "physics_rate": 100.0,
@@ -126,10 +129,11 @@ class SimulatorNode(Node):
         self._reported_collisions = -1
         self._publish_collisions()
         self._steps = 0
-        self._wall_start = time.monotonic()
+        self._wall_start: float | None = None  # set by the first tick: time until spinning starts is not lag
         self._sim_start = self.sim.sim_time
         if self.rtf > 0:
-            self.create_timer(WALL_TICK_S, self._on_wall_tick, clock=Clock(clock_type=ClockType.STEADY_TIME))
+            self.create_timer(max(self.sim.dt / self.rtf, MIN_WALL_TICK_S), self._on_wall_tick,
+                              clock=Clock(clock_type=ClockType.STEADY_TIME))
         start = self.world.start
         self.get_logger().info(
             f"world '{self.world.name}', {self.description.body} robot at ({start.x:.2f}, {start.y:.2f}, "
@@ -163,6 +167,8 @@ class SimulatorNode(Node):
             self._step()
 
     def _on_wall_tick(self) -> None:
+        if self._wall_start is None:
+            self._wall_start = time.monotonic()
         target = self._sim_start + (time.monotonic() - self._wall_start) * self.rtf
         lag = target - self.sim.sim_time
         if lag > MAX_LAG_S:
@@ -283,6 +289,10 @@ def main(args=None) -> int:
         print(f"simulator: {err}", file=sys.stderr, flush=True)
         rclpy.try_shutdown()
         return 2
+    # The start-up objects (yourdfpy's trimesh/scipy/networkx among them) live as long as the process.
+    # Frozen, they drop out of Python's full collections, which otherwise cost ~80 ms: a stall every
+    # few seconds that the real-time factor would have to absorb.
+    gc.freeze()
     try:
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
