@@ -3,6 +3,10 @@
 Callbacks only copy message contents into a Scene; the HTTP server (own threads)
 encodes frames at a bounded rate. The page's 2D Nav Goal comes back as a POST and
 is published as a PoseStamped on /move_base_simple/goal in the fixed frame.
+
+The topics are subscribed only while a page is open: taking ~150 messages a second
+costs a Python process a sixth of a core, which the navigation nodes need more
+when nobody is looking. Costmaps arrive whole again on subscribing (latched).
 """
 
 from __future__ import annotations
@@ -10,6 +14,7 @@ from __future__ import annotations
 import io
 import math
 import sys
+import time
 
 import numpy as np
 import rclpy
@@ -19,11 +24,11 @@ from geometry_msgs.msg import PolygonStamped, PoseArray, PoseStamped, Twist
 from map_msgs.msg import OccupancyGridUpdate
 from nav_msgs.msg import OccupancyGrid, Odometry, Path
 from rcl_interfaces.msg import Log, ParameterDescriptor
+from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from rclpy.time import Time
-from rosgraph_msgs.msg import Clock
 from scipy.spatial import ConvexHull
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import String
@@ -55,6 +60,8 @@ STATUS_NAMES = {getattr(GoalStatus, n): n for n in ("PENDING", "ACTIVE", "PREEMP
                                                     "REJECTED", "PREEMPTING", "RECALLING", "RECALLED", "LOST")}
 LOG_LEVELS = {10: "DEBUG", 20: "INFO", 30: "WARN", 40: "ERROR", 50: "FATAL"}
 CIRCLE_POINTS = 24
+PAGE_CHECK_S = 0.25   # how often the node looks whether a page is open
+PAGE_GONE_S = 10.0    # no frame request for this long: the page is closed
 
 
 def _stamp_ns(stamp) -> int:
@@ -112,9 +119,10 @@ class ViewerNode(Node):
         self.scene = Scene(self.fixed_frame, max_costmap_side=p["max_costmap_side"],
                            costmap_period_s=1.0 / p["costmap_rate"], trail_points=p["trail_points"])
         self.tf = Buffer(node=self)
-        self.listener = TransformListener(self.tf, self)
+        self.listener: TransformListener | None = None
+        self._live: list = []
         self.goal_pub = self.create_publisher(PoseStamped, GOAL, 1)
-        self._subscribe()
+        self.create_subscription(String, "/robot_description", self._on_description, LATCHED)
         try:
             self.server = ViewerServer(self.scene, self._lookup, self.publish_goal, host=p["host"], port=p["port"],
                                        rate=p["rate"], base_frame=self.base_frame)
@@ -122,6 +130,7 @@ class ViewerNode(Node):
             raise OSError(f"viewer cannot listen on {p['host']}:{p['port']}: {err.strerror or err} "
                           "(set the 'port' parameter, 0 picks a free one)") from err
         self.server.start()
+        self.create_timer(PAGE_CHECK_S, self._follow_pages, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.get_logger().info(f"viewer on {self.server.url} (fixed frame {self.fixed_frame})")
 
     @property
@@ -144,33 +153,53 @@ class ViewerNode(Node):
             raise ValueError(f"viewer parameter 'port' must be 0..65535, got {values['port']}")
         return values
 
+    @property
+    def watched(self) -> bool:
+        """Whether the topics are subscribed (a page asked for a frame lately)."""
+        return self.listener is not None
+
+    def _follow_pages(self) -> None:
+        idle = time.monotonic() - self.server.last_request
+        if idle < PAGE_CHECK_S * 2 and not self.watched:
+            self._subscribe()
+        elif idle > PAGE_GONE_S and self.watched:
+            self._unsubscribe()
+
     def _subscribe(self) -> None:
         scene = self.scene
+        self.listener = TransformListener(self.tf, self)
+        sub = self.create_subscription
+        live = self._live
         for name, ns in COSTMAPS.items():
-            self.create_subscription(OccupancyGrid, f"{ns}/costmap", lambda m, n=name: self._on_grid(n, m), LATCHED)
-            self.create_subscription(OccupancyGridUpdate, f"{ns}/costmap_updates",
-                                     lambda m, n=name: self._on_grid_update(n, m), UPDATES)
+            live.append(sub(OccupancyGrid, f"{ns}/costmap", lambda m, n=name: self._on_grid(n, m), LATCHED))
+            live.append(sub(OccupancyGridUpdate, f"{ns}/costmap_updates",
+                            lambda m, n=name: self._on_grid_update(n, m), UPDATES))
         for name, topic in SCANS.items():
-            self.create_subscription(LaserScan, topic, lambda m, n=name: scene.set_scan(
+            live.append(sub(LaserScan, topic, lambda m, n=name: scene.set_scan(
                 n, strip_frame(m.header.frame_id), _stamp_ns(m.header.stamp), m.angle_min, m.angle_increment,
-                np.asarray(m.ranges, dtype=np.float32), m.range_min, m.range_max), qos_profile_sensor_data)
+                np.asarray(m.ranges, dtype=np.float32), m.range_min, m.range_max), qos_profile_sensor_data))
         for name, topic in PATHS.items():
-            self.create_subscription(Path, topic, lambda m, n=name: scene.set_poses(
-                n, strip_frame(m.header.frame_id), _stamp_ns(m.header.stamp), path_to_array(m)), 1)
-        self.create_subscription(PoseArray, TEB_POSES, lambda m: scene.set_poses(
+            live.append(sub(Path, topic, lambda m, n=name: scene.set_poses(
+                n, strip_frame(m.header.frame_id), _stamp_ns(m.header.stamp), path_to_array(m)), 1))
+        live.append(sub(PoseArray, TEB_POSES, lambda m: scene.set_poses(
             "teb_poses", strip_frame(m.header.frame_id), _stamp_ns(m.header.stamp),
-            np.array([pose_to_xyyaw(p) for p in m.poses], dtype=float).reshape(-1, 3)), 1)
-        self.create_subscription(PolygonStamped, FOOTPRINT, lambda m: scene.set_poses(
+            np.array([pose_to_xyyaw(p) for p in m.poses], dtype=float).reshape(-1, 3)), 1))
+        live.append(sub(PolygonStamped, FOOTPRINT, lambda m: scene.set_poses(
             "footprint", strip_frame(m.header.frame_id), _stamp_ns(m.header.stamp),
-            np.array([(p.x, p.y) for p in m.polygon.points], dtype=float).reshape(-1, 2)), 1)
-        self.create_subscription(PoseStamped, CURRENT_GOAL, lambda m: scene.set_goal(
-            strip_frame(m.header.frame_id), _stamp_ns(m.header.stamp), pose_to_xyyaw(m.pose)), 1)
-        self.create_subscription(GoalStatusArray, STATUS, self._on_status, 10)
-        self.create_subscription(Odometry, ODOM, self._on_odom, 10)
-        self.create_subscription(Twist, CMD_VEL, lambda m: scene.set_command(m.linear.x, m.angular.z), 10)
-        self.create_subscription(Clock, "/clock", lambda m: scene.set_clock(_stamp_ns(m.clock) / 1e9), 10)
-        self.create_subscription(String, "/robot_description", self._on_description, LATCHED)
-        self.create_subscription(Log, "/rosout", self._on_log, ROSOUT)
+            np.array([(p.x, p.y) for p in m.polygon.points], dtype=float).reshape(-1, 2)), 1))
+        live.append(sub(PoseStamped, CURRENT_GOAL, lambda m: scene.set_goal(
+            strip_frame(m.header.frame_id), _stamp_ns(m.header.stamp), pose_to_xyyaw(m.pose)), 1))
+        live.append(sub(GoalStatusArray, STATUS, self._on_status, 10))
+        live.append(sub(Odometry, ODOM, self._on_odom, 10))
+        live.append(sub(Twist, CMD_VEL, lambda m: scene.set_command(m.linear.x, m.angular.z), 10))
+        live.append(sub(Log, "/rosout", self._on_log, ROSOUT))
+
+    def _unsubscribe(self) -> None:
+        self.listener.unregister()
+        self.listener = None
+        for subscription in self._live:
+            self.destroy_subscription(subscription)
+        self._live.clear()
 
     # -- callbacks --------------------------------------------------------------------------------
     def _on_grid(self, name: str, msg: OccupancyGrid) -> None:
@@ -197,6 +226,9 @@ class ViewerNode(Node):
             self.get_logger().warn(str(err), throttle_duration_sec=5.0)
 
     def _on_odom(self, msg: Odometry) -> None:
+        # Sim time and the real-time factor come from the odometry stamps: a /clock subscription
+        # of our own would double the 100 Hz traffic this process already takes for its clock.
+        self.scene.set_clock(_stamp_ns(msg.header.stamp) / 1e9)
         x, y, _ = pose_to_xyyaw(msg.pose.pose)
         frame = strip_frame(msg.header.frame_id)
         if frame != self.fixed_frame:

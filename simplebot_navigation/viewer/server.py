@@ -42,6 +42,8 @@ class ViewerServer:
         self.period_s = 1.0 / rate
         self.base_frame = base_frame
         self._last_frame = 0.0
+        #: monotonic time of the last frame request: tells the node whether a page is open
+        self.last_request = -math.inf
         self._throttle = threading.Lock()
         self._static = {path: (resources.files(__package__).joinpath("static", name).read_bytes(), kind)
                         for path, (name, kind) in STATIC.items()}
@@ -65,6 +67,7 @@ class ViewerServer:
         self.httpd.server_close()
 
     def frame(self, after: int, known: dict[str, int]) -> bytes:
+        self.last_request = time.monotonic()
         self.scene.wait_newer(after, LONG_POLL_S)
         with self._throttle:  # one encoding per period, whatever the number of pages
             wait = self._last_frame + self.period_s - time.monotonic()

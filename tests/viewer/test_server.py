@@ -79,6 +79,7 @@ def test_body_outlines_of_the_lab_robot():
 
 def test_frames_carry_the_costmap_once_and_the_scans_in_odom(scenario):
     url = scenario.viewer.url
+    get(url + "frame?after=-1")  # a page is open: the viewer subscribes
     scenario.wait_for(lambda: "global_costmap" in scenario.viewer.scene.grids
                       and "front_scan" in scenario.viewer.scene.scans, what="costmap and scans")
     header, arrays = decode(get(url + "frame?after=-1"))
@@ -125,3 +126,15 @@ def test_a_taken_port_is_named(scenario, context):
         ViewerNode(context=context, parameter_overrides=[Parameter("port", value=port)])
     with pytest.raises(ValueError, match="viewer parameter 'rate' must be a positive number of Hz, got 0.0"):
         ViewerNode(context=context, parameter_overrides=[Parameter("rate", value=0.0)])
+
+
+def test_topics_are_taken_only_while_a_page_is_open(scenario, monkeypatch):
+    viewer, scans = scenario.viewer, scenario.sim.scan_pubs["front_laser_link"]
+    get(viewer.url + "frame?after=-1")
+    scenario.wait_for(lambda: viewer.watched and scans.get_subscription_count() == 1, what="the viewer to subscribe")
+    monkeypatch.setattr("simplebot_navigation.viewer.node.PAGE_GONE_S", 0.5)
+    scenario.wait_for(lambda: not viewer.watched and scans.get_subscription_count() == 0,
+                      what="the viewer to let go of the topics")
+    header, _ = decode(get(viewer.url + "frame?after=-1"))  # the page comes back: last data at once, then live
+    assert "global_costmap" in header["costmaps"]
+    scenario.wait_for(lambda: viewer.watched and scans.get_subscription_count() == 1, what="the viewer to subscribe")
