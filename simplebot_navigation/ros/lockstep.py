@@ -1,15 +1,18 @@
 """Lockstep: the simulator advances only while every other node of the process is idle (DESIGN §3).
 
 One SingleThreadedExecutor holds the simulator (``real_time_factor: 0``) and the nodes it drives.
-Each round steps the physics once (the simulator publishes /clock every step, so no step can be
-skipped without some node seeing time jump past a timer) and then runs callbacks until the graph is
-idle. Idle is exact, not a guess from a quiet period: rmw_fastrtps delivers between the nodes of one
+Each round advances the physics to the next event and then runs callbacks until the graph is idle.
+An event is a step at which the simulator publishes more than /clock (odometry, TF, scans) or at
+which a sim-time timer of some node falls due; the steps in between would only update the nodes'
+clocks (whose /clock subscriptions keep just the newest message), so skipping their rounds changes
+nothing a node can see, and saves most of the executor's wait-set builds.
+
+Idle is exact, not a guess from a quiet period: rmw_fastrtps delivers between the nodes of one
 process synchronously, inside ``publish()``, so a message that any callback sent is already waiting
 when the next wait set is built. A zero-timeout wait that finds nothing new therefore means nothing
 is in flight. Pending coroutine tasks (an action server's execute callback awaiting its result) are
-resumed by the executor on every wait without making progress; a pass that only resumes them counts
-as quiet, and two such passes in a row (the second lets a task that another one unblocked finish)
-end the round.
+resumed by the executor on every wait; one whose coroutine stays suspended at the same point made no
+progress, and a pass with nothing else ends the round.
 
 The executor visits nodes in the order they were added (rclpy keeps them in a set, whose order
 changes from run to run), so with the same seed a run repeats callback for callback.
@@ -22,13 +25,14 @@ import time
 from collections import Counter
 from typing import Callable, Iterable, Iterator
 
+from rclpy.clock import ClockType
 from rclpy.executors import SingleThreadedExecutor, TimeoutException
 from rclpy.node import Node
 
 from simplebot_navigation.ros.simulator_node import SimulatorNode
 
 MAX_CALLBACKS_PER_ROUND = 20000
-QUIET_PASSES = 2
+_NEW = object()
 
 
 class LockstepError(TimeoutError):
@@ -74,7 +78,12 @@ class LockstepDriver:
         self.simulator = simulator
         self.max_callbacks_per_round = max_callbacks_per_round
         self.executor = _OrderedExecutor(context=simulator.context)
-        self._pending: set = set()
+        self._pending: dict = {}  # coroutine task -> where it is suspended
+        rate = simulator.get_parameter("physics_rate").value
+        odom_every = max(1, round(rate / simulator.get_parameter("odom_rate").value))
+        # Steps at which the simulator publishes odometry/TF or a scan (as SimulatorNode._step does).
+        self._publication_periods = [odom_every] + [max(1, round(rate / scan.update_rate))
+                                                    for scan in simulator.description.scans.values()]
         self._observers: list[Callable[[], None]] = []
         self.rounds = 0
         self.callbacks = 0
@@ -115,8 +124,8 @@ class LockstepDriver:
 
     # -- stepping ---------------------------------------------------------------------------------
     def step(self) -> None:
-        """One physics step, then every callback it caused."""
-        self.simulator.advance(self.dt)
+        """Advance to the next event (at least one physics step), then run every callback it caused."""
+        self.simulator.advance(self._steps_to_next_event() * self.dt)
         self.rounds += 1
         self.settle()
         for observer in self._observers:
@@ -156,40 +165,49 @@ class LockstepDriver:
         while context.ok():
             self.step()
 
+    def _steps_to_next_event(self) -> int:
+        """Physics steps until the simulator publishes more than /clock or a sim-time timer falls due."""
+        steps = round(self.time / self.dt)
+        n = min(period - steps % period for period in self._publication_periods)
+        dt_ns = self.dt * 1e9
+        for node in self.executor.get_nodes():
+            for timer in node.timers:
+                clock = timer.clock
+                if clock.clock_type != ClockType.ROS_TIME or not getattr(clock, "ros_time_is_active", False):
+                    continue  # a wall-clock timer fires whenever its time comes during a round
+                until = timer.time_until_next_call()
+                if until is not None:  # None: cancelled
+                    n = min(n, math.ceil(until / dt_ns - 1e-6))
+        return max(1, n)
+
     # -- idle detection ---------------------------------------------------------------------------
     def settle(self) -> int:
         """Run callbacks until the graph is idle; returns how many ran."""
         ran = 0
         busy: Counter = Counter()
-        quiet = 0
-        while quiet < QUIET_PASSES:
-            progressed = resumed = False
+        progressed = True
+        while progressed:
+            progressed = False
             for handler, entity, node in self._one_pass():
-                known = handler in self._pending
+                before = self._pending.get(handler, _NEW)
                 handler()
                 if handler.exception() is not None:
                     raise handler.exception()
                 ran += 1
                 if handler.done():
-                    self._pending.discard(handler)
-                elif known:
-                    resumed = True
-                    continue
+                    self._pending.pop(handler, None)
                 else:
-                    self._pending.add(handler)
+                    where = _suspended_at(handler)
+                    self._pending[handler] = where
+                    if where == before:
+                        continue  # resumed, still waiting at the same await
                 progressed = True
                 busy[_describe(entity, node)] += 1
                 if ran > self.max_callbacks_per_round:
                     top = ", ".join(f"{name} x{count}" for name, count in busy.most_common(3))
                     raise LockstepError(f"the nodes are still busy after {ran} callbacks at sim time "
                                         f"{self.time:.3f} s (a publish/subscribe loop?); busiest: {top}")
-            if progressed:
-                quiet = 0
-            elif not resumed:
-                break
-            else:
-                quiet += 1
-        self._pending = {task for task in self._pending if not task.done()}
+        self._pending = {task: where for task, where in self._pending.items() if not task.done()}
         self.callbacks += ran
         return ran
 
@@ -203,6 +221,22 @@ class LockstepDriver:
 
     def shutdown(self) -> None:
         self.executor.shutdown()
+
+
+def _suspended_at(task) -> tuple:
+    """The frames and instruction offsets down a pending task's await chain: equal means no progress.
+
+    rclpy's Task keeps its coroutine in ``_handler``; without it every resume looks the same (quiet).
+    """
+    where = []
+    awaited = getattr(task, "_handler", None)
+    while awaited is not None:
+        frame = getattr(awaited, "cr_frame", None) or getattr(awaited, "gi_frame", None)
+        if frame is None:
+            break
+        where.append((id(frame), frame.f_lasti))
+        awaited = getattr(awaited, "cr_await", None) or getattr(awaited, "gi_yieldfrom", None)
+    return tuple(where)
 
 
 def _describe(entity, node) -> str:

@@ -40,13 +40,13 @@ def simulator(context, **params) -> SimulatorNode:
 
 
 class Ticker(Node):
-    """A 10 Hz sim-time timer whose callback takes `work_s` of wall time."""
+    """A sim-time timer (10 Hz by default) whose callback takes `work_s` of wall time."""
 
-    def __init__(self, context, work_s=0.0):
+    def __init__(self, context, work_s=0.0, period=0.1):
         super().__init__("ticker", context=context, parameter_overrides=SIM_TIME)
         self.stamps: list[float] = []
         self.work_s = work_s
-        self.create_timer(0.1, self._tick)
+        self.create_timer(period, self._tick)
 
     def _tick(self):
         self.stamps.append(self.get_clock().now().nanoseconds / 1e9)
@@ -103,7 +103,9 @@ def drive(seed: int, seconds: float = 6.0) -> np.ndarray:
 
 def test_same_seed_same_trajectory_other_seed_another():
     first, second, other = drive(seed=3), drive(seed=3), drive(seed=4)
-    assert len(first) == len(second) == 600
+    # One round per event: the 300 odometry steps (50 Hz) and the 60 ticks of the 20 Hz controller
+    # that fall between them (0.05, 0.15, ...).
+    assert len(first) == len(second) == 360
     travelled = np.sum(np.hypot(*np.diff(first[:, 1:3], axis=0).T))
     assert travelled > 1.0  # it really drove
     np.testing.assert_array_equal(first, second)
@@ -133,6 +135,17 @@ def test_a_10hz_timer_fires_10_times_per_sim_second_however_slow_its_callback(co
     driver.run_until(1.0)
     assert time.monotonic() - start > 1.0
     assert ticker.stamps == pytest.approx([0.1 * k for k in range(1, 11)])
+    driver.shutdown()
+
+
+def test_rounds_skip_clock_only_steps_but_never_a_timer(context):
+    # 0.07 s is no multiple of the 0.02 s odometry period: the timer's own steps must be rounds too.
+    sim, ticker = simulator(context), Ticker(context, period=0.07)
+    driver = LockstepDriver(sim, [ticker])
+    driver.run_until(0.7)
+    assert ticker.stamps == pytest.approx([0.07 * k for k in range(1, 11)])
+    # 35 odometry steps + the 5 timer steps between them (0.07, 0.21, ...), not 70 physics steps.
+    assert driver.rounds == 40
     driver.shutdown()
 
 
@@ -209,7 +222,7 @@ def test_a_node_that_never_goes_idle_is_named(context):
     sim, echo = simulator(context), Echo(context)
     driver = LockstepDriver(sim, [echo], max_callbacks_per_round=500)
     echo.pub.publish(Int32(data=0))
-    with pytest.raises(LockstepError, match=r"still busy after 501 callbacks at sim time 0.010 s .* busiest: "
+    with pytest.raises(LockstepError, match=r"still busy after 501 callbacks at sim time 0.020 s .* busiest: "
                                             r"/echo:/ping x"):
         driver.step()
     driver.shutdown()
