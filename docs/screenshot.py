@@ -1,6 +1,6 @@
 """Make the README's pictures: the viewer during a navigation run and the plot of its recording.
 
-    python docs/screenshot.py [--goal X Y YAW_DEG] [--after SECONDS] [--out docs]
+    python docs/screenshot.py [--goal X Y YAW_DEG] [--after SECONDS] [--rtf FACTOR] [--out docs]
 
 Starts `navigation --viewer --record`, sets a 2D Nav Goal by click and drag in a
 headless Chromium (as a user would), takes the screenshot once the robot has been
@@ -30,6 +30,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--goal", nargs=3, type=float, default=(8.0, 4.5, 90.0), metavar=("X", "Y", "YAW_DEG"))
     parser.add_argument("--after", type=float, default=25.0, help="seconds of driving before the screenshot")
+    parser.add_argument("--rtf", default="1.0", help="real-time factor (below 1 on a busy machine)")
     parser.add_argument("--port", type=int, default=8765)
     parser.add_argument("--out", default=str(Path(__file__).resolve().parent))
     opts = parser.parse_args()
@@ -42,7 +43,7 @@ def main() -> int:
     out = Path(opts.out)
     recording = Path(tempfile.mkdtemp(prefix="simplebot_screenshot_")) / "run.mcap"
     launch = subprocess.Popen([sys.executable, "-m", "simplebot_navigation.launch", "navigation", "--viewer",
-                               "--record", str(recording)], env=env, start_new_session=True)
+                               "--rtf", opts.rtf, "--record", str(recording)], env=env, start_new_session=True)
     try:
         with sync_playwright() as playwright:
             browser = playwright.chromium.launch(executable_path=chromium, args=CHROMIUM_ARGS)
