@@ -53,7 +53,7 @@ STATUS_NAMES = {GoalStatus.STATUS_SUCCEEDED: "SUCCEEDED", GoalStatus.STATUS_ABOR
 
 @dataclass
 class GoalRun:
-    """One goal sent through the move_base action: its futures and the ground truth while it ran."""
+    """One goal sent through the move_base action: its futures, then its outcome as they complete."""
 
     goal: Pose2D
     sent_at: float
