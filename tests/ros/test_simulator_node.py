@@ -240,7 +240,7 @@ def test_nan_cmd_vel_is_ignored_with_a_warning(lockstep):
 
 def test_driving_into_the_wall_counts_a_collision(lockstep):
     assert status_values(lockstep.probe.collisions[-1])["count"] == "0"
-    lockstep.run(7.0, cmd=(0.3, 0.0))
+    lockstep.run(3.0, cmd=(0.8, 0.0))  # contact after about 2.4 s
     report = status_values(lockstep.probe.collisions[-1])
     assert report["count"] == "1" and report["in_contact"] == "True"
     assert lockstep.probe.collisions[-1].level == DiagnosticStatus.WARN
