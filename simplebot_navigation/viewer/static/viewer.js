@@ -311,7 +311,7 @@
       ? `${f2(h.robot[0])}, ${f2(h.robot[1])}, ${deg(h.robot[2])}` : "no transform";
     $("odom-speed").textContent = `${f2(h.velocity[0])} m/s, ${f2(h.velocity[1])} rad/s`;
     $("cmd-speed").textContent = `${f2(h.command[0])} m/s, ${f2(h.command[1])} rad/s`;
-    $("sim-time").textContent = h.sim_time === null ? "no /clock" : h.sim_time.toFixed(1) + " s";
+    $("sim-time").textContent = h.sim_time === null ? "no odometry yet" : h.sim_time.toFixed(1) + " s";
     $("rtf").textContent = h.rtf === null ? "-" : h.rtf.toFixed(2);
     $("fps").textContent = `${(state.frameTimes.length / 2).toFixed(0)} / s`;
     $("missing").textContent = h.missing.length ? "no transform: " + h.missing.join(", ") : "";
