@@ -30,6 +30,8 @@ Lookup = Callable[[str, int], "Pose2D | None"]
 UNKNOWN_CELL = 255
 TRAIL_STEP_M = 0.02
 LOG_LINES = 8
+#: how move_base announces a recovery behaviour on /rosout (ROS 1 logs "Executing behavior ..." alike)
+RECOVERY_LOG = "executing recovery behavior"
 
 
 @dataclass
@@ -115,6 +117,7 @@ class Scene:
         self.command = (0.0, 0.0)
         self.status: dict = {}
         self.log: deque = deque(maxlen=LOG_LINES)
+        self.recoveries = {"count": 0, "last": None}
         self.sim_time = None
         self._clock_samples: deque = deque()
         self._grid_versions = 0
@@ -213,6 +216,8 @@ class Scene:
     def add_log(self, level: str, name: str, text: str) -> None:
         with self.changed:
             self.log.append({"level": level, "node": name, "text": text})
+            if text.startswith(RECOVERY_LOG):
+                self.recoveries = {"count": self.recoveries["count"] + 1, "last": text[len(RECOVERY_LOG):].strip()}
             self._touch()
 
     # -- reader (HTTP threads) -----------------------------------------------------------------
@@ -259,6 +264,7 @@ class Scene:
             header: dict = {"version": self.version, "frame": self.fixed_frame, "sim_time": self.sim_time,
                             "rtf": self.real_time_factor(), "velocity": list(self.velocity),
                             "command": list(self.command), "status": self.status, "log": list(self.log),
+                            "recoveries": self.recoveries,
                             "missing": [], "costmaps": {}, "layers": {}}
             robot = lookup(base_frame, 0)
             header["robot"] = None if robot is None else [float(v) for v in robot]

@@ -135,6 +135,20 @@ def test_topics_are_taken_only_while_a_page_is_open(scenario, monkeypatch):
     monkeypatch.setattr("simplebot_navigation.viewer.node.PAGE_GONE_S", 0.5)
     scenario.wait_for(lambda: not viewer.watched and scans.get_subscription_count() == 0,
                       what="the viewer to let go of the topics")
+    monkeypatch.setattr("simplebot_navigation.viewer.node.PAGE_GONE_S", 10.0)
     header, _ = decode(get(viewer.url + "frame?after=-1"))  # the page comes back: last data at once, then live
     assert "global_costmap" in header["costmaps"]
     scenario.wait_for(lambda: viewer.watched and scans.get_subscription_count() == 1, what="the viewer to subscribe")
+
+
+def test_recoveries_counted_from_move_base_log(scenario):
+    url = scenario.viewer.url
+    get(url + "frame?after=-1")
+    scenario.wait_for(lambda: scenario.viewer.watched, what="the viewer to subscribe")
+    logger = scenario.move_base.get_logger()
+    logger.warn("Rotate recovery can't rotate in place because there is a potential collision")
+    logger.info("executing recovery behavior rotate_recovery (2/4) after CONTROLLING_R")
+    scenario.wait_for(lambda: scenario.viewer.scene.recoveries["count"] == 1, what="the recovery log line")
+    header, _ = decode(get(url + "frame?after=-1"))
+    assert header["recoveries"] == {"count": 1, "last": "rotate_recovery (2/4) after CONTROLLING_R"}
+    assert [line["level"] for line in header["log"][-2:]] == ["WARN", "INFO"]

@@ -304,6 +304,8 @@
     const h = state.frame;
     const st = h.status || {};
     $("mb-state").textContent = st.state ? st.state + (st.text ? " - " + st.text : "") : "no status yet";
+    const rec = h.recoveries;
+    $("recoveries").textContent = rec.count ? `${rec.count}, last: ${rec.last}` : "none";
     const goal = state.layers.goal;
     $("mb-goal").textContent = goal
       ? `${f2(goal.data[0])}, ${f2(goal.data[1])}, ${deg(goal.data[2])}` : "none";
