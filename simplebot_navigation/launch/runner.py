@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import importlib
 import os
 import signal
@@ -70,7 +71,8 @@ class ProcessLauncher:
                 self.missing.append(f"{spec.full_name}: {err}")
                 continue
             params_file = write_params_file(spec, self.run_dir)
-            command = [sys.executable, "-u", "-m", exe.module, *ros_args(spec, params_file)]
+            command = [sys.executable, "-u", "-m", "simplebot_navigation.launch.child", exe.module,
+                       *ros_args(spec, params_file)]
             self.processes.append(_Process(spec, command))
 
     def _pump(self, proc: _Process, stream, sink) -> None:
@@ -91,7 +93,8 @@ class ProcessLauncher:
             proc.log_file = os.path.join(self.run_dir, f"{proc.spec.name}.log")
             sink = open(proc.log_file, "a", encoding="utf-8")  # noqa: SIM115 - closed with the pump
         proc.popen = subprocess.Popen(proc.command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                                      stdin=subprocess.DEVNULL, start_new_session=True)
+                                      stdin=subprocess.DEVNULL, start_new_session=True,
+                                      env={**os.environ, "SIMPLEBOT_LAUNCHER_PID": str(os.getpid())})
         proc.exit_code = None
         proc.restart_at = None
         thread = threading.Thread(target=self._pump, args=(proc, proc.popen.stdout, sink), daemon=True)
@@ -206,6 +209,9 @@ def run_single_process(config: LaunchConfig) -> int:
             nodes.append(node)
             executor.add_node(node)
             _log(f"started {spec.full_name} in this process")
+        # Start-up objects are long-lived: keep them out of full collections, which otherwise stall
+        # every node in this process for tens of milliseconds.
+        gc.freeze()
         from simplebot_navigation.ros.lockstep import LockstepDriver
         lockstep = LockstepDriver.of(nodes)
         if lockstep is not None:

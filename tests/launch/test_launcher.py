@@ -1,5 +1,6 @@
 """The launcher as a user runs it: processes start with their parameters, respawn, stop cleanly."""
 
+import ctypes
 import os
 import re
 import signal
@@ -22,12 +23,17 @@ def write_launch(tmp_path, nodes: str) -> str:
     return str(path)
 
 
+def _die_with_this_test() -> None:
+    ctypes.CDLL(None).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG: no launcher outlives a killed test run
+
+
 def start(launch_file: str) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, "-m", "simplebot_navigation.launch", launch_file], cwd=REPO,
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True,
+                            preexec_fn=_die_with_this_test)
 
 
-def read_until(proc: subprocess.Popen, pattern: str, timeout: float = 30.0, lines: list | None = None) -> list[str]:
+def read_until(proc: subprocess.Popen, pattern: str, timeout: float = 90.0, lines: list | None = None) -> list[str]:
     lines = [] if lines is None else lines
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
@@ -70,6 +76,25 @@ def test_nodes_get_their_params_and_stop_on_sigint(tmp_path):
             os.killpg(proc.pid, signal.SIGKILL)
     assert proc.returncode == 0, out
     assert not any(alive(pid) for pid in pids), "a node outlived the launcher"
+
+
+def test_nodes_die_with_a_killed_launcher(tmp_path):
+    launch = write_launch(tmp_path, """
+        Node(pkg="python", type="tests.launch.dummy_node", name="orphan"),
+    """)
+    proc = start(launch)
+    try:
+        lines = read_until(proc, r"\[orphan\] /orphan says hello")
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=10)
+        pids = child_pids(lines)
+        deadline = time.monotonic() + 10
+        while any(alive(pid) for pid in pids) and time.monotonic() < deadline:
+            time.sleep(0.1)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert pids and not any(alive(pid) for pid in pids), "a node outlived its SIGKILLed launcher"
 
 
 def test_respawn_restarts_a_dying_node(tmp_path):
