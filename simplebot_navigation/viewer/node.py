@@ -159,10 +159,10 @@ class ViewerNode(Node):
         return self.listener is not None
 
     def _follow_pages(self) -> None:
-        idle = time.monotonic() - self.server.last_request
-        if idle < PAGE_CHECK_S * 2 and not self.watched:
+        page_open = time.monotonic() - self.server.last_request < PAGE_GONE_S
+        if page_open and not self.watched:
             self._subscribe()
-        elif idle > PAGE_GONE_S and self.watched:
+        elif not page_open and self.watched:
             self._unsubscribe()
 
     def _subscribe(self) -> None:

@@ -2,6 +2,7 @@
 
 import json
 import math
+import time
 import urllib.error
 import urllib.request
 
@@ -146,7 +147,16 @@ def test_recoveries_counted_from_move_base_log(scenario):
     get(url + "frame?after=-1")
     scenario.wait_for(lambda: scenario.viewer.watched, what="the viewer to subscribe")
     logger = scenario.move_base.get_logger()
-    logger.warn("Rotate recovery can't rotate in place because there is a potential collision")
+    warning = "Rotate recovery can't rotate in place because there is a potential collision"
+
+    def warned():  # /rosout has just been subscribed: repeat until the link is up
+        if any(line["text"] == warning for line in scenario.viewer.scene.log):
+            return True
+        logger.warn(warning)
+        time.sleep(0.1)
+        return False
+
+    scenario.wait_for(warned, what="the viewer's /rosout subscription")
     logger.info("executing recovery behavior rotate_recovery (2/4) after CONTROLLING_R")
     scenario.wait_for(lambda: scenario.viewer.scene.recoveries["count"] == 1, what="the recovery log line")
     header, _ = decode(get(url + "frame?after=-1"))
