@@ -39,7 +39,7 @@ def main() -> int:
         print("screenshot: no chromium on PATH (apt-get install chromium)", file=sys.stderr)
         return 2
     env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
-    env.setdefault("ROS_DOMAIN_ID", str(10 + os.getpid() % 90))
+    env.setdefault("ROS_DOMAIN_ID", "100")  # outside the 10..99 the test suites pick, so no other run joins
     out = Path(opts.out)
     recording = Path(tempfile.mkdtemp(prefix="simplebot_screenshot_")) / "run.mcap"
     launch = subprocess.Popen([sys.executable, "-m", "simplebot_navigation.launch", "navigation", "--viewer",
