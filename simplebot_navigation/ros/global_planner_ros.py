@@ -137,7 +137,8 @@ class GlobalPlannerROS:
     def _log_failure(self, result: PlanResult) -> None:
         message = f"{self.name}: failed to get a plan: {result.message}"
         if result.failure not in _OFF_MAP:
-            self.logger.error(message)
+            # move_base retries every control cycle while it waits for a plan: once a second is enough
+            self.logger.error(message, throttle_duration_sec=1.0)
             return
         now = time.monotonic()
         if now - self._last_off_map_warning.get(result.failure, -math.inf) >= OFF_MAP_WARNING_PERIOD_S:

@@ -2,11 +2,13 @@
 
 import ctypes
 import os
+import queue
 import re
 import signal
 import subprocess
 import sys
 import textwrap
+import threading
 import time
 
 import pytest
@@ -34,11 +36,19 @@ def start(launch_file: str) -> subprocess.Popen:
 
 
 def read_until(proc: subprocess.Popen, pattern: str, timeout: float = 90.0, lines: list | None = None) -> list[str]:
+    """Collect output lines until one matches; a reader thread keeps the deadline real."""
     lines = [] if lines is None else lines
+    if not hasattr(proc, "lines"):
+        proc.lines = queue.Queue()
+        threading.Thread(target=lambda: [proc.lines.put(line) for line in proc.stdout] + [proc.lines.put(None)],
+                         daemon=True).start()
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
-        line = proc.stdout.readline()
-        if not line:
+        try:
+            line = proc.lines.get(timeout=max(0.0, deadline - time.monotonic()))
+        except queue.Empty:
+            break
+        if line is None:
             break
         lines.append(line.rstrip("\n"))
         if re.search(pattern, line):
@@ -70,11 +80,11 @@ def test_nodes_get_their_params_and_stop_on_sigint(tmp_path):
         pids = child_pids(lines)
         assert len(pids) == 2
         proc.send_signal(signal.SIGINT)
-        out, _ = proc.communicate(timeout=20)
+        proc.wait(timeout=20)
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
-    assert proc.returncode == 0, out
+    assert proc.returncode == 0, "\n".join(lines)
     assert not any(alive(pid) for pid in pids), "a node outlived the launcher"
 
 
@@ -108,7 +118,7 @@ def test_respawn_restarts_a_dying_node(tmp_path):
         read_until(proc, r"started /phoenix", lines=lines)
         read_until(proc, r"respawning /phoenix", lines=lines)
         proc.send_signal(signal.SIGTERM)
-        proc.communicate(timeout=20)
+        proc.wait(timeout=20)
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)

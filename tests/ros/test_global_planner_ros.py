@@ -84,10 +84,10 @@ class RecordingLogger:
     def __init__(self):
         self.records = []
 
-    def warning(self, msg):
+    def warning(self, msg, **_throttle):
         self.records.append(("warning", msg))
 
-    def error(self, msg):
+    def error(self, msg, **_throttle):
         self.records.append(("error", msg))
 
 
