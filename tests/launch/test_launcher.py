@@ -42,6 +42,8 @@ def read_until(proc: subprocess.Popen, pattern: str, timeout: float = 90.0, line
         proc.lines = queue.Queue()
         threading.Thread(target=lambda: [proc.lines.put(line) for line in proc.stdout] + [proc.lines.put(None)],
                          daemon=True).start()
+    if any(re.search(pattern, line) for line in lines):
+        return lines  # nodes print in any order: an earlier call may have read it already
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         try:
