@@ -12,9 +12,14 @@ Scenes:
             centre line every 2 m; the global plan is a slalom between them to x = 10 m.
   barrier   open floor with a 2 m wall straight across a straight 3.5 m plan (an obstacle the
             global plan did not know about): the case homotopy class planning exists for.
+  door      the lab's corridor (walls at y = +-1.25 m) with a 1.2 m door in the north wall at
+            x = 1.5 m; the plan leaves the corridor through the door and turns west into the room
+            behind it to (-2.5, 3.0, yaw 0), as the global planner routes the lab's meeting_north
+            goal. The walls run on beyond the local costmap, so the part far behind the robot is
+            not in the optimiser's obstacle container.
 
 Two robots run in lock step, one per planner configuration, each integrating its own (v, omega)
-with a unicycle model at the 10 Hz controller period, so both are timed in the same run under
+with a unicycle model at the lab's 20 Hz controller period, so both are timed in the same run under
 the same machine load. A cycle is one compute_velocity_commands call (plan pruning/transform,
 obstacle extraction, optimisation of every band, feasibility check, command): wall clock, and
 the calling thread's CPU time ("cpu"), which other processes on the machine disturb less.
@@ -41,8 +46,8 @@ from simplebot_navigation.teb.config import TebConfig  # noqa: E402
 from simplebot_navigation.teb.planner import TebLocalPlanner  # noqa: E402
 
 RES = 0.05
-WORLD_ORIGIN = (-4.0, -6.0)
-WORLD_CELLS = (360, 240)                # 18 x 12 m
+WORLD_ORIGIN = (-6.0, -6.0)
+WORLD_CELLS = (400, 280)                # 20 x 14 m
 LAB_FOOTPRINT = np.array([[0.45, 0.3], [0.45, -0.3], [-0.45, -0.3], [-0.45, 0.3]])
 PADDING = 0.03
 LAB_PARAMS = {
@@ -51,17 +56,17 @@ LAB_PARAMS = {
     "footprint_model": {"type": "two_circles", "front_offset": 0.2, "front_radius": 0.2,
                         "rear_offset": 0.2, "rear_radius": 0.2},
 }
-PERIOD = 0.1
+PERIOD = 0.05
 
 
 def world_grid(walls, boxes) -> np.ndarray:
-    """Lethal world cells: horizontal wall lines at the given y and outlines of (cx, cy, hx, hy) boxes."""
+    """Lethal world cells: horizontal wall lines (y, x_from, x_to) and outlines of (cx, cy, hx, hy) boxes."""
     grid = np.zeros(WORLD_CELLS[::-1], dtype=np.uint8)
     xs = WORLD_ORIGIN[0] + (np.arange(WORLD_CELLS[0]) + 0.5) * RES
     ys = WORLD_ORIGIN[1] + (np.arange(WORLD_CELLS[1]) + 0.5) * RES
     X, Y = np.meshgrid(xs, ys)
-    for wall_y in walls:
-        grid[np.abs(Y - wall_y) < RES / 2] = LETHAL_OBSTACLE
+    for wall_y, x_from, x_to in walls:
+        grid[(np.abs(Y - wall_y) < RES / 2) & (X >= x_from) & (X <= x_to)] = LETHAL_OBSTACLE
     for bx, by, hx, hy in boxes:
         inside = (np.abs(X - bx) <= hx) & (np.abs(Y - by) <= hy)
         interior = (np.abs(X - bx) <= hx - RES) & (np.abs(Y - by) <= hy - RES)
@@ -77,7 +82,7 @@ def corridor():
     ramp = np.clip(xs / 1.5, 0.0, 1.0) * np.clip((10.0 - xs) / 1.5, 0.0, 1.0)
     ys = -0.55 * ramp * np.cos(np.pi * (xs - 2.0) / 2.0)
     yaw = np.arctan2(np.gradient(ys), np.gradient(xs))
-    return world_grid((-1.6, 1.6), boxes), np.column_stack([xs, ys, yaw])
+    return world_grid([(-1.6, -np.inf, np.inf), (1.6, -np.inf, np.inf)], boxes), np.column_stack([xs, ys, yaw])
 
 
 def barrier():
@@ -85,7 +90,24 @@ def barrier():
     return world_grid((), [(1.5, 0.0, 0.05, 1.0)]), np.column_stack([xs, np.zeros_like(xs), np.zeros_like(xs)])
 
 
-SCENES = {"corridor": corridor, "barrier": barrier}
+def door():
+    walls = [(-1.25, -np.inf, np.inf), (1.25, -np.inf, 0.9), (1.25, 2.1, np.inf)]
+    # corners rounded by corner cutting, as the global planner's gradient path cuts them
+    pts = np.array([[0.0, 0.0], [1.5, 0.0], [1.5, 2.2], [-2.5, 3.0]])
+    for _ in range(4):
+        q = np.repeat(pts, 2, axis=0)[1:-1].reshape(-1, 2, 2)
+        cut = np.concatenate([0.75 * q[:, 0] + 0.25 * q[:, 1], 0.25 * q[:, 0] + 0.75 * q[:, 1]], axis=1)
+        pts = np.vstack([pts[:1], cut.reshape(-1, 2), pts[-1:]])
+    seg = np.hypot(*np.diff(pts, axis=0).T)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    t = np.arange(0.0, s[-1] + 1e-9, RES)
+    xs, ys = np.interp(t, s, pts[:, 0]), np.interp(t, s, pts[:, 1])
+    yaw = np.arctan2(np.gradient(ys), np.gradient(xs))
+    yaw[-1] = 0.0                                       # the goal's own orientation
+    return world_grid(walls, []), np.column_stack([xs, ys, yaw])
+
+
+SCENES = {"corridor": corridor, "barrier": barrier, "door": door}
 
 
 def local_costmap(world: np.ndarray, x: float, y: float) -> Costmap2D:
@@ -162,7 +184,7 @@ def box_clearance(pose, obstacles) -> float:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--cycles", type=int, default=400, help="control cycles per planner (default 400)")
+    parser.add_argument("--cycles", type=int, default=800, help="control cycles per planner (default 800)")
     parser.add_argument("--scene", choices=[*SCENES, "all"], default="all")
     parser.add_argument("--profile", action="store_true", help="print a pyinstrument profile of the run")
     args = parser.parse_args()

@@ -108,22 +108,28 @@ class HomotopyClassPlanner:
 
     # -- one planning cycle -----------------------------------------------------------------
     def plan(self, initial_plan: np.ndarray, obstacles: np.ndarray, via_points, start_velocity,
-             free_goal_vel: bool, bounds=None) -> bool:
+             free_goal_vel: bool, bounds=None, class_obstacles: np.ndarray | None = None) -> bool:
         """initial_plan (K,3): robot pose first, local goal last. bounds: (xmin, ymin, xmax, ymax)
-        of the local costmap, where seeds may place their detour points."""
+        of the local costmap, where seeds may place their detour points. class_obstacles: every
+        lethal cell of the local costmap (default: ``obstacles``). The optimiser's container skips
+        cells far behind the robot, but a wall does not end where that filter cuts it: clusters,
+        signatures and seed clearance use the whole map, or a seed would be routed around the cut
+        end of a wall, straight through the part behind the robot."""
         cfg = self.cfg
         start, goal = initial_plan[0], initial_plan[-1]
         self._update_candidates(start, goal)
         if self.enabled:
             gap = max(2.0 * self.model.inscribed_radius, 0.1)
-            clusters = obstacle_clusters(obstacles, gap)
+            if class_obstacles is None:
+                class_obstacles = obstacles
+            clusters = obstacle_clusters(class_obstacles, gap)
             self.keypoints = (np.array([cluster_keypoint(c) for c in clusters]) if clusters
                               else np.zeros((0, 2)))
             for cand in self.candidates:
                 cand.signature = homotopy_signature(cand.band.poses[:, :2], self.keypoints)
             self._drop_duplicates()
             self._ensure_initial_plan_candidate(initial_plan)
-            self._explore(start, goal, clusters, obstacles, bounds)
+            self._explore(start, goal, clusters, class_obstacles, bounds)
         elif not self.candidates:
             self.candidates = [self._new_candidate(initial_plan, True)]
         if not cfg.optimization_activate:

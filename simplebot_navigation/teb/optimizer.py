@@ -42,6 +42,7 @@ class EdgeSet:
     layout of every edge family and its scatter indices into the banded normal equations."""
     obst_pose: np.ndarray
     obst_point: np.ndarray
+    obst_gap: np.ndarray          # half width of the gap each obstacle edge's pose stands in
     via_pose: np.ndarray
     via_point: np.ndarray
     obstacle_weight: float
@@ -168,12 +169,12 @@ class TebOptimizer:
         cfg = self.cfg
         empty = np.zeros(0, dtype=np.int64)
         if obstacles is not None and len(obstacles) and cfg.weight_obstacle > 0:
-            pi, oi = associate_obstacles(self.model, band.poses, obstacles, cfg.min_obstacle_dist,
-                                         cfg.obstacle_association_force_inclusion_factor,
-                                         cfg.obstacle_association_cutoff_factor)
+            pi, oi, gap = associate_obstacles(self.model, band.poses, obstacles, cfg.min_obstacle_dist,
+                                              cfg.obstacle_association_force_inclusion_factor,
+                                              cfg.obstacle_association_cutoff_factor)
             obst_point = obstacles[oi]
         else:
-            pi, obst_point = empty, np.zeros((0, 2))
+            pi, obst_point, gap = empty, np.zeros((0, 2)), np.zeros(0)
         vp, vpts = empty, np.zeros((0, 2))
         n = len(band.poses)
         if via_points is not None and len(via_points) and cfg.weight_viapoint > 0 and n > 2:
@@ -188,7 +189,7 @@ class TebOptimizer:
                 vp = np.array(idx, dtype=np.int64) + 1
             else:
                 vp = np.argmin(d2, axis=1) + 1
-        edges = EdgeSet(pi, obst_point, vp, vpts, obstacle_weight, n=n - 1)
+        edges = EdgeSet(pi, obst_point, gap, vp, vpts, obstacle_weight, n=n - 1)
         key = (n - 1, self.free_goal_vel, self.with_inflation)
         if key not in self._layouts:
             if len(self._layouts) > 64:
@@ -299,8 +300,10 @@ class TebOptimizer:
                 d, grad = self.model.distance_and_gradient(poses[edges.obst_pose], edges.obst_point)
             else:
                 d, grad = self.model.pair_distances(poses[edges.obst_pose], edges.obst_point), None
+            # In a gap narrower than the distances ask for, the limits fall to the centre line
+            # (associate_obstacles), so passing through costs nothing more than the centring.
             w = math.sqrt(edges.obstacle_weight)
-            e, de = bound_from_below(d, cfg.min_obstacle_dist, eps)
+            e, de = bound_from_below(d, np.minimum(cfg.min_obstacle_dist, edges.obst_gap - eps), eps)
             p = cfg.obstacle_cost_exponent
             if p != 1.0:
                 de = de * p * np.power(e, p - 1.0)
@@ -308,7 +311,7 @@ class TebOptimizer:
             res, dres = [w * e], [w * de]
             if self.with_inflation:
                 w = math.sqrt(cfg.weight_inflation)
-                e, de = bound_from_below(d, cfg.inflation_dist, 0.0)
+                e, de = bound_from_below(d, np.minimum(cfg.inflation_dist, edges.obst_gap), 0.0)
                 res.append(w * e)
                 dres.append(w * de)
             out["obstacle"] = (np.concatenate(res),

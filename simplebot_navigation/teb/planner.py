@@ -15,7 +15,7 @@ from simplebot_navigation.teb.config import TebConfig
 from simplebot_navigation.teb.feasibility import footprint_inscribed_radius, is_trajectory_feasible
 from simplebot_navigation.teb.footprint import FootprintModel
 from simplebot_navigation.teb.homotopy import HomotopyClassPlanner
-from simplebot_navigation.teb.obstacles import costmap_point_obstacles
+from simplebot_navigation.teb.obstacles import behind_robot_filter, costmap_point_obstacles
 
 GOAL_ORIENTATION_AVERAGE = 3
 
@@ -105,12 +105,14 @@ class TebLocalPlanner:
         transformed[0] = pose
         transformed[-1] = local_goal
         self.transformed_plan = transformed
-        self.obstacles = (costmap_point_obstacles(costmap, pose, cfg.costmap_obstacles_behind_robot_dist)
-                          if cfg.include_costmap_obstacles else np.zeros((0, 2)))
+        lethal = (costmap_point_obstacles(costmap, pose, math.inf)
+                  if cfg.include_costmap_obstacles else np.zeros((0, 2)))
+        self.obstacles = lethal[behind_robot_filter(lethal, pose, cfg.costmap_obstacles_behind_robot_dist)]
         bounds = (costmap.origin_x, costmap.origin_y,
                   costmap.origin_x + costmap.size_x * costmap.resolution,
                   costmap.origin_y + costmap.size_y * costmap.resolution)
-        if not self.planner.plan(transformed, self.obstacles, self.via_points, vel, cfg.free_goal_vel, bounds):
+        if not self.planner.plan(transformed, self.obstacles, self.via_points, vel, cfg.free_goal_vel, bounds,
+                                 class_obstacles=lethal):
             self.planner.clear()
             return VelocityCommandResult(0.0, 0.0, False, "planner failed to find a trajectory")
 

@@ -103,7 +103,9 @@ def test_analytic_jacobian_and_normal_equations_match_finite_differences(model, 
                              0.3 * rng.standard_normal(n + 1)])
     dts = 0.2 + 0.1 * rng.random(n)
     obstacles = np.array([[1.0, 0.5], [0.6, -0.4], [1.5, 0.3]])
-    edges = EdgeSet(np.array([2, 3, 4, 5, 3]), obstacles[[0, 0, 1, 2, 1]], np.array([3, 7]),
+    # two of the edges stand in gaps narrower than min_obstacle_dist (lowered limits)
+    edges = EdgeSet(np.array([2, 3, 4, 5, 3]), obstacles[[0, 0, 1, 2, 1]],
+                    np.array([np.inf, 0.3, np.inf, 0.45, np.inf]), np.array([3, 7]),
                     np.array([[1.0, 0.2], [2.0, 0.0]]), 50.0, n=n)
     edges.build_layout(StaticLayout(n, free_goal_vel, True))
     families = opt.evaluate(poses, dts, edges, True)
