@@ -42,7 +42,7 @@ class EdgeSet:
     layout of every edge family and its scatter indices into the banded normal equations."""
     obst_pose: np.ndarray
     obst_point: np.ndarray
-    obst_gap: np.ndarray          # half width of the gap each obstacle edge's pose stands in
+    obst_gap: np.ndarray          # clearance of the gap each obstacle edge's pose passes (inf: none)
     via_pose: np.ndarray
     via_point: np.ndarray
     obstacle_weight: float
