@@ -10,7 +10,9 @@ closest to the start-goal line, at most max_number_classes bands in total. To ke
 cycle bounded in Python, at most one new class is seeded per cycle, it gets one outer
 iteration in that cycle and competes from the next one, and a seed that merges into another
 class or is dropped as a detour is not tried again near the same detour point for
-REJECTED_SEED_CYCLES cycles.
+REJECTED_SEED_CYCLES cycles. The alternatives to the band being followed are warm-started every
+cycle and run only the later half of the outer loop (at the same final obstacle weight, so their
+costs stay comparable); the followed band gets the full loop.
 
 With enable_homotopy_class_planning false the planner keeps exactly one band (TebOptimalPlanner).
 """
@@ -144,8 +146,10 @@ class HomotopyClassPlanner:
                                         outer_iterations=1)
                 cand.cost = math.inf
             else:
+                # Alternatives to the band being followed run the later half of the outer loop.
+                skip = cfg.no_outer_iterations // 2 if cand is not self.best and self.best is not None else 0
                 cand.cost = self.optimizer.optimize(cand.band, obstacles, via_points, start_velocity,
-                                                    free_goal_vel, compute_cost=self.enabled)
+                                                    free_goal_vel, compute_cost=self.enabled, skip_outer=skip)
         if self.enabled:
             seeds = {id(c): c.seed_point for c in self.candidates if c.fresh_seed}
             for cand in self.candidates:

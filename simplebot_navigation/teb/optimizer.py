@@ -144,16 +144,19 @@ class TebOptimizer:
     # -- outer loop -------------------------------------------------------------------------
     def optimize(self, band: TimedElasticBand, obstacles: np.ndarray, via_points: np.ndarray | None,
                  start_velocity, free_goal_vel: bool, compute_cost: bool = True,
-                 outer_iterations: int | None = None) -> float:
+                 outer_iterations: int | None = None, skip_outer: int = 0) -> float:
         """optimizeTEB: outer iterations of autoResize + association + inner LM, the obstacle
-        weight growing by weight_adapt_factor. Returns the selection cost of the final graph
-        (inf unless compute_cost)."""
+        weight growing by weight_adapt_factor. skip_outer leaves out the first outer iterations
+        (a warm-started band then goes straight to the larger obstacle weights and its cost is
+        taken at the same final weight as a full run). Returns the selection cost of the final
+        graph (inf unless compute_cost)."""
         cfg = self.cfg
         self.start_velocity = (float(start_velocity[0]), float(start_velocity[1]))
         self.free_goal_vel = free_goal_vel
-        multiplier = 1.0
+        multiplier = cfg.weight_adapt_factor ** skip_outer
         cost = math.inf
         outer_iterations = cfg.no_outer_iterations if outer_iterations is None else outer_iterations
+        outer_iterations = max(1, outer_iterations - skip_outer)
         for outer in range(outer_iterations):
             if cfg.teb_autosize:
                 band.auto_resize(cfg.dt_ref, cfg.dt_hysteresis, cfg.min_samples, cfg.max_samples,
