@@ -21,9 +21,7 @@ import sys
 import time
 from pathlib import Path
 
-import rclpy
 from mcap.writer import CompressionType, Writer
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.utilities import remove_ros_args
@@ -312,21 +310,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"wrote {opts.plot[1]}: " + ", ".join(f"{k} {v}" for k, v in summary.items()))
         return 0
 
-    rclpy.init(args=argv)
-    try:
-        node = Recorder(path=opts.path)
-    except ValueError as err:
-        print(f"recorder: {err}", file=sys.stderr, flush=True)
-        rclpy.try_shutdown()
-        return 2
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    from simplebot_navigation.ros.node_main import run_node
+    return run_node("recorder", lambda: Recorder(path=opts.path), argv)
 
 
 if __name__ == "__main__":

@@ -12,13 +12,11 @@ import time
 import uuid
 
 import numpy as np
-import rclpy
 from actionlib_msgs.msg import GoalID, GoalStatus as ActionlibStatus, GoalStatusArray
 from geometry_msgs.msg import PoseStamped, Twist
 from nav_msgs.srv import GetPlan
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.task import Future
 from std_srvs.srv import Empty
@@ -34,6 +32,7 @@ from simplebot_navigation.ros.params import declare_defaults, given_parameter_tr
 from simplebot_navigation.ros.teb_local_planner_ros import TebLocalPlannerROS
 from simplebot_navigation.ros.tf import Buffer, TransformException, TransformListener, strip_frame
 from simplebot_navigation.teb.feasibility import footprint_costs
+from simplebot_navigation.ros.node_main import run_node
 
 STATUS_PERIOD_S = 0.2
 FINISHED_STATUS_KEEP_S = 5.0
@@ -385,24 +384,7 @@ class _ControllerAdapter:
 
 
 def main(args=None) -> int:
-    rclpy.init(args=args if args is not None else sys.argv)
-    try:
-        node = MoveBaseNode()
-    except ValueError as err:
-        print(f"move_base: {err}", file=sys.stderr, flush=True)
-        rclpy.try_shutdown()
-        return 2
-    executor = rclpy.executors.SingleThreadedExecutor()
-    executor.add_node(node)
-    try:
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
-
+    return run_node("move_base", MoveBaseNode, args)
 
 if __name__ == "__main__":
     sys.exit(main())

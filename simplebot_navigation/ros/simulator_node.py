@@ -12,21 +12,18 @@ node steps the simulation against the wall clock at ``real_time_factor``; with
 from __future__ import annotations
 
 import array
-import gc
 import io
 import math
 import sys
 import time
 
 import numpy as np
-import rclpy
 import yourdfpy
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import TransformStamped, Twist
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from rosgraph_msgs.msg import Clock as ClockMsg
@@ -37,6 +34,7 @@ from simplebot_description import robot_description
 from simplebot_navigation.ros.tf import StaticTransformBroadcaster, TransformBroadcaster, compose
 from simplebot_navigation.sim.simulator import SimplebotSim
 from simplebot_navigation.sim.world import load_world
+from simplebot_navigation.ros.node_main import run_node
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 # Wall-clock ticks come once per physics step but no faster than this: an executor round costs
@@ -277,31 +275,17 @@ def rpy_to_quaternion(rpy) -> tuple[float, float, float, float]:
             cr * cp * cy + sr * sp * sy)
 
 
-def main(args=None) -> int:
-    rclpy.init(args=args if args is not None else sys.argv)
-    try:
-        node = SimulatorNode()
-        if node.rtf == 0:
-            node.destroy_node()
-            raise ValueError("parameter 'real_time_factor' is 0 (lockstep), but in its own process nothing "
-                             "steps the simulator: run the nodes in one process (launcher --single-process)")
-    except (ValueError, FileNotFoundError) as err:
-        print(f"simulator: {err}", file=sys.stderr, flush=True)
-        rclpy.try_shutdown()
-        return 2
-    # The start-up objects (yourdfpy's trimesh/scipy/networkx among them) live as long as the process.
-    # Frozen, they drop out of Python's full collections, which otherwise cost ~80 ms: a stall every
-    # few seconds that the real-time factor would have to absorb.
-    gc.freeze()
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
+def _build_own_process_simulator() -> SimulatorNode:
+    node = SimulatorNode()
+    if node.rtf == 0:
         node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+        raise ValueError("parameter 'real_time_factor' is 0 (lockstep), but in its own process nothing "
+                         "steps the simulator: run the nodes in one process (launcher --single-process)")
+    return node
 
+
+def main(args=None) -> int:
+    return run_node("simulator", _build_own_process_simulator, args, (ValueError, FileNotFoundError))
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -17,7 +17,6 @@ import sys
 import time
 
 import numpy as np
-import rclpy
 import yourdfpy
 from actionlib_msgs.msg import GoalStatus, GoalStatusArray
 from geometry_msgs.msg import PolygonStamped, PoseArray, PoseStamped, Twist
@@ -25,7 +24,6 @@ from map_msgs.msg import OccupancyGridUpdate
 from nav_msgs.msg import OccupancyGrid, Odometry, Path
 from rcl_interfaces.msg import Log, ParameterDescriptor
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from rclpy.time import Time
@@ -37,6 +35,7 @@ from simplebot_navigation.ros.conversions import path_to_array, pose_to_xyyaw, t
 from simplebot_navigation.ros.tf import Buffer, TransformException, TransformListener, strip_frame
 from simplebot_navigation.viewer.scene import Scene
 from simplebot_navigation.viewer.server import ViewerServer
+from simplebot_navigation.ros.node_main import run_node
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 UPDATES = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
@@ -289,22 +288,7 @@ class ViewerNode(Node):
 
 
 def main(args=None) -> int:
-    rclpy.init(args=args if args is not None else sys.argv)
-    try:
-        node = ViewerNode()
-    except (ValueError, OSError) as err:
-        print(f"viewer: {err}", file=sys.stderr, flush=True)
-        rclpy.try_shutdown()
-        return 2
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
-
+    return run_node("viewer", ViewerNode, args, (ValueError, OSError))
 
 if __name__ == "__main__":
     sys.exit(main())
