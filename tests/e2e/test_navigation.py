@@ -12,7 +12,8 @@ import pytest
 from simplebot_navigation.scenarios import NavigationSession, run_goal
 from simplebot_navigation.sim.world import Pose2D
 
-pytestmark = pytest.mark.timeout(1500)
+# Minutes per test: run with `pytest -m e2e` (the default run deselects them, see pyproject.toml).
+pytestmark = [pytest.mark.timeout(1500), pytest.mark.e2e]
 
 WALL_GUARD_S = 600.0  # per advance: only a hang should reach it
 # Lab rooms and the doors into them (clear openings between the wall ends of lab.yaml).
