@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from simplebot_navigation import paths
-from simplebot_navigation.launch.description import Arg, Group, Include, Node, Param, Remap, RosParam
+from simplebot_navigation.launch.description import Arg, Group, Include, Node, Param, RosParam
 from simplebot_navigation.launch.rosparam import ParamError, ParamServer, join_ns, to_ros2_overrides
 
 

@@ -8,8 +8,10 @@ rest with their ROS 1 defaults so that ``ros2 param list`` tells the truth.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
+from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 
 from simplebot_navigation.launch.rosparam import from_ros2_overrides, to_ros2_overrides
@@ -31,3 +33,21 @@ def declare_defaults(node: Node, defaults: dict[str, Any], prefix: str = "") -> 
         full = f"{prefix}.{name}" if prefix else name
         if not node.has_parameter(full) and value is not None:
             node.declare_parameter(full, value)
+
+
+def declare_checked(node: Node, defaults: dict[str, Any], label: str = "parameter",
+                    positive: tuple[str, ...] = ()) -> dict[str, Any]:
+    """Declare a node's own parameters and check their types (an int where a float is expected is fine),
+    before anything else is built; names in ``positive`` must be finite rates > 0 (Hz)."""
+    values = {}
+    for name, default in defaults.items():
+        value = node.declare_parameter(name, default, ParameterDescriptor(dynamic_typing=True)).value
+        if isinstance(default, float) and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+        if type(value) is not type(default):
+            raise ValueError(f"{label} {name!r} must be a {type(default).__name__}, got {value!r}")
+        values[name] = value
+    for name in positive:
+        if not (math.isfinite(values[name]) and values[name] > 0):
+            raise ValueError(f"{label} {name!r} must be a positive number of Hz, got {values[name]!r}")
+    return values

@@ -22,7 +22,6 @@ import yourdfpy
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import TransformStamped, Twist
 from nav_msgs.msg import Odometry
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
@@ -31,10 +30,11 @@ from sensor_msgs.msg import LaserScan
 from std_msgs.msg import String
 
 from simplebot_description import robot_description
+from simplebot_navigation.ros.node_main import run_node
+from simplebot_navigation.ros.params import declare_checked
 from simplebot_navigation.ros.tf import StaticTransformBroadcaster, TransformBroadcaster, compose
 from simplebot_navigation.sim.simulator import SimplebotSim
 from simplebot_navigation.sim.world import load_world
-from simplebot_navigation.ros.node_main import run_node
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 # Wall-clock ticks come once per physics step but no faster than this: an executor round costs
@@ -140,18 +140,7 @@ class SimulatorNode(Node):
 
     def _checked_parameters(self) -> dict:
         """Declared parameters, checked before anything is built (pybullet, publishers)."""
-        values = {}
-        for name, default in PARAMETERS.items():
-            value = self.declare_parameter(name, default, ParameterDescriptor(dynamic_typing=True)).value
-            if isinstance(default, float) and isinstance(value, int) and not isinstance(value, bool):
-                value = float(value)
-            if type(value) is not type(default):
-                raise ValueError(f"parameter {name!r} must be a {type(default).__name__}, "
-                                 f"got {value!r}")
-            values[name] = value
-        for name in ("physics_rate", "odom_rate"):
-            if not (math.isfinite(values[name]) and values[name] > 0):
-                raise ValueError(f"parameter {name!r} must be a positive number of Hz, got {values[name]!r}")
+        values = declare_checked(self, PARAMETERS, positive=("physics_rate", "odom_rate"))
         if not (math.isfinite(values["real_time_factor"]) and values["real_time_factor"] >= 0):
             raise ValueError(f"parameter 'real_time_factor' must be >= 0 (0: stepped by a driver), "
                              f"got {values['real_time_factor']!r}")

@@ -22,7 +22,7 @@ from actionlib_msgs.msg import GoalStatus, GoalStatusArray
 from geometry_msgs.msg import PolygonStamped, PoseArray, PoseStamped, Twist
 from map_msgs.msg import OccupancyGridUpdate
 from nav_msgs.msg import OccupancyGrid, Odometry, Path
-from rcl_interfaces.msg import Log, ParameterDescriptor
+from rcl_interfaces.msg import Log
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
@@ -32,10 +32,11 @@ from sensor_msgs.msg import LaserScan
 from std_msgs.msg import String
 
 from simplebot_navigation.ros.conversions import path_to_array, pose_to_xyyaw, transform_to_xyyaw, xyyaw_to_pose
+from simplebot_navigation.ros.node_main import run_node
+from simplebot_navigation.ros.params import declare_checked
 from simplebot_navigation.ros.tf import Buffer, TransformException, TransformListener, strip_frame
 from simplebot_navigation.viewer.scene import Scene
 from simplebot_navigation.viewer.server import ViewerServer
-from simplebot_navigation.ros.node_main import run_node
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 UPDATES = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
@@ -137,17 +138,7 @@ class ViewerNode(Node):
         return self.server.url
 
     def _checked_parameters(self) -> dict:
-        values = {}
-        for name, default in PARAMETERS.items():
-            value = self.declare_parameter(name, default, ParameterDescriptor(dynamic_typing=True)).value
-            if isinstance(default, float) and isinstance(value, int) and not isinstance(value, bool):
-                value = float(value)
-            if type(value) is not type(default):
-                raise ValueError(f"viewer parameter {name!r} must be a {type(default).__name__}, got {value!r}")
-            values[name] = value
-        for name in ("rate", "costmap_rate"):
-            if not (math.isfinite(values[name]) and values[name] > 0):
-                raise ValueError(f"viewer parameter {name!r} must be a positive number of Hz, got {values[name]!r}")
+        values = declare_checked(self, PARAMETERS, label="viewer parameter", positive=("rate", "costmap_rate"))
         if not 0 <= values["port"] <= 65535:
             raise ValueError(f"viewer parameter 'port' must be 0..65535, got {values['port']}")
         return values
