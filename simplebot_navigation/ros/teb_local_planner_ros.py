@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import time
 
 import numpy as np
 from geometry_msgs.msg import Point, PoseArray
@@ -63,7 +62,7 @@ class TebLocalPlannerROS:
         self.markers_pub = node.create_publisher(MarkerArray, f"{base}/teb_markers", 1)
         self.odom_topic = self.config.odom_topic
         self._velocity = (0.0, 0.0)
-        self._odom_wall = None
+        self._odom_time: float | None = None  # node clock (sim time), so lockstep runs do not depend on wall speed
         node.create_subscription(Odometry, self.odom_topic, self._on_odom, 10)
 
     # -- odometry -------------------------------------------------------------------------------
@@ -71,14 +70,17 @@ class TebLocalPlannerROS:
         v, w = msg.twist.twist.linear.x, msg.twist.twist.angular.z
         if math.isfinite(v) and math.isfinite(w):
             self._velocity = (v, w)
-            self._odom_wall = time.monotonic()
+            self._odom_time = self._now()
 
     def _robot_velocity(self) -> tuple[float, float]:
-        if self._odom_wall is None or time.monotonic() - self._odom_wall > ODOM_STALE_S:
+        if self._odom_time is None or self._now() - self._odom_time > ODOM_STALE_S:
             self.logger.warn(f"no odometry on {self.odom_topic} (odom_topic): planning from zero velocity",
                              throttle_duration_sec=10.0)
             return (0.0, 0.0)
         return self._velocity
+
+    def _now(self) -> float:
+        return self.node.get_clock().now().nanoseconds / 1e9
 
     # -- the controller interface of move_base ---------------------------------------------------
     def set_plan(self, plan: np.ndarray, plan_frame: str) -> bool:
