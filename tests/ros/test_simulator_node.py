@@ -65,7 +65,9 @@ class Probe(Node):
             self.create_subscription(LaserScan, topic, lambda m: self.scans[m.header.frame_id].append(m),
                                      qos_profile_sensor_data)
         self.create_subscription(DiagnosticStatus, "/simplebot/collisions", self.collisions.append, LATCHED)
-        self.create_subscription(Log, "/rosout", self.rosout.append, 100)
+        # /rosout is latched (transient local): a warning logged before the endpoints matched still arrives.
+        self.create_subscription(Log, "/rosout", self.rosout.append,
+                                 QoSProfile(depth=1000, durability=DurabilityPolicy.TRANSIENT_LOCAL))
         self.tf = Buffer()
         self.listener = TransformListener(self.tf, self)
         self.cmd_vel = self.create_publisher(Twist, "/simplebot_controller/cmd_vel", 10)
