@@ -358,11 +358,6 @@ class MoveBaseNode(Node):
         self.get_logger().info("costmaps cleared")
         return response
 
-    def destroy_node(self) -> None:
-        if self.context.ok():
-            self._publish_zero()
-        super().destroy_node()
-
 
 class _ControllerAdapter:
     """The controller interface MoveBaseCore expects, over TebLocalPlannerROS."""
