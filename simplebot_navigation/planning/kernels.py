@@ -147,8 +147,8 @@ def dijkstra_expand(cost, pot, width, seed_idx, seed_val, push_idx, goal, thresh
 # A* potentials are fixed at first touch, so the order in which equal keys leave the heap
 # (very common with a Manhattan heuristic) changes the potentials and the path.
 @njit(cache=True, inline="always")
-def _heap_push(keys, idx, size, key, n):
-    hole = size
+def _sift_up(keys, idx, hole, key, n):
+    """Move the hole up past every parent with a larger key, then put (key, n) into it."""
     while hole > 0:
         parent = (hole - 1) // 2
         if not keys[parent] > key:
@@ -158,6 +158,11 @@ def _heap_push(keys, idx, size, key, n):
         hole = parent
     keys[hole] = key
     idx[hole] = n
+
+
+@njit(cache=True, inline="always")
+def _heap_push(keys, idx, size, key, n):
+    _sift_up(keys, idx, size, key, n)
     return size + 1
 
 
@@ -182,15 +187,7 @@ def _heap_pop(keys, idx, size):
         keys[hole] = keys[child - 1]
         idx[hole] = idx[child - 1]
         hole = child - 1
-    while hole > 0:
-        parent = (hole - 1) // 2
-        if not keys[parent] > key:
-            break
-        keys[hole] = keys[parent]
-        idx[hole] = idx[parent]
-        hole = parent
-    keys[hole] = key
-    idx[hole] = n
+    _sift_up(keys, idx, hole, key, n)
     return top, size
 
 

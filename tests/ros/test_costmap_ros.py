@@ -190,14 +190,6 @@ class FakeLab:
         self.robot.destroy_node()
 
 
-@pytest.fixture(scope="module")
-def context():
-    ctx = Context()
-    rclpy.init(context=ctx)
-    yield ctx
-    ctx.try_shutdown()
-
-
 @pytest.fixture
 def lab(context):
     labs = []
@@ -488,7 +480,7 @@ def test_static_layer_takes_its_size_from_the_map(lab):
     msg.info.origin.orientation.w = 1.0
     msg.data = grid.ravel().tolist()
     fake.robot.create_publisher(OccupancyGrid, "/map", LATCHED).publish(msg)
-    costmap = fake.costmap("global_costmap")
+    fake.costmap("global_costmap")  # the Costmap2DROS under test: subscribes to /map and publishes
     mirror = GridMirror(fake.robot, "global_costmap")
     back = (4, 15)                                  # (x, y) = (-1.52, 0.05) in the map's cells
 

@@ -20,6 +20,7 @@ from std_msgs.msg import Int32
 
 from simplebot_navigation.ros.lockstep import LockstepDriver, LockstepError
 from simplebot_navigation.ros.simulator_node import SimulatorNode
+from tests.conftest import fresh_context
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SIM_TIME = [Parameter("use_sim_time", value=True)]
@@ -27,10 +28,7 @@ SIM_TIME = [Parameter("use_sim_time", value=True)]
 
 @pytest.fixture
 def context():
-    ctx = rclpy.Context()
-    rclpy.init(context=ctx)
-    yield ctx
-    rclpy.shutdown(context=ctx)
+    yield from fresh_context()
 
 
 def simulator(context, **params) -> SimulatorNode:

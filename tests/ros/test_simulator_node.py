@@ -5,7 +5,6 @@ import time
 
 import numpy as np
 import pytest
-import rclpy
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
@@ -30,14 +29,6 @@ FRONT_LASER_X = 0.35
 WHEEL_RADIUS = 0.07
 CENTRE = 341  # beam at angle 0 of 683
 CHUNK = 0.1  # sim seconds per lockstep round: one scan period
-
-
-@pytest.fixture(scope="module")
-def context():
-    ctx = rclpy.Context()
-    rclpy.init(context=ctx)
-    yield ctx
-    rclpy.shutdown(context=ctx)
 
 
 @pytest.fixture(scope="module")

@@ -9,7 +9,6 @@ import time
 
 import numpy as np
 import pytest
-import rclpy
 from actionlib_msgs.msg import GoalStatus, GoalStatusArray
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import OccupancyGrid
@@ -110,14 +109,6 @@ class Scenario:
         self.executor.shutdown()
         for node in (self.viewer, self.move_base, self.sim):
             node.destroy_node()
-
-
-@pytest.fixture(scope="module")
-def context():
-    ctx = rclpy.Context()
-    rclpy.init(context=ctx)
-    yield ctx
-    rclpy.shutdown(context=ctx)
 
 
 @pytest.fixture(scope="module")
