@@ -81,9 +81,15 @@ def test_body_outlines_of_the_lab_robot():
 def test_frames_carry_the_costmap_once_and_the_scans_in_odom(scenario):
     url = scenario.viewer.url
     get(url + "frame?after=-1")  # a page is open: the viewer subscribes
-    scenario.wait_for(lambda: "global_costmap" in scenario.viewer.scene.grids
-                      and "front_scan" in scenario.viewer.scene.scans, what="costmap and scans")
-    header, arrays = decode(get(url + "frame?after=-1"))
+    frames = []
+
+    def drawable():  # the scan needs its transform too, which may arrive after the first scan
+        frames.append(decode(get(url + "frame?after=-1")))
+        header = frames[-1][0]
+        return "global_costmap" in header["costmaps"] and "front_scan" in header["layers"]
+
+    scenario.wait_for(drawable, what="costmap and scans in a frame")
+    header, arrays = frames[-1]
     grid = header["costmaps"]["global_costmap"]
     # OccupancyGrid carries the resolution as float32
     assert (grid["width"], grid["height"], grid["resolution"]) == (200, 200, float(np.float32(RESOLUTION)))
