@@ -219,6 +219,9 @@ def run_single_process(config: LaunchConfig) -> int:
         (lockstep or executor).spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except Exception:
+        if rclpy.ok():
+            raise  # Ctrl-C can shut the context down while a callback takes its message: that is a clean stop
     finally:
         for node in nodes:
             node.destroy_node()

@@ -28,6 +28,9 @@ def run_node(label: str, build: Callable[[], Node], args=None,
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except Exception:
+        if rclpy.ok():
+            raise  # Ctrl-C can shut the context down while a callback takes its message: that is a clean stop
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
