@@ -41,6 +41,7 @@ class MoveBaseConfig:
     max_planning_retries: int = -1
     oscillation_timeout: float = 0.0
     oscillation_distance: float = 0.5
+    progress_timeout: float = 20.0   # ours, not ROS 1 (0 disables): see state_machine
     recovery_behavior_enabled: bool = True
     clearing_rotation_allowed: bool = True
     shutdown_costmaps: bool = False
@@ -72,6 +73,7 @@ class MoveBaseConfig:
         cfg.max_planning_retries = retries
         cfg.oscillation_timeout = _number(params, "oscillation_timeout", cfg.oscillation_timeout, 0.0)
         cfg.oscillation_distance = _number(params, "oscillation_distance", cfg.oscillation_distance, 0.0)
+        cfg.progress_timeout = _number(params, "progress_timeout", cfg.progress_timeout, 0.0)
         cfg.conservative_reset_dist = _number(params, "conservative_reset_dist", cfg.conservative_reset_dist, 0.0)
         for key in ("recovery_behavior_enabled", "clearing_rotation_allowed", "shutdown_costmaps",
                     "make_plan_clear_costmap", "make_plan_add_unreachable_goal"):

@@ -3,7 +3,19 @@
 The planner runs synchronously inside the cycle (a plan on the lab's costmap takes about a
 millisecond), which keeps runs deterministic in lockstep; ROS 1's planner thread and its triple
 buffer collapse into one call. Everything else follows move_base: patience timers, planning
-retries, oscillation detection, the recovery sequence and its reset rules, and the abort messages.
+retries, oscillation detection, the recovery sequence and the abort messages.
+
+Three deviations keep a robot from circling forever in a world it discovers as it drives (a
+goal inside a table whose far side it has not seen, or whose edges grazing rays keep erasing
+from the 0.2 m global costmap):
+- a plan that runs into an obstacle seen after planning is replaced at once (as Nav2's
+  IsPathValid does), even with planner_frequency 0;
+- ``progress_timeout`` (20 s; 0 disables): a robot that has not come oscillation_distance closer
+  to the goal for that long runs the recovery behaviours (trigger PROGRESS_R), like Nav2's
+  progress checker but measured towards the goal, since circling is movement too;
+- after a recovery, a new plan or a valid control restarts the recovery sequence only once the
+  robot has come oscillation_distance closer to the goal than it ever was before the sequence
+  began. ROS 1 restarts it on any new plan, so such a goal never aborts.
 """
 
 from __future__ import annotations
@@ -30,12 +42,14 @@ class Trigger(Enum):
     PLANNING_R = "PLANNING_R"
     CONTROLLING_R = "CONTROLLING_R"
     OSCILLATION_R = "OSCILLATION_R"
+    PROGRESS_R = "PROGRESS_R"
 
 
 ABORT_MESSAGES = {
     Trigger.PLANNING_R: "Failed to find a valid plan. Even after executing recovery behaviors.",
     Trigger.CONTROLLING_R: "Failed to find a valid control. Even after executing recovery behaviors.",
     Trigger.OSCILLATION_R: "Robot is oscillating. Even after executing recovery behaviors.",
+    Trigger.PROGRESS_R: "No progress towards the goal. Even after executing recovery behaviors.",
 }
 
 
@@ -67,18 +81,23 @@ class CycleOutput:
 
 class MoveBaseCore:
     def __init__(self, config: MoveBaseConfig, recoveries: list[Recovery],
-                 plan: Callable[[tuple[float, float, float]], np.ndarray | None], controller: Controller):
+                 plan: Callable[[tuple[float, float, float]], np.ndarray | str], controller: Controller,
+                 plan_blocked: Callable[[np.ndarray, tuple[float, float, float]], str | None] = lambda p, r: None):
+        """``plan(goal)`` returns the poses (N, 3) or, on failure, the planner's reason;
+        ``plan_blocked(poses ahead, robot pose)`` says where the plan now crosses an obstacle, or None."""
         self.cfg = config
         self.recoveries = recoveries
         self._plan = plan
+        self._plan_blocked = plan_blocked
         self.controller = controller
+        self.plan: np.ndarray | None = None
         self.goal: tuple[float, float, float] | None = None
         self.state = State.IDLE
         self.trigger = Trigger.PLANNING_R
         self.recovery_index = 0
         self.replans = 0
         self.recoveries_run = 0
-        self.last_plan_message = ""
+        self.last_plan_failure = ""
         self._active_recovery: Recovery | None = None
         self._retries = 0
         self._last_valid_plan = 0.0
@@ -86,6 +105,10 @@ class MoveBaseCore:
         self._next_plan_time = 0.0
         self._oscillation_time = 0.0
         self._oscillation_pose: tuple[float, float] | None = None
+        self._closest = math.inf         # closest the robot has been to the goal
+        self._progress_mark = math.inf   # ... when the running recovery sequence began
+        self._progress_distance = math.inf   # distance to the goal at the last progress ...
+        self._progress_time = 0.0            # ... and when that was
 
     # -- goals ------------------------------------------------------------------------------------
     def set_goal(self, goal: tuple[float, float, float], now: float) -> None:
@@ -98,6 +121,10 @@ class MoveBaseCore:
         self._last_valid_plan = self._last_valid_control = self._oscillation_time = now
         self._next_plan_time = now
         self._oscillation_pose = None
+        self._closest = self._progress_mark = self._progress_distance = math.inf
+        self._progress_time = now
+        self.plan = None
+        self.last_plan_failure = ""
         self.controller.reset()
 
     def reset(self) -> None:
@@ -107,6 +134,7 @@ class MoveBaseCore:
         self.recovery_index = 0
         self.trigger = Trigger.PLANNING_R
         self._active_recovery = None
+        self.plan = None
         self.controller.reset()
 
     # -- one control cycle ------------------------------------------------------------------------
@@ -114,6 +142,12 @@ class MoveBaseCore:
               stale_message: str = "") -> CycleOutput:
         if self.goal is None:
             return CycleOutput(None)
+        distance = math.hypot(pose[0] - self.goal[0], pose[1] - self.goal[1])
+        self._closest = min(self._closest, distance)
+        if distance <= self._progress_distance - self.cfg.oscillation_distance:
+            self._progress_distance, self._progress_time = distance, now
+        if self.trigger == Trigger.PROGRESS_R and self._progress_since_recoveries():
+            self.recovery_index = 0
         if self._oscillation_pose is None or math.hypot(pose[0] - self._oscillation_pose[0],
                                                         pose[1] - self._oscillation_pose[1]) \
                 >= self.cfg.oscillation_distance:
@@ -124,7 +158,10 @@ class MoveBaseCore:
         if not local_costmap_current:
             return CycleOutput((0.0, 0.0), message="Sensor data is out of date, we're not going to allow "
                                                    f"commanding of the base for safety ({stale_message})")
+        blocked = self._check_plan(now, pose)
         event = self._run_planner(now)
+        if blocked:
+            event = f"{blocked}: replanning" + (f"; {event}" if event else "")
         if self.goal is None:  # the controller refused the plan
             return CycleOutput((0.0, 0.0), outcome="aborted", message=event)
         if self.state == State.PLANNING:
@@ -137,6 +174,21 @@ class MoveBaseCore:
             out.event = event
         return out
 
+    def _check_plan(self, now: float, pose) -> str | None:
+        """Send move_base back to PLANNING when the rest of the plan runs into an obstacle."""
+        if self.state != State.CONTROLLING or self.plan is None:
+            return None
+        nearest = int(np.argmin(np.hypot(self.plan[:, 0] - pose[0], self.plan[:, 1] - pose[1])))
+        blocked = self._plan_blocked(self.plan[nearest:], pose)
+        if blocked:
+            self.state = State.PLANNING
+            self._last_valid_plan = now
+            self._retries = 0
+        return blocked
+
+    def _progress_since_recoveries(self) -> bool:
+        return self._closest < self._progress_mark - self.cfg.oscillation_distance
+
     def _run_planner(self, now: float) -> str:
         """Plan when PLANNING, or periodically while CONTROLLING; returns what happened."""
         periodic = self.cfg.planner_frequency > 0 and self.state == State.CONTROLLING and now >= self._next_plan_time
@@ -145,18 +197,20 @@ class MoveBaseCore:
         if self.cfg.planner_frequency > 0:
             self._next_plan_time = now + 1.0 / self.cfg.planner_frequency
         plan = self._plan(self.goal)
-        if plan is not None and len(plan):
+        if not isinstance(plan, str) and len(plan):
             self._last_valid_plan = now
             self._retries = 0
             if not self.controller.set_plan(plan):
                 self.reset()
                 return "Failed to pass global plan to the controller, aborting."
-            if self.trigger == Trigger.PLANNING_R:
+            self.plan = plan
+            if self.trigger == Trigger.PLANNING_R and self._progress_since_recoveries():
                 self.recovery_index = 0
             self.replans += 1
             if self.state == State.PLANNING:
                 self.state = State.CONTROLLING
             return f"new plan with {len(plan)} poses"
+        self.last_plan_failure = plan if isinstance(plan, str) else "the planner returned an empty plan"
         if self.state == State.PLANNING:
             self._retries += 1
             retries_exhausted = 0 <= self.cfg.max_planning_retries < self._retries
@@ -172,10 +226,17 @@ class MoveBaseCore:
         if self.cfg.oscillation_timeout > 0 and now > self._oscillation_time + self.cfg.oscillation_timeout:
             self.state = State.CLEARING
             self.trigger = Trigger.OSCILLATION_R
+        stalled = now - self._progress_time
+        if self.cfg.progress_timeout > 0 and stalled > self.cfg.progress_timeout \
+                and self._progress_distance >= self.cfg.oscillation_distance:
+            self.state = State.CLEARING
+            self.trigger = Trigger.PROGRESS_R
+            return CycleOutput((0.0, 0.0), message=f"no progress towards the goal for {stalled:.0f} s "
+                                                   f"(closest {self._closest:.2f} m)")
         result = self.controller.compute()
         if result.ok:
             self._last_valid_control = now
-            if self.trigger == Trigger.CONTROLLING_R:
+            if self.trigger == Trigger.CONTROLLING_R and self._progress_since_recoveries():
                 self.recovery_index = 0
             return CycleOutput((result.v, result.omega))
         if now > self._last_valid_control + self.cfg.controller_patience:
@@ -192,8 +253,12 @@ class MoveBaseCore:
         if self._active_recovery is None:
             if not (self.cfg.recovery_behavior_enabled and self.recovery_index < len(self.recoveries)):
                 message = ABORT_MESSAGES[self.trigger]
+                if self.trigger == Trigger.PLANNING_R and self.last_plan_failure:
+                    message += f" Last planner failure: {self.last_plan_failure}"
                 self.reset()
                 return CycleOutput((0.0, 0.0), outcome="aborted", message=message)
+            if self.recovery_index == 0:
+                self._progress_mark = self._closest
             self._active_recovery = self.recoveries[self.recovery_index]
             self._active_recovery.start(now, pose)
             self.recoveries_run += 1
@@ -205,7 +270,7 @@ class MoveBaseCore:
         if not step.done:
             return CycleOutput(step.cmd, event=started)
         self._active_recovery = None
-        self._oscillation_time = now
+        self._oscillation_time = self._progress_time = now
         self._oscillation_pose = (pose[0], pose[1])
         self._last_valid_plan = now
         self._retries = 0

@@ -86,7 +86,8 @@ class MoveBaseNode(Node):
         self.planner = GlobalPlannerROS(self, self.cfg.base_global_planner, self.global_costmap)
         self.controller = TebLocalPlannerROS(self, self.cfg.base_local_planner, self.local_costmap, self.tf,
                                              self.cfg.controller_frequency)
-        self.core = MoveBaseCore(self.cfg, self._build_recoveries(), self._plan_to, _ControllerAdapter(self))
+        self.core = MoveBaseCore(self.cfg, self._build_recoveries(), self._plan_to, _ControllerAdapter(self),
+                                 lambda poses, robot: self.planner.blocked_pose(poses, robot))
 
         self.cmd_vel_pub = self.create_publisher(Twist, "cmd_vel", 1)
         self.current_goal_pub = self.create_publisher(PoseStamped, "~/current_goal", 1)
@@ -178,9 +179,9 @@ class MoveBaseNode(Node):
         if start is None:
             self.get_logger().warn(f"cannot plan: no robot pose in {self.global_costmap.global_frame}: "
                                    f"{self.global_costmap.last_pose_error}", throttle_duration_sec=2.0)
-            return None
+            return f"no robot pose in {self.global_costmap.global_frame}"
         result = self.planner.make_plan(start[:3], goal_xyyaw)
-        return result.poses if result.ok else None
+        return result.poses if result.ok else result.message
 
     # -- goals --------------------------------------------------------------------------------------
     def _on_simple_goal(self, msg: PoseStamped) -> None:

@@ -58,12 +58,13 @@ def run(core, seconds, dt=0.05, pose=(0.0, 0.0, 0.0), current=True, start=0.0):
     return outputs
 
 
-def make_core(plan=lambda goal: PLAN, controller=None, recoveries=None, **cfg):
+def make_core(plan=lambda goal: PLAN, controller=None, recoveries=None, plan_blocked=lambda poses, robot: None,
+              **cfg):
     config = MoveBaseConfig.from_params(cfg)
     log = []
     recoveries = recoveries if recoveries is not None else [
         CountingRecovery(b["name"], log) for b in config.recovery_behaviors]
-    core = MoveBaseCore(config, recoveries, plan, controller or ScriptedController())
+    core = MoveBaseCore(config, recoveries, plan, controller or ScriptedController(), plan_blocked)
     core.set_goal((1.0, 0.0, 0.0), 0.0)
     return core, log
 
@@ -80,10 +81,11 @@ def test_plans_controls_and_succeeds():
 
 
 def test_no_plan_clears_for_planner_patience_then_runs_every_recovery_then_aborts():
-    core, log = make_core(plan=lambda goal: None)
+    core, log = make_core(plan=lambda goal: "no path to (1.000, 0.000)")
     outputs = run(core, 60.0)
     t, last = outputs[-1]
-    assert last.outcome == "aborted" and last.message == ABORT_MESSAGES[Trigger.PLANNING_R]
+    assert last.outcome == "aborted"
+    assert last.message == ABORT_MESSAGES[Trigger.PLANNING_R] + " Last planner failure: no path to (1.000, 0.000)"
     assert log == ["conservative_reset", "rotate_recovery", "aggressive_reset", "rotate_recovery"]
     first_recovery = next(t for t, out in outputs if "conservative_reset" in out.event)
     assert first_recovery == pytest.approx(5.05, abs=0.051)     # planner_patience 5 s
@@ -91,7 +93,7 @@ def test_no_plan_clears_for_planner_patience_then_runs_every_recovery_then_abort
 
 
 def test_max_planning_retries_short_circuits_the_patience():
-    core, log = make_core(plan=lambda goal: None, max_planning_retries=2)
+    core, log = make_core(plan=lambda goal: "no path", max_planning_retries=2)
     outputs = run(core, 1.0)
     assert log[:1] == ["conservative_reset"]
     # the third failed plan (retries 3 > 2) starts the first recovery in the same cycle
@@ -134,14 +136,59 @@ def test_stale_sensors_stop_the_robot_and_name_the_source():
     assert core.replans == 0
 
 
-def test_a_new_plan_after_a_planning_recovery_restarts_the_recovery_sequence():
-    answers = iter([None] * 102 + [PLAN] * 1000)
+def test_a_new_plan_restarts_the_recovery_sequence_once_the_robot_gets_closer():
+    answers = iter(["no path"] * 102 + [PLAN] * 1000)
     controller = ScriptedController([ControlResult(False)] * 1000)
     core, log = make_core(plan=lambda goal: next(answers), controller=controller, controller_patience=100.0)
-    run(core, 6.0)
+    run(core, 6.0)                       # the goal is 1 m away
     assert log == ["conservative_reset"] and core.trigger == Trigger.PLANNING_R
-    run(core, 0.2, start=6.0)
+    run(core, 0.2, start=6.0)            # plans again, but no nearer to the goal
+    assert core.recovery_index == 1
+    run(core, 0.2, start=6.2, pose=(0.55, 0.0, 0.0))    # 0.45 m: more than oscillation_distance (0.5) closer
     assert core.recovery_index == 0
+
+
+def test_plans_that_keep_failing_near_an_unreachable_goal_end_in_an_abort():
+    """Each recovery is followed by a plan that works for a while (cleared space), then fails again."""
+    plans = []
+    log = []
+
+    def plan(goal):
+        if len(plans) > len(log):   # one plan at the start and one after every recovery
+            return "no path"
+        plans.append(PLAN)
+        return PLAN
+
+    blocked = {"now": False}
+    core, _ = make_core(plan=plan, plan_blocked=lambda poses, robot: "blocked" if blocked["now"] else None,
+                        recoveries=[CountingRecovery(name, log) for name in ("conservative_reset", "rotate_recovery",
+                                                                             "aggressive_reset", "rotate_recovery")])
+    outputs = []
+    for i in range(2000):
+        blocked["now"] = i % 40 == 39   # the sensors see the obstacle again two seconds after every new plan
+        out = core.cycle(i * 0.05, (0.0, 0.0, 0.0), True)
+        outputs.append(out)
+        if out.outcome:
+            break
+    assert outputs[-1].outcome == "aborted" and "Last planner failure: no path" in outputs[-1].message
+    assert log == ["conservative_reset", "rotate_recovery", "aggressive_reset", "rotate_recovery"]
+
+
+def test_a_blocked_plan_is_replaced_in_the_same_cycle():
+    plans = [np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]), np.array([[0.0, 0.0, 0.0], [0.5, 0.5, 0.0], [1.0, 0.0, 0.0]])]
+    answers = iter(plans)
+    seen = []
+
+    def plan_blocked(poses, robot):
+        seen.append(len(poses))
+        return "the global plan now crosses an obstacle at (0.50, 0.00) (cost 254)" if len(poses) == 2 else None
+
+    core, _ = make_core(plan=lambda goal: next(answers), plan_blocked=plan_blocked)
+    first = core.cycle(0.0, (0.0, 0.0, 0.0), True)
+    assert first.cmd == (0.3, 0.0) and core.replans == 1
+    second = core.cycle(0.05, (0.0, 0.0, 0.0), True)
+    assert second.cmd == (0.3, 0.0) and core.replans == 2 and core.plan is plans[1]
+    assert second.event.startswith("the global plan now crosses an obstacle at (0.50, 0.00) (cost 254): replanning")
 
 
 def test_periodic_replanning_while_controlling():
@@ -208,3 +255,40 @@ def test_clear_costmap_recovery_clears_the_affected_maps():
     step = recovery.tick(0.0, (1.0, 2.0, 0.0))
     assert calls == [("L", 1.0, 2.0, 1.84, None, False)]
     assert step.done and "outside a 1.84 m square" in step.message
+
+
+def test_a_robot_circling_without_getting_closer_runs_out_of_recoveries():
+    core, log = make_core()
+    core.set_goal((0.0, 0.0, 0.0), 0.0)
+    outputs = []
+    for i in range(4000):   # 200 s on a 2 m circle around the goal: moving, never closer
+        t = i * 0.05
+        out = core.cycle(t, (2.0 * math.cos(0.2 * t), 2.0 * math.sin(0.2 * t), 0.0), True)
+        outputs.append((t, out))
+        if out.outcome:
+            break
+    t, last = outputs[-1]
+    assert last.outcome == "aborted" and last.message == ABORT_MESSAGES[Trigger.PROGRESS_R]
+    assert log == ["conservative_reset", "rotate_recovery", "aggressive_reset", "rotate_recovery"]
+    first = next(t for t, out in outputs if out.message.startswith("no progress towards the goal"))
+    assert first == pytest.approx(20.05, abs=0.06)      # progress_timeout 20 s
+    assert t == pytest.approx(5 * 20.0, abs=0.5)
+
+
+def test_a_robot_that_keeps_getting_closer_or_is_at_the_goal_makes_progress():
+    core, log = make_core(progress_timeout=5.0)
+    core.set_goal((30.0, 0.0, 0.0), 0.0)
+    for i in range(1000):   # 50 s at 0.3 m/s straight at the goal, then 20 s turning in place at it
+        t = i * 0.05
+        assert not core.cycle(t, (min(0.3 * t, 29.7), 0.0, 0.0), True).outcome
+    for i in range(400):
+        assert not core.cycle(50.0 + i * 0.05, (29.7, 0.0, 0.01 * i), True).outcome
+    assert log == []
+
+
+def test_progress_timeout_zero_lets_the_robot_circle():
+    core, log = make_core(progress_timeout=0.0)
+    for i in range(2000):
+        t = i * 0.05
+        assert not core.cycle(t, (1.0 + 2.0 * math.cos(0.2 * t), 2.0 * math.sin(0.2 * t), 0.0), True).outcome
+    assert log == []

@@ -141,6 +141,20 @@ def test_unknown_space(params):
     assert (costs_along(costmap, around.poses) != NO_INFORMATION).all()
 
 
+def test_a_plan_is_blocked_by_an_obstacle_seen_after_planning_not_by_unknown_space():
+    costmap = free_map()
+    costmap.costmap[:, 30:32] = NO_INFORMATION
+    gp = planner(allow_unknown=True)
+    poses = gp.make_plan(costmap, (1.05, 1.05, 0.0), (5.05, 1.05, 0.0)).poses
+    assert gp.blocked_pose(costmap, poses) is None
+    off_map = np.vstack([poses, [[-3.0, 1.0, 0.0]]])
+    assert gp.blocked_pose(costmap, off_map) is None
+    costmap.costmap[:, 40] = 252      # a wall's inflation at the inscribed radius edge: impassable for the planner
+    index = gp.blocked_pose(costmap, poses)
+    assert index is not None and int(poses[index, 0] / 0.1) == 40
+    assert planner(allow_unknown=False).blocked_pose(costmap, poses) < index  # unknown blocks this one
+
+
 def test_goal_in_unknown_space_is_lethal_when_unknown_is_not_allowed():
     costmap = free_map()
     costmap.costmap[20, 50] = NO_INFORMATION
