@@ -41,7 +41,7 @@ class MoveBaseConfig:
     max_planning_retries: int = -1
     oscillation_timeout: float = 0.0
     oscillation_distance: float = 0.5
-    progress_timeout: float = 20.0   # ours, not ROS 1 (0 disables): see state_machine
+    progress_timeout: float = 30.0   # ours, not ROS 1 (0 disables): see state_machine
     recovery_behavior_enabled: bool = True
     clearing_rotation_allowed: bool = True
     shutdown_costmaps: bool = False

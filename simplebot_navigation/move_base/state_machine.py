@@ -10,9 +10,10 @@ goal inside a table whose far side it has not seen, or whose edges grazing rays 
 from the 0.2 m global costmap):
 - a plan that runs into an obstacle seen after planning is replaced at once (as Nav2's
   IsPathValid does), even with planner_frequency 0;
-- ``progress_timeout`` (20 s; 0 disables): a robot that has not come oscillation_distance closer
-  to the goal for that long runs the recovery behaviours (trigger PROGRESS_R), like Nav2's
-  progress checker but measured towards the goal, since circling is movement too;
+- ``progress_timeout`` (30 s; 0 disables): a robot that has for that long neither come
+  oscillation_distance closer to the goal nor entered a square metre it had not been in during
+  this goal runs the recovery behaviours (trigger PROGRESS_R). Nav2's progress checker counts any
+  movement, but circling is movement too; a detour through new space is progress;
 - after a recovery, a new plan or a valid control restarts the recovery sequence only once the
   robot has come oscillation_distance closer to the goal than it ever was before the sequence
   began. ROS 1 restarts it on any new plan, so such a goal never aborts.
@@ -29,6 +30,9 @@ import numpy as np
 
 from simplebot_navigation.move_base.config import MoveBaseConfig
 from simplebot_navigation.move_base.recovery import Recovery
+
+
+PROGRESS_CELL_M = 1.0  # size of the squares whose first visit counts as progress
 
 
 class State(Enum):
@@ -109,6 +113,7 @@ class MoveBaseCore:
         self._progress_mark = math.inf   # ... when the running recovery sequence began
         self._progress_distance = math.inf   # distance to the goal at the last progress ...
         self._progress_time = 0.0            # ... and when that was
+        self._visited: set[tuple[int, int]] = set()
 
     # -- goals ------------------------------------------------------------------------------------
     def set_goal(self, goal: tuple[float, float, float], now: float) -> None:
@@ -123,6 +128,7 @@ class MoveBaseCore:
         self._oscillation_pose = None
         self._closest = self._progress_mark = self._progress_distance = math.inf
         self._progress_time = now
+        self._visited.clear()
         self.plan = None
         self.last_plan_failure = ""
         self.controller.reset()
@@ -144,6 +150,10 @@ class MoveBaseCore:
             return CycleOutput(None)
         distance = math.hypot(pose[0] - self.goal[0], pose[1] - self.goal[1])
         self._closest = min(self._closest, distance)
+        cell = (math.floor(pose[0] / PROGRESS_CELL_M), math.floor(pose[1] / PROGRESS_CELL_M))
+        if cell not in self._visited:
+            self._visited.add(cell)
+            self._progress_time = now
         if distance <= self._progress_distance - self.cfg.oscillation_distance:
             self._progress_distance, self._progress_time = distance, now
         if self.trigger == Trigger.PROGRESS_R and self._progress_since_recoveries():
