@@ -128,9 +128,10 @@ class TebLocalPlannerROS:
         footprint = Marker(ns="FootprintModel", id=0, type=Marker.LINE_LIST, action=Marker.ADD)
         footprint.scale.x = 0.01
         footprint.color = ColorRGBA(b=1.0, a=0.8)
-        for outline in self.planner.footprint_outlines():
-            for (x0, y0), (x1, y1) in zip(outline[:-1], outline[1:]):
-                footprint.points += [Point(x=float(x0), y=float(y0)), Point(x=float(x1), y=float(y1))]
+        for outlines in self.planner.footprint_outlines():
+            for outline in outlines:
+                for (x0, y0), (x1, y1) in zip(outline[:-1], outline[1:]):
+                    footprint.points += [Point(x=float(x0), y=float(y0)), Point(x=float(x1), y=float(y1))]
         for marker in (obstacles, footprint):
             marker.header.frame_id = self.frame
             marker.header.stamp = stamp

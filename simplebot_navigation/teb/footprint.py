@@ -200,8 +200,9 @@ class FootprintModel:
         grad[:, 2] = gq[:, 0] * q[:, 1] - gq[:, 1] * q[:, 0]
         return d, grad
 
-    def outline(self, poses: np.ndarray, circle_points: int = 16) -> list[np.ndarray]:
-        """World-frame outline point lists of the model at each pose (for markers)."""
+    def outline(self, poses: np.ndarray, circle_points: int = 16) -> list[list[np.ndarray]]:
+        """World-frame outlines of the model at each pose (for markers): per pose one polyline per
+        circle, polygon or line, so that a marker never joins two circles with a chord."""
         parts = []
         ang = np.linspace(0.0, 2 * math.pi, circle_points + 1)
         for cx, cy, r in self.circles:
@@ -211,12 +212,11 @@ class FootprintModel:
             parts.append(np.vstack([self.vertices, self.vertices[:1]]))
         elif len(self.segments):
             parts.append(self.segments[0].reshape(2, 2))
-        local = np.vstack(parts)
         out = []
         for x, y, th in np.asarray(poses, dtype=float).reshape(-1, 3):
             c, s = math.cos(th), math.sin(th)
-            out.append(np.stack([x + c * local[:, 0] - s * local[:, 1],
-                                 y + s * local[:, 0] + c * local[:, 1]], axis=1))
+            out.append([np.stack([x + c * part[:, 0] - s * part[:, 1], y + s * part[:, 0] + c * part[:, 1]], axis=1)
+                        for part in parts])
         return out
 
 

@@ -163,7 +163,7 @@ class TebLocalPlanner:
         """Poses of every homotopy candidate (the best one included)."""
         return [c.band.poses.copy() for c in self.planner.candidates]
 
-    def footprint_outlines(self) -> list[np.ndarray]:
+    def footprint_outlines(self) -> list[list[np.ndarray]]:
         return self.model.outline(self.band_poses)
 
     # -- plan handling ------------------------------------------------------------------------

@@ -94,7 +94,9 @@ def test_pose_gradient_matches_finite_differences(model):
         np.testing.assert_allclose(grad[:, k], numeric, atol=1e-6)
 
 
-def test_outline_follows_the_pose():
-    outline = TWO.outline(np.array([[1.0, 2.0, math.pi / 2]]), circle_points=4)[0]
+def test_outline_follows_the_pose_with_one_ring_per_circle():
+    front, rear = TWO.outline(np.array([[1.0, 2.0, math.pi / 2]]), circle_points=4)[0]
     # front circle centre (1, 2.2): its first sample is at angle 0 in the robot frame -> +y in the world
-    np.testing.assert_allclose(outline[0], [1.0, 2.4], atol=1e-12)
+    np.testing.assert_allclose(front[0], [1.0, 2.4], atol=1e-12)
+    np.testing.assert_allclose(front[0], front[-1], atol=1e-12)     # each ring closes on itself
+    np.testing.assert_allclose(rear.mean(axis=0), [1.0, 1.8], atol=0.1)
