@@ -21,6 +21,7 @@ import sys
 import time
 from pathlib import Path
 
+import yaml
 from mcap.writer import CompressionType, Writer
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -36,6 +37,9 @@ PLAN_TOPICS = {"global plan": "/move_base/GlobalPlanner/plan", "local plan": "/m
 ODOM = "/simplebot_controller/odom"
 GROUND_TRUTH = "/simplebot/ground_truth"
 GOAL_TOPICS = ("/move_base_simple/goal", "/move_base/current_goal")
+# rosbag2 writes an infinite QoS duration as this pair
+_INFINITE_NS = 2**63 - 1
+_INFINITE_SEC, _INFINITE_NSEC = 2147483647, 4294967295
 
 
 # -- schemas ----------------------------------------------------------------------------------------
@@ -142,6 +146,23 @@ class Recorder(Node):
                           else ReliabilityPolicy.RELIABLE,
                           durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE)
 
+    def _offered_qos(self, topic: str) -> str:
+        """rosbag2's ``offered_qos_profiles`` channel metadata, so that ``ros2 bag play`` republishes latched
+        topics (/tf_static, /robot_description, the costmaps) latched."""
+        def duration(d) -> dict:
+            ns = d.nanoseconds
+            if ns >= _INFINITE_NS:
+                return {"sec": _INFINITE_SEC, "nsec": _INFINITE_NSEC}
+            return {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000}
+
+        profiles = [{"history": int(q.history), "depth": int(q.depth), "reliability": int(q.reliability),
+                     "durability": int(q.durability), "deadline": duration(q.deadline),
+                     "lifespan": duration(q.lifespan), "liveliness": int(q.liveliness),
+                     "liveliness_lease_duration": duration(q.liveliness_lease_duration),
+                     "avoid_ros_namespace_conventions": bool(q.avoid_ros_namespace_conventions)}
+                    for q in (info.qos_profile for info in self.get_publishers_info_by_topic(topic))]
+        return yaml.safe_dump(profiles, sort_keys=False)
+
     def discover(self) -> None:
         for topic, types in self.get_topic_names_and_types():
             # A topic only subscribers know of yet waits: its QoS comes from the publishers.
@@ -160,7 +181,8 @@ class Recorder(Node):
             except (ImportError, AttributeError, FileNotFoundError, ValueError) as err:
                 self._skip(topic, f"type {type_name} is not available here: {err}")
                 continue
-            channel = self.writer.register_channel(topic, "cdr", self._schemas[type_name])
+            channel = self.writer.register_channel(topic, "cdr", self._schemas[type_name],
+                                                   {"offered_qos_profiles": self._offered_qos(topic)})
             self.counts[topic] = 0
             self.create_subscription(msg_class, topic, lambda data, t=topic, c=channel: self._write(t, c, data),
                                      self._qos(topic), raw=True)

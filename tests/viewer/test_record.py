@@ -6,6 +6,7 @@ import time
 
 import numpy as np
 import pytest
+import yaml
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 from PIL import Image
@@ -90,6 +91,11 @@ def test_recorded_topics_counts_and_schemas(recording):
         assert (schema.name, schema.encoding, channels[topic].message_encoding) == (type_name, "ros2msg", "cdr")
         assert schema.data.decode() == message_definition(type_name)
     assert not any(t.split("/")[1].startswith("_") for t in channels)  # hidden topics are left out
+    # the publishers' QoS, as ros2 bag play reads it: /tf_static replays latched, scans best effort
+    tf_static = yaml.safe_load(channels["/tf_static"].metadata["offered_qos_profiles"])
+    assert tf_static and all(p["durability"] == 1 and p["reliability"] == 1 for p in tf_static)
+    scan = yaml.safe_load(channels["/front_laser/front_scan"].metadata["offered_qos_profiles"])
+    assert scan[0]["reliability"] == 2 and scan[0]["deadline"] == {"sec": 2147483647, "nsec": 4294967295}
 
 
 def test_recorded_messages_decode_to_what_was_sent(recording):
