@@ -271,8 +271,10 @@ class Costmap2DROS:
 
     # -- start-up, start/stop ---------------------------------------------------------------------
     def _wait_for_tf(self) -> None:
-        """Poll TF until global_frame <- robot_base_frame exists, then start updating; the ROS 1
-        constructor blocks here instead, which would stall the node's executor."""
+        """Say every few seconds that global_frame <- robot_base_frame is missing; the ROS 1 constructor
+        blocks here instead, which would stall the node's executor. Wall-clock, so it speaks even
+        before /clock runs; the update cycle (sim time) is what starts updating, so that a lockstep
+        run does not depend on how busy the machine is."""
         try:
             self.tf.lookup_transform(self.global_frame, self.robot_base_frame, Time())
         except TransformException as err:
@@ -285,7 +287,9 @@ class Costmap2DROS:
             return
         self._tf_wait_timer.cancel()
         self.node.destroy_timer(self._tf_wait_timer)
-        self._tf_ready = True
+        self._tf_wait_timer = None
+        if self._update_timer is None:  # nothing else would start the costmap
+            self._tf_ready = True
 
     def _activate(self) -> None:
         """Subscribe every source (ObstacleLayer::activate, which also restarts their staleness clocks)."""
@@ -514,8 +518,12 @@ class Costmap2DROS:
 
     # -- update loop ---------------------------------------------------------------------------------
     def _update_cycle(self) -> None:
-        if self._stopped or self._paused or not self._tf_ready:
+        if self._stopped or self._paused:
             return
+        if not self._tf_ready:
+            if not self.tf.can_transform(self.global_frame, self.robot_base_frame, Time()):
+                return
+            self._tf_ready = True
         if not self.cm.layered.initialized:
             # Sensors are judged from the first update on: before it, the wait for TF (and, under
             # use_sim_time, for /clock) is not their fault.
