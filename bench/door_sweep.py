@@ -6,7 +6,8 @@
 For every body and door ratio (door width / robot width 0.6 m) the `doors` world generator builds a
 single-door world (hall, door, bay); the robot starts 1.5 m in front of the door and the goal is
 2 m behind it. Each repeat uses its own seed, so the Gaussian range noise makes the runs differ. The
-box body runs the lab's files unchanged, the round body adds ``config/round/``. The tightest reliable
+box body runs the lab's files unchanged, the round body adds ``config/round/``, --tight adds
+``config/tight/`` (the narrow-door parameter set) to either. The tightest reliable
 ratio of a body is the smallest ratio from which on every wider door succeeded in every repeat.
 """
 
@@ -42,6 +43,7 @@ def main() -> int:
     parser.add_argument("--ratios", default="1.1,1.2,1.25,1.3,1.4,1.5,2.0")
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--range-noise", type=float, default=0.01, help="lidar range noise std (m)")
+    parser.add_argument("--tight", action="store_true", help="the narrow-door parameter set (config/tight/)")
     parser.add_argument("--json", help="write the table as JSON here")
     args = parser.parse_args()
     bodies = args.bodies.split(",")
@@ -53,7 +55,7 @@ def main() -> int:
             path = os.path.join(folder, f"door_{ratio:g}.yaml")
             write_world(doors_world(ROBOT_WIDTH, ratios=(ratio,)), path, f"one door, {ratio:g} x {ROBOT_WIDTH} m")
             options = ScenarioOptions(world=path, robot=body, goals=door_goal_name(ratio), repeat=args.repeat,
-                                      range_noise=args.range_noise, wall_timeout_s=600.0)
+                                      range_noise=args.range_noise, wall_timeout_s=600.0, tight=args.tight)
             results, _ = run_scenarios(options, progress=lambda line: print("  " + line, flush=True))
             row = {"body": body, "ratio": ratio, "width_m": round(ratio * ROBOT_WIDTH, 3), **summary(results)}
             rows.append(row)

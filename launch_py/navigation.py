@@ -4,6 +4,7 @@ from simplebot_navigation.launch.description import Arg, Group, Include, Node, P
 
 CONFIG = "$(find simplebot_navigation)/config"
 ROUND = "$(eval robot == 'round')"
+TIGHT = "$(arg tight)"
 
 LAUNCH = [
     Arg("world", default="lab", doc="built-in world name (lab, doors, clutter, empty) or a world/map YAML path"),
@@ -11,6 +12,8 @@ LAUNCH = [
     Arg("radius", default="0.3", doc="radius of the round body in metres"),
     Arg("rtf", default="1.0", doc="real-time factor of the simulation (0: as fast as the nodes allow)"),
     Arg("viewer", default="false", doc="also start the browser viewer on http://127.0.0.1:8765"),
+    Arg("tight", default="false", choices=("true", "false"),
+        doc="the narrow-door parameter set (config/tight/) over the lab's files"),
 
     # Every node runs on the simulator's clock.
     Param("/use_sim_time", True),
@@ -27,6 +30,12 @@ LAUNCH = [
     Group(remaps=[Remap("/odom", "/simplebot_controller/odom")], children=[
         Include(file="$(find simplebot_navigation)/launch_py/move_base_local.py"),
     ]),
+
+    # Narrow doors: no padding, a fine global costmap, TEB with the box outline and small margins.
+    RosParam(file=f"{CONFIG}/tight/costmap_common.yaml", ns="move_base/global_costmap", if_=TIGHT),
+    RosParam(file=f"{CONFIG}/tight/costmap_common.yaml", ns="move_base/local_costmap", if_=TIGHT),
+    RosParam(file=f"{CONFIG}/tight/costmap_global.yaml", ns="move_base/global_costmap", if_=TIGHT),
+    RosParam(file=f"{CONFIG}/tight/teb_local_planner.yaml", ns="move_base", if_=TIGHT),
 
     # The round body: a circular footprint for both costmaps and TEB, loaded over the lab's files.
     RosParam(file=f"{CONFIG}/round/costmap_common.yaml", ns="move_base/global_costmap", if_=ROUND),

@@ -30,6 +30,8 @@ def _parser() -> argparse.ArgumentParser:
                         "'clutter' is regenerated for each run's seed (default: lab)")
     p.add_argument("--robot", default="box", choices=("box", "round"), help="robot body (default: box)")
     p.add_argument("--radius", type=float, default=0.3, help="radius of the round body in metres (default: 0.3)")
+    p.add_argument("--tight", action="store_true",
+                   help="the narrow-door parameter set (config/tight/) over the lab's files")
     p.add_argument("--goals", help="'x,y,yaw;x,y,yaw' in the world frame and/or goal names of the world "
                                    "('nw_office,library'); default: every goal of the world file")
     p.add_argument("--rtf", type=float, default=0.0,
@@ -74,7 +76,7 @@ def _check(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Scenari
         parser.error(str(err))
     return ScenarioOptions(world=args.world, robot=args.robot, radius=args.radius, goals=args.goals, rtf=args.rtf,
                            repeat=args.repeat, seed=args.seed, range_noise=args.range_noise,
-                           time_budget=args.time_budget, processes=args.processes,
+                           time_budget=args.time_budget, processes=args.processes, tight=args.tight,
                            wall_timeout_s=args.wall_timeout)
 
 

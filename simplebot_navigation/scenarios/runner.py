@@ -68,6 +68,7 @@ class ScenarioOptions:
     repeat: int = 1
     seed: int = 0
     range_noise: float = 0.0
+    tight: bool = False            # the narrow-door parameter set (config/tight/)
     time_budget: float | None = None  # sim s per goal; None: from the shortest path and max_vel_x
     processes: bool = False        # the launcher's processes (rtf > 0) instead of nodes in this process
     wall_timeout_s: float | None = None  # per goal, a guard against hangs
@@ -259,7 +260,7 @@ def run_scenarios(options: ScenarioOptions, progress: Callable[[str], None] = pr
         seed = options.seed + index
         session_class = ProcessSession if options.processes else NavigationSession
         with session_class(world_for_run(options.world, seed, folder), options.robot, options.radius,
-                           options.rtf, seed, options.range_noise) as session:
+                           options.rtf, seed, options.range_noise, tight=options.tight) as session:
             goals = parse_goals(options.goals, session.world)
             worlds.append(session.world)
             session.wait_ready(wall_timeout_s=options.wall_timeout_s or 120.0)

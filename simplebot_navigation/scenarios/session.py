@@ -219,18 +219,23 @@ class _Session(abc.ABC):
         self.close()
 
 
+def launch_args(world: str, robot: str, radius: float, rtf: float, tight: bool) -> dict[str, str]:
+    """The navigation launch file's arguments for a session."""
+    return {"world": str(world), "robot": robot, "radius": str(radius), "rtf": str(rtf),
+            "tight": "true" if tight else "false"}
+
+
 class NavigationSession(_Session):
     """Simulator + move_base + ScenarioClient in one process; goals and poses in the world frame."""
 
     def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, rtf: float = 0.0,
-                 seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation"):
+                 seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation", tight: bool = False):
         if not (math.isfinite(rtf) and rtf >= 0):
             raise ValueError(f"rtf must be >= 0 (0: lockstep), got {rtf!r}")
         self.description = robot_description(robot, radius)
         self.world = load_world(world, robot_radius=self.description.inscribed_radius)
         self.rtf = rtf
-        config = load_launch(launch_file, {"world": str(world), "robot": robot, "radius": str(radius),
-                                           "rtf": str(rtf)})
+        config = load_launch(launch_file, launch_args(world, robot, radius, rtf, tight))
         self.context = rclpy.Context()
         rclpy.init(context=self.context)
         self.nodes: list[Node] = []
@@ -324,12 +329,12 @@ class ProcessSession(_Session):
     """
 
     def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, rtf: float = 1.0,
-                 seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation"):
+                 seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation", tight: bool = False):
         if not (math.isfinite(rtf) and rtf > 0):
             raise ValueError(f"separate processes need rtf > 0 (lockstep is single-process), got {rtf!r}")
         self.description = robot_description(robot, radius)
         self.world = load_world(world, robot_radius=self.description.inscribed_radius)
-        args = {"world": str(world), "robot": robot, "radius": str(radius), "rtf": str(rtf)}
+        args = launch_args(world, robot, radius, rtf, tight)
         self.launch = load_launch(launch_file, args)
         run_dir = tempfile.mkdtemp(prefix="simplebot_scenario_")
         wrapper = os.path.join(run_dir, "scenario_launch.py")

@@ -61,6 +61,18 @@ def test_round_robot_overrides_are_loaded_after_the_lab_files():
     assert p.get("/move_base/local_costmap/inflation_layer/inflation_radius") == 1.5
 
 
+def test_tight_set_goes_under_the_round_body():
+    box = load_launch("navigation", {"tight": "true"}).params
+    assert box.get("/move_base/global_costmap/resolution") == 0.05
+    assert box.get("/move_base/local_costmap/footprint_padding") == 0.0
+    assert box.get("/move_base/TebLocalPlannerROS/footprint_model/type") == "polygon"
+    assert box.get("/move_base/TebLocalPlannerROS/min_obstacle_dist") == 0.03
+    round_body = load_launch("navigation", {"tight": "true", "robot": "round"}).params
+    assert round_body.get("/move_base/TebLocalPlannerROS/footprint_model/type") == "circular"
+    assert round_body.get("/move_base/global_costmap/resolution") == 0.05
+    assert load_launch("navigation", {}).params.get("/move_base/global_costmap/resolution") == 0.2
+
+
 def test_later_load_merges_leaves():
     server = ParamServer()
     server.set("/a", {"b": {"c": 1, "d": [1, 2]}})
