@@ -225,6 +225,5 @@ def run_single_process(config: LaunchConfig) -> int:
     finally:
         for node in nodes:
             node.destroy_node()
-        if rclpy.ok():
-            rclpy.shutdown()
+        rclpy.try_shutdown()  # Ctrl-C's handler may be shutting the context down at this very moment
     return 0

@@ -258,7 +258,8 @@ def test_single_process_launch_with_rtf_0_runs_in_lockstep():
         time.sleep(1.0)
         assert proc.poll() is None, "\n".join(lines)
         os.killpg(proc.pid, signal.SIGINT)
-        assert proc.wait(timeout=20) == 0
+        rest, _ = proc.communicate(timeout=20)
+        assert proc.returncode == 0, "\n".join(lines[-5:]) + "\n" + rest
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
