@@ -13,6 +13,8 @@ import math
 
 import numpy as np
 
+from simplebot_navigation.costmap.footprint import parse_footprint
+
 MODEL_TYPES = ("point", "circular", "two_circles", "line", "polygon")
 
 
@@ -85,10 +87,12 @@ class FootprintModel:
             return cls.line(_xy(params, "line_start"), _xy(params, "line_end"))
         if "vertices" not in params:
             return cls.point(["footprint_model/vertices missing for type 'polygon': using the point model"])
-        raw = params["vertices"]
-        if not isinstance(raw, (list, tuple)) or len(raw) < 3:
-            raise ValueError(f"footprint_model/vertices: expected a list of at least 3 [x, y] points, got {raw!r}")
-        return cls.polygon([_xy({"vertices": p}, "vertices") for p in raw])
+        # a list, or the "[[x, y], ...]" string a nested list becomes as a ROS 2 parameter
+        vertices = parse_footprint(params["vertices"], "footprint_model/vertices")
+        if len(vertices) < 3:
+            raise ValueError(f"footprint_model/vertices: expected a list of at least 3 [x, y] points, "
+                             f"got {params['vertices']!r}")
+        return cls.polygon([tuple(v) for v in vertices])
 
     # -- geometry -----------------------------------------------------------------------
     @property

@@ -41,6 +41,9 @@ def test_point_line_polygon_distances():
     # inside the polygon the distance is negative: depth to the nearest edge
     np.testing.assert_allclose(poly.distances(pose, obstacles)[0],
                                [0.55, math.hypot(0.55, 0.7), -0.3, 0.2], atol=1e-12)
+    # a nested list reaches a ROS 2 node as a string: the same polygon
+    as_ros2_parameter = FootprintModel.from_params({"type": "polygon", "vertices": str(LAB_FOOTPRINT.tolist())})
+    np.testing.assert_allclose(as_ros2_parameter.distances(pose, obstacles), poly.distances(pose, obstacles))
 
 
 def test_inscribed_radii():
@@ -68,6 +71,7 @@ def test_missing_or_invalid_model_falls_back_to_point_with_a_warning(params):
     ({"type": "circular", "radius": "big"}, "radius"),
     ({"type": "line", "line_start": [0, 0], "line_end": [1]}, "line_end"),
     ({"type": "polygon", "vertices": [[0, 0], [1, 0]]}, "vertices"),
+    ({"type": "polygon", "vertices": "[[0, 0], [1, 0], [1"}, "vertices"),
     ({**LAB_TWO_CIRCLES, "rear_radius": None}, "rear_radius"),
 ])
 def test_malformed_values_raise_naming_the_parameter(params, name):
