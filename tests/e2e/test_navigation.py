@@ -133,3 +133,15 @@ def test_a_blocked_corridor_ends_in_recoveries_and_an_abort(tmp_path):
         assert session.move_base.recoveries >= 1
         assert session.client.collisions == 0
         assert session.pose().x < 4.0 - 0.2 - 0.45
+
+
+@pytest.mark.parametrize("robot", ["round", "box"])
+def test_the_door_challenge_a_door_one_and_a_half_times_the_robot_width(robot):
+    with NavigationSession("doors", robot=robot, seed=3, range_noise=0.01) as session:
+        session.wait_ready(wall_timeout_s=60)
+        assert session.world.extra["doors"][1] == {"goal": "door_1.5x", "ratio": 1.5, "width": 0.9,
+                                                   "center": [0.0, 0.0]}
+        result = run_goal(session, session.world.goal("door_1.5x"), 40.0, wall_timeout_s=WALL_GUARD_S)
+        assert result.success, result.failures
+        assert result.collisions == 0 and result.min_clearance > 0.05
+        assert doors_crossed(result.trajectory, [((-0.45, 0.0), (0.45, 0.0))]) == [0]
