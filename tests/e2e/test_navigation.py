@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from simplebot_navigation.scenarios import NavigationSession, run_goal
-from simplebot_navigation.sim.world import Pose2D
+from simplebot_navigation.sim.world import Pose2D, write_world
+from simplebot_navigation.sim.world_gen import doors_world
 
 # Part of the default run; `pytest -m 'not e2e'` leaves them out.
 pytestmark = [pytest.mark.timeout(1500), pytest.mark.e2e]
@@ -145,3 +146,15 @@ def test_the_door_challenge_a_door_one_and_a_half_times_the_robot_width(robot):
         assert result.success, result.failures
         assert result.collisions == 0 and result.min_clearance > 0.05
         assert doors_crossed(result.trajectory, [((-0.45, 0.0), (0.45, 0.0))]) == [0]
+
+
+@pytest.mark.parametrize("robot", ["box", "round"])
+def test_the_tight_set_takes_either_body_through_a_door_one_and_a_quarter_times_its_width(robot, tmp_path):
+    world = tmp_path / "door_1.25x.yaml"
+    write_world(doors_world(0.6, ratios=(1.25,)), world)
+    with NavigationSession(str(world), robot=robot, seed=2, range_noise=0.01, tight=True) as session:
+        session.wait_ready(wall_timeout_s=60)
+        result = run_goal(session, session.world.goal("door_1.25x"), 40.0, wall_timeout_s=WALL_GUARD_S)
+        assert result.success, result.failures
+        assert result.collisions == 0 and result.min_clearance > 0.0
+        assert doors_crossed(result.trajectory, [((-0.375, 0.0), (0.375, 0.0))]) == [0]
