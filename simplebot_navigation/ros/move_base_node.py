@@ -87,7 +87,7 @@ class MoveBaseNode(Node):
         self.controller = TebLocalPlannerROS(self, self.cfg.base_local_planner, self.local_costmap, self.tf,
                                              self.cfg.controller_frequency)
         self.core = MoveBaseCore(self.cfg, self._build_recoveries(), self._plan_to, _ControllerAdapter(self),
-                                 lambda poses, robot: self.planner.blocked_pose(poses, robot))
+                                 self.planner.blocked_pose)
 
         self.cmd_vel_pub = self.create_publisher(Twist, "cmd_vel", 1)
         self.current_goal_pub = self.create_publisher(PoseStamped, "~/current_goal", 1)
