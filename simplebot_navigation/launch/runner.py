@@ -183,7 +183,10 @@ class ProcessLauncher:
 def run_single_process(config: LaunchConfig) -> int:
     """All nodes in this process under one executor (for debugging and profiling)."""
     import rclpy
-    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+    from rclpy.executors import SingleThreadedExecutor
+
+    from simplebot_navigation.ros.lockstep import LockstepDriver
+    from simplebot_navigation.ros.node_main import stopped_by_ctrl_c
 
     run_dir = tempfile.mkdtemp(prefix="simplebot_launch_")
     classes: list[tuple[NodeSpec, type]] = []
@@ -204,24 +207,19 @@ def run_single_process(config: LaunchConfig) -> int:
     executor = SingleThreadedExecutor()
     nodes = []
     try:
-        for spec, cls in classes:
-            node = cls(cli_args=ros_args(spec, write_params_file(spec, run_dir)), use_global_arguments=False)
-            nodes.append(node)
-            executor.add_node(node)
-            _log(f"started {spec.full_name} in this process")
-        # Start-up objects are long-lived: keep them out of full collections, which otherwise stall
-        # every node in this process for tens of milliseconds.
-        gc.freeze()
-        from simplebot_navigation.ros.lockstep import LockstepDriver
-        lockstep = LockstepDriver.of(nodes)
-        if lockstep is not None:
-            _log("lockstep: the simulator steps whenever every node is idle (real_time_factor 0)")
-        (lockstep or executor).spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except Exception:
-        if rclpy.ok():
-            raise  # Ctrl-C can shut the context down while a callback takes its message: that is a clean stop
+        with stopped_by_ctrl_c():
+            for spec, cls in classes:
+                node = cls(cli_args=ros_args(spec, write_params_file(spec, run_dir)), use_global_arguments=False)
+                nodes.append(node)
+                executor.add_node(node)
+                _log(f"started {spec.full_name} in this process")
+            # Start-up objects are long-lived: keep them out of full collections, which otherwise stall
+            # every node in this process for tens of milliseconds.
+            gc.freeze()
+            lockstep = LockstepDriver.of(nodes)
+            if lockstep is not None:
+                _log("lockstep: the simulator steps whenever every node is idle (real_time_factor 0)")
+            (lockstep or executor).spin()
     finally:
         for node in nodes:
             node.destroy_node()

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import gc
 import sys
+from contextlib import contextmanager
 from typing import Callable
 
 import rclpy
@@ -25,13 +26,22 @@ def run_node(label: str, build: Callable[[], Node], args=None,
     # Frozen, they drop out of Python's full collections, which otherwise stall every node for ~80 ms.
     gc.freeze()
     try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except Exception:
-        if rclpy.ok():
-            raise  # Ctrl-C can shut the context down while a callback takes its message: that is a clean stop
+        with stopped_by_ctrl_c():
+            rclpy.spin(node)
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
     return 0
+
+
+@contextmanager
+def stopped_by_ctrl_c():
+    """Ctrl-C and SIGTERM end a spin cleanly, and so does an exception from a callback that was taking its
+    message while Ctrl-C shut the context down."""
+    try:
+        yield
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except Exception:
+        if rclpy.ok():
+            raise
