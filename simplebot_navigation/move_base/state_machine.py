@@ -9,7 +9,10 @@ Three deviations keep a robot from circling forever in a world it discovers as i
 goal inside a table whose far side it has not seen, or whose edges grazing rays keep erasing
 from the 0.2 m global costmap):
 - a plan that runs into an obstacle seen after planning is replaced at once (as Nav2's
-  IsPathValid does), even with planner_frequency 0;
+  IsPathValid does), even with planner_frequency 0. Only a crossing that is new counts (poses
+  the planner itself put on blocked cells, next to a robot standing in an inflated zone, do
+  not), and such replans come at most once per BLOCKED_REPLAN_INTERVAL_S, so a robot
+  discovering a forest cell by cell does not replan every cycle;
 - ``progress_timeout`` (30 s; 0 disables): a robot that has for that long neither come
   oscillation_distance closer to the goal nor entered a square metre it had not been in during
   this goal runs the recovery behaviours (trigger PROGRESS_R). Nav2's progress checker counts any
@@ -33,6 +36,7 @@ from simplebot_navigation.move_base.recovery import Recovery
 
 
 PROGRESS_CELL_M = 1.0  # size of the squares whose first visit counts as progress
+BLOCKED_REPLAN_INTERVAL_S = 1.0
 
 
 class State(Enum):
@@ -86,13 +90,15 @@ class CycleOutput:
 class MoveBaseCore:
     def __init__(self, config: MoveBaseConfig, recoveries: list[Recovery],
                  plan: Callable[[tuple[float, float, float]], np.ndarray | str], controller: Controller,
-                 plan_blocked: Callable[[np.ndarray, tuple[float, float, float]], str | None] = lambda p, r: None):
+                 plan_blocked: Callable[[np.ndarray, tuple[float, float, float]], np.ndarray] | None = None):
         """``plan(goal)`` returns the poses (N, 3) or, on failure, the planner's reason;
-        ``plan_blocked(poses ahead, robot pose)`` says where the plan now crosses an obstacle, or None."""
+        ``plan_blocked(poses, robot pose)`` marks the poses on cells the planner would not enter now."""
         self.cfg = config
         self.recoveries = recoveries
         self._plan = plan
         self._plan_blocked = plan_blocked
+        self._blocked_at_plan: np.ndarray | None = None   # poses of the plan already blocked when it was made
+        self._last_blocked_replan = -math.inf
         self.controller = controller
         self.plan: np.ndarray | None = None
         self.goal: tuple[float, float, float] | None = None
@@ -125,6 +131,7 @@ class MoveBaseCore:
         self._retries = 0
         self._last_valid_plan = self._last_valid_control = self._oscillation_time = now
         self._next_plan_time = now
+        self._last_blocked_replan = -math.inf
         self._oscillation_pose = None
         self._closest = self._progress_mark = self._progress_distance = math.inf
         self._progress_time = now
@@ -169,7 +176,7 @@ class MoveBaseCore:
             return CycleOutput((0.0, 0.0), message="Sensor data is out of date, we're not going to allow "
                                                    f"commanding of the base for safety ({stale_message})")
         blocked = self._check_plan(now, pose)
-        event = self._run_planner(now)
+        event = self._run_planner(now, pose)
         if blocked:
             event = f"{blocked}: replanning" + (f"; {event}" if event else "")
         if self.goal is None:  # the controller refused the plan
@@ -185,21 +192,25 @@ class MoveBaseCore:
         return out
 
     def _check_plan(self, now: float, pose) -> str | None:
-        """Send move_base back to PLANNING when the rest of the plan runs into an obstacle."""
-        if self.state != State.CONTROLLING or self.plan is None:
+        """Send move_base back to PLANNING when the rest of the plan runs into a new obstacle."""
+        if (self._plan_blocked is None or self.state != State.CONTROLLING or self.plan is None
+                or now < self._last_blocked_replan + BLOCKED_REPLAN_INTERVAL_S):
             return None
         nearest = int(np.argmin(np.hypot(self.plan[:, 0] - pose[0], self.plan[:, 1] - pose[1])))
-        blocked = self._plan_blocked(self.plan[nearest:], pose)
-        if blocked:
-            self.state = State.PLANNING
-            self._last_valid_plan = now
-            self._retries = 0
-        return blocked
+        new = self._plan_blocked(self.plan[nearest:], pose) & ~self._blocked_at_plan[nearest:]
+        if not new.any():
+            return None
+        self.state = State.PLANNING
+        self._last_valid_plan = now
+        self._last_blocked_replan = now
+        self._retries = 0
+        x, y = self.plan[nearest + int(np.argmax(new)), :2]
+        return f"the global plan now crosses an obstacle at ({x:.2f}, {y:.2f})"
 
     def _progress_since_recoveries(self) -> bool:
         return self._closest < self._progress_mark - self.cfg.oscillation_distance
 
-    def _run_planner(self, now: float) -> str:
+    def _run_planner(self, now: float, pose) -> str:
         """Plan when PLANNING, or periodically while CONTROLLING; returns what happened."""
         periodic = self.cfg.planner_frequency > 0 and self.state == State.CONTROLLING and now >= self._next_plan_time
         if self.state != State.PLANNING and not periodic:
@@ -214,6 +225,8 @@ class MoveBaseCore:
                 self.reset()
                 return "Failed to pass global plan to the controller, aborting."
             self.plan = plan
+            self._blocked_at_plan = (self._plan_blocked(plan, pose) if self._plan_blocked is not None
+                                     else np.zeros(len(plan), dtype=bool))
             if self.trigger == Trigger.PLANNING_R and self._progress_since_recoveries():
                 self.recovery_index = 0
             self.replans += 1

@@ -258,17 +258,14 @@ class GlobalPlanner:
         return PlanResult(True, poses, potential=potential, cost=plan_cost, length=length,
                           goal=(tx, ty, gyaw))
 
-    def blocked_pose(self, costmap: Costmap2D, poses: np.ndarray) -> int | None:
-        """Index of the first pose on a cell this planner would not enter now, or None.
-
-        A plan only crosses such a cell after the costmap has changed under it: the obstacle was
-        seen after planning. Poses off the costmap are not judged.
-        """
+    def blocked_poses(self, costmap: Costmap2D, poses: np.ndarray) -> np.ndarray:
+        """Which poses lie on a cell this planner would not enter now (poses off the costmap are
+        not judged). Away from the start, a plan crosses such a cell only after the costmap has
+        changed under it: the obstacle was seen after planning."""
         mx, my, valid = costmap.world_to_map_array(poses[:, 0], poses[:, 1])
         blocked = np.zeros(len(poses), dtype=bool)
         blocked[valid] = np.isinf(self._costs[costmap.costmap[my[valid], mx[valid]]])
-        hits = np.flatnonzero(blocked)
-        return int(hits[0]) if len(hits) else None
+        return blocked
 
     # -- steps -------------------------------------------------------------------------------
     def _expand(self, cost, pot, width, su, sv, start_cell, goal_index) -> bool:

@@ -128,18 +128,15 @@ class GlobalPlannerROS:
             self._log_failure(result)
         return result
 
-    def blocked_pose(self, poses: np.ndarray, robot_xy) -> str | None:
-        """Where the plan ahead now crosses an obstacle, or None. The robot's own cells do not count:
-        the planner frees the start cell, and an inflated cost under the robot is no new obstacle."""
+    def blocked_poses(self, poses: np.ndarray, robot_xy) -> np.ndarray:
+        """Which poses of a plan lie on cells the planner would not enter now. The robot's own cells
+        do not count: the planner frees the start cell, and an inflated cost under the robot is no
+        new obstacle."""
         with self.costmap_ros.lock:
             master: Costmap2D = self.costmap_ros.costmap
-            ahead = poses[np.hypot(poses[:, 0] - robot_xy[0], poses[:, 1] - robot_xy[1]) > 2.0 * master.resolution]
-            index = self.planner.blocked_pose(master, ahead)
-            if index is None:
-                return None
-            x, y = ahead[index, :2]
-            cost = master.get_cost(*master.world_to_map(x, y))
-        return f"the global plan now crosses an obstacle at ({x:.2f}, {y:.2f}) (cost {cost})"
+            blocked = self.planner.blocked_poses(master, poses)
+            blocked &= np.hypot(poses[:, 0] - robot_xy[0], poses[:, 1] - robot_xy[1]) > 2.0 * master.resolution
+        return blocked
 
     def destroy(self) -> None:
         self.node.destroy_service(self.make_plan_srv)

@@ -13,16 +13,19 @@ import uuid
 
 import numpy as np
 from actionlib_msgs.msg import GoalID, GoalStatus as ActionlibStatus, GoalStatusArray
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped, Twist
 from nav_msgs.srv import GetPlan
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.task import Future
 from std_srvs.srv import Empty
 
 from move_base_msgs.action import MoveBase
 from simplebot_navigation.move_base.config import MoveBaseConfig
+from simplebot_navigation.move_base.cycle_stats import ControlLoopStats
 from simplebot_navigation.move_base.recovery import ClearCostmapRecovery, RotateRecovery
 from simplebot_navigation.move_base.state_machine import MoveBaseCore, State
 from simplebot_navigation.ros.conversions import path_msg, pose_to_xyyaw, xyyaw_to_pose
@@ -35,6 +38,8 @@ from simplebot_navigation.teb.feasibility import footprint_costs
 from simplebot_navigation.ros.node_main import run_node
 
 STATUS_PERIOD_S = 0.2
+DIAGNOSTICS_PERIOD_S = 1.0
+MISSED_RATE_WARNING_PERIOD_S = 5.0
 FINISHED_STATUS_KEEP_S = 5.0
 
 
@@ -73,6 +78,7 @@ def validate_goal(pose: PoseStamped) -> str | None:
 
 class MoveBaseNode(Node):
     def __init__(self, **kwargs):
+        started = time.perf_counter()
         kwargs.setdefault("automatically_declare_parameters_from_overrides", True)
         super().__init__("move_base", **kwargs)
         self.cfg = MoveBaseConfig.from_params(given_parameter_tree(self))
@@ -87,7 +93,7 @@ class MoveBaseNode(Node):
         self.controller = TebLocalPlannerROS(self, self.cfg.base_local_planner, self.local_costmap, self.tf,
                                              self.cfg.controller_frequency)
         self.core = MoveBaseCore(self.cfg, self._build_recoveries(), self._plan_to, _ControllerAdapter(self),
-                                 self.planner.blocked_pose)
+                                 self.planner.blocked_poses)
 
         self.cmd_vel_pub = self.create_publisher(Twist, "cmd_vel", 1)
         self.current_goal_pub = self.create_publisher(PoseStamped, "~/current_goal", 1)
@@ -104,14 +110,19 @@ class MoveBaseNode(Node):
 
         self.goal: _Goal | None = None
         self.finished: list[_Goal] = []
-        self.controller_cycle_times: list[float] = []
         self.period = 1.0 / self.cfg.controller_frequency
+        self.cycle_stats = ControlLoopStats(self.period)
+        self._last_missed_warning = -math.inf
         self.create_timer(self.period, self._control_cycle)
         self.create_timer(STATUS_PERIOD_S, self._publish_status)
-        self._last_tf_wait_log = -math.inf
+        self.diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self._diagnostics_snapshot = self.cycle_stats.snapshot()
+        self.create_timer(DIAGNOSTICS_PERIOD_S, self._publish_diagnostics,
+                          clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.get_logger().info(f"move_base ready: {self.cfg.base_global_planner} + {self.cfg.base_local_planner}, "
                                f"controller {self.cfg.controller_frequency:g} Hz, "
-                               f"{len(self.core.recoveries)} recovery behaviours")
+                               f"{len(self.core.recoveries)} recovery behaviours "
+                               f"(start-up {time.perf_counter() - started:.1f} s)")
 
     # -- public state for tests and the scenario runner ---------------------------------------------
     @property
@@ -302,11 +313,10 @@ class MoveBaseNode(Node):
         elif out.message:
             self.get_logger().warn(out.message, throttle_duration_sec=2.0)
         elapsed = time.perf_counter() - started
-        if self.core.state in (State.CONTROLLING, State.PLANNING, State.CLEARING):
-            self.controller_cycle_times.append(elapsed)
-        if elapsed > self.period and self.core.state == State.CONTROLLING:
+        if self.cycle_stats.add(elapsed) and time.monotonic() - self._last_missed_warning >= MISSED_RATE_WARNING_PERIOD_S:
+            self._last_missed_warning = time.monotonic()
             self.get_logger().warn(f"Control loop missed its desired rate of {self.cfg.controller_frequency:.4f}Hz"
-                                   f"... the loop actually took {elapsed:.4f} seconds", throttle_duration_sec=5.0)
+                                   f"... the loop actually took {elapsed:.4f} seconds")
 
     def _publish_cmd(self, v: float, omega: float) -> None:
         twist = Twist()
@@ -328,6 +338,31 @@ class MoveBaseNode(Node):
             status.goal_id.stamp = goal.stamp
             msg.status_list.append(status)
         self.status_pub.publish(msg)
+
+    def _publish_diagnostics(self) -> None:
+        """Control-loop timing once a second (steady clock, so it reports even when /clock stops):
+        the cycles since the previous report, and totals since start."""
+        snapshot = self.cycle_stats.snapshot()
+        window = snapshot.since(self._diagnostics_snapshot)
+        self._diagnostics_snapshot = snapshot
+        recent = self.cycle_stats.take_recent()
+
+        def ms(seconds):
+            return "-" if seconds is None else f"{seconds * 1e3:.1f}"
+
+        p50, p95, longest = window.percentile_s(50), window.percentile_s(95), window.longest_s
+        status = DiagnosticStatus(name="move_base: control loop", hardware_id=self.get_name())
+        status.level = DiagnosticStatus.WARN if window.missed else DiagnosticStatus.OK
+        status.message = (f"{window.cycles} cycles, p95 {ms(p95)} ms, {window.missed} missed the "
+                          f"{self.period * 1e3:.0f} ms period" if window.cycles else "idle")
+        values = {"frequency_hz": f"{self.cfg.controller_frequency:g}", "cycles": str(window.cycles),
+                  "missed": str(window.missed), "p50_ms": ms(p50), "p95_ms": ms(p95), "max_ms": ms(longest),
+                  "cycles_total": str(snapshot.cycles), "missed_total": str(snapshot.missed),
+                  "cycle_times_ms": " ".join(f"{t * 1e3:.2f}" for t in recent)}
+        status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
+        msg = DiagnosticArray(status=[status])
+        msg.header.stamp = self.get_clock().now().to_msg()
+        self.diagnostics_pub.publish(msg)
 
     def _on_make_plan(self, request: GetPlan.Request, response: GetPlan.Response) -> GetPlan.Response:
         frame = self.global_costmap.global_frame

@@ -1,7 +1,9 @@
 """TebLocalPlannerROS: the ROS shell move_base owns around the pure TebLocalPlanner.
 
 It converts the global plan into the local costmap's frame, feeds odometry, holds the local
-costmap's lock while planning, and publishes what the lab visualises (REFERENCE §4.6).
+costmap's lock while planning, and publishes what the lab visualises (REFERENCE §4.6). The
+visualisation has its own timer, so building markers and paths never delays a velocity command,
+and costs nothing while no one subscribes.
 """
 
 from __future__ import annotations
@@ -64,6 +66,8 @@ class TebLocalPlannerROS:
         self._velocity = (0.0, 0.0)
         self._odom_time: float | None = None  # node clock (sim time), so lockstep runs do not depend on wall speed
         node.create_subscription(Odometry, self.odom_topic, self._on_odom, 10)
+        self._unpublished = False
+        node.create_timer(1.0 / controller_frequency, self._publish)
 
     # -- odometry -------------------------------------------------------------------------------
     def _on_odom(self, msg: Odometry) -> None:
@@ -105,7 +109,7 @@ class TebLocalPlannerROS:
         with self.costmap_ros.lock:
             result = self.planner.compute_velocity_commands(pose[:3], self._robot_velocity(),
                                                             self.costmap_ros.costmap)
-        self._publish(pose)
+        self._unpublished = True
         return ControlResult(result.ok, result.v, result.omega, result.message)
 
     def is_goal_reached(self) -> bool:
@@ -113,12 +117,19 @@ class TebLocalPlannerROS:
         return pose is not None and self.planner.is_goal_reached(pose[:3], self._robot_velocity())
 
     # -- visualisation ------------------------------------------------------------------------
-    def _publish(self, pose) -> None:
+    def _publish(self) -> None:
+        """The band, plan and markers of the latest control cycle, to the topics someone listens to."""
+        if not self._unpublished:
+            return
+        self._unpublished = False
         stamp = self.node.get_clock().now().to_msg()
         band = self.planner.band_poses
-        self.local_plan_pub.publish(path_msg(band, self.frame, stamp))
-        self.global_plan_pub.publish(path_msg(self.planner.transformed_plan, self.frame, stamp))
-        self.poses_pub.publish(pose_array_msg(band, self.frame, stamp))
+        if self.local_plan_pub.get_subscription_count():
+            self.local_plan_pub.publish(path_msg(band, self.frame, stamp))
+        if self.global_plan_pub.get_subscription_count():
+            self.global_plan_pub.publish(path_msg(self.planner.transformed_plan, self.frame, stamp))
+        if self.poses_pub.get_subscription_count():
+            self.poses_pub.publish(pose_array_msg(band, self.frame, stamp))
         if self.markers_pub.get_subscription_count() == 0:
             return
         obstacles = Marker(ns="PointObstacles", id=0, type=Marker.POINTS, action=Marker.ADD)

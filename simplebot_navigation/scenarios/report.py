@@ -27,6 +27,7 @@ COLUMNS = [  # header, width, cell
     ("replans", 7, lambda r: "-" if r.replans is None else f"{r.replans}"),
     ("recov", 5, lambda r: "-" if r.recoveries is None else f"{r.recoveries}"),
     ("cyc p95 ms", 10, lambda r: f"{r.cycle_p95_ms:.1f}" if r.cycle_p95_ms is not None else "-"),
+    ("missed", 6, lambda r: f"{r.cycles_missed}" if r.cycles_missed is not None else "-"),
 ]
 
 

@@ -48,6 +48,7 @@ class GoalResult:
     replans: int | None          # None: move_base ran in another process
     recoveries: int | None
     cycle_p95_ms: float | None
+    cycles_missed: int | None
     final: tuple[float, float, float]
     position_error: float
     yaw_error: float
@@ -203,7 +204,7 @@ def run_goal(session: NavigationSession | ProcessSession, goal: Pose2D, budget_s
     yaw_tol = session.controller_param("yaw_goal_tolerance", 0.1)
     collisions = session.client.collisions - collisions0
     stats = session.stats()
-    cycles = stats.cycle_times[len(stats0.cycle_times):] if stats else []
+    cycles = stats.cycles.since(stats0.cycles) if stats else None
     status = "HUNG" if hung else "TIMEOUT" if timed_out else run.status
     time_s = end - run.sent_at
     failures = []
@@ -227,7 +228,8 @@ def run_goal(session: NavigationSession | ProcessSession, goal: Pose2D, budget_s
         min_clearance=min_clearance(session.world, session.description, truth[:, 1:4]),
         replans=stats.replans - stats0.replans if stats else None,
         recoveries=stats.recoveries - stats0.recoveries if stats else None,
-        cycle_p95_ms=float(np.percentile(cycles, 95) * 1e3) if cycles else None,
+        cycle_p95_ms=cycles.percentile_s(95) * 1e3 if cycles and cycles.cycles else None,
+        cycles_missed=cycles.missed if cycles else None,
         final=final, position_error=position_error, yaw_error=yaw_error,
         wall_s=time.monotonic() - wall_start, trajectory=_thinned(truth))
 

@@ -41,6 +41,7 @@ from simplebot_description import RobotDescription, robot_description
 from simplebot_navigation.launch.loader import load_launch
 from simplebot_navigation.launch.nodes import resolve_executable
 from simplebot_navigation.launch.runner import ros_args, write_params_file
+from simplebot_navigation.move_base.cycle_stats import CycleSnapshot
 from simplebot_navigation.ros.lockstep import LockstepDriver
 from simplebot_navigation.ros.simulator_node import SimulatorNode
 from simplebot_navigation.sim.world import Pose2D, World, load_world
@@ -107,7 +108,7 @@ class MoveBaseStats:
 
     replans: int
     recoveries: int
-    cycle_times: list[float]
+    cycles: CycleSnapshot
 
 
 class _Session(abc.ABC):
@@ -288,7 +289,7 @@ class NavigationSession(_Session):
 
     def stats(self) -> MoveBaseStats:
         mb = self.move_base
-        return MoveBaseStats(mb.replans, mb.recoveries, list(mb.controller_cycle_times))
+        return MoveBaseStats(mb.replans, mb.recoveries, mb.cycle_stats.snapshot())
 
     def controller_param(self, name: str, default: float) -> float:
         planner = self.move_base.get_parameter("base_local_planner").value.split("/")[-1]

@@ -72,8 +72,8 @@ def result(goal="library", success=True, clearance=0.4, **kw) -> GoalResult:
     values = dict(run=0, goal=goal, x=8.5, y=5.0, yaw=0.0, status="SUCCEEDED" if success else "ABORTED",
                   success=success, failures=[] if success else ["aborted: no plan"], reason="", time_s=31.5,
                   budget_s=80.0, path_length=12.6, straight_line=9.9, collisions=0, min_clearance=clearance,
-                  replans=3, recoveries=0, cycle_p95_ms=41.2, final=(8.5, 5.0, 0.0), position_error=0.05,
-                  yaw_error=0.02, wall_s=20.0, trajectory=[(0.0, 0.0, 0.0, 0.0), (31.5, 8.5, 5.0, 0.0)])
+                  replans=3, recoveries=0, cycle_p95_ms=41.2, cycles_missed=0, final=(8.5, 5.0, 0.0),
+                  position_error=0.05, yaw_error=0.02, wall_s=20.0, trajectory=[(0.0, 0.0, 0.0, 0.0), (31.5, 8.5, 5.0, 0.0)])
     values.update(kw)
     return GoalResult(**values)
 

@@ -58,8 +58,7 @@ def run(core, seconds, dt=0.05, pose=(0.0, 0.0, 0.0), current=True, start=0.0):
     return outputs
 
 
-def make_core(plan=lambda goal: PLAN, controller=None, recoveries=None, plan_blocked=lambda poses, robot: None,
-              **cfg):
+def make_core(plan=lambda goal: PLAN, controller=None, recoveries=None, plan_blocked=None, **cfg):
     config = MoveBaseConfig.from_params(cfg)
     log = []
     recoveries = recoveries if recoveries is not None else [
@@ -157,10 +156,11 @@ def test_plans_that_keep_failing_near_an_unreachable_goal_end_in_an_abort():
         if len(plans) > len(log):   # one plan at the start and one after every recovery
             return "no path"
         plans.append(PLAN)
+        blocked["now"] = False      # a new plan goes round what the sensors saw
         return PLAN
 
     blocked = {"now": False}
-    core, _ = make_core(plan=plan, plan_blocked=lambda poses, robot: "blocked" if blocked["now"] else None,
+    core, _ = make_core(plan=plan, plan_blocked=lambda poses, robot: np.full(len(poses), blocked["now"]),
                         recoveries=[CountingRecovery(name, log) for name in ("conservative_reset", "rotate_recovery",
                                                                              "aggressive_reset", "rotate_recovery")])
     outputs = []
@@ -174,21 +174,50 @@ def test_plans_that_keep_failing_near_an_unreachable_goal_end_in_an_abort():
     assert log == ["conservative_reset", "rotate_recovery", "aggressive_reset", "rotate_recovery"]
 
 
-def test_a_blocked_plan_is_replaced_in_the_same_cycle():
-    plans = [np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]), np.array([[0.0, 0.0, 0.0], [0.5, 0.5, 0.0], [1.0, 0.0, 0.0]])]
-    answers = iter(plans)
-    seen = []
+STRAIGHT = np.array([[0.0, 0.0, 0.0], [0.5, 0.0, 0.0], [1.0, 0.0, 0.0]])
+AROUND = np.array([[0.0, 0.0, 0.0], [0.5, 0.5, 0.0], [1.0, 0.0, 0.0]])
 
+
+def on_cells(*cells):
+    """plan_blocked marking the poses at the given (x, y)."""
     def plan_blocked(poses, robot):
-        seen.append(len(poses))
-        return "the global plan now crosses an obstacle at (0.50, 0.00) (cost 254)" if len(poses) == 2 else None
+        return np.array([any(np.allclose(p[:2], c) for c in cells) for p in poses], dtype=bool)
+    return plan_blocked
 
-    core, _ = make_core(plan=lambda goal: next(answers), plan_blocked=plan_blocked)
+
+def test_a_blocked_plan_is_replaced_in_the_same_cycle():
+    answers = iter([STRAIGHT, AROUND])
+    obstacle = []
+    core, _ = make_core(plan=lambda goal: next(answers), plan_blocked=lambda p, r: on_cells(*obstacle)(p, r))
     first = core.cycle(0.0, (0.0, 0.0, 0.0), True)
     assert first.cmd == (0.3, 0.0) and core.replans == 1
+    obstacle.append((0.5, 0.0))      # seen after planning
     second = core.cycle(0.05, (0.0, 0.0, 0.0), True)
-    assert second.cmd == (0.3, 0.0) and core.replans == 2 and core.plan is plans[1]
-    assert second.event.startswith("the global plan now crosses an obstacle at (0.50, 0.00) (cost 254): replanning")
+    assert second.cmd == (0.3, 0.0) and core.replans == 2 and core.plan is AROUND
+    assert second.event.startswith("the global plan now crosses an obstacle at (0.50, 0.00): replanning")
+
+
+def test_a_plan_made_through_a_blocked_cell_is_not_replaced_for_it():
+    """Next to a robot standing in an inflated zone the planner's own poses can lie on blocked cells:
+    that crossing is not new, and replanning for it every cycle would only thrash."""
+    core, _ = make_core(plan=lambda goal: STRAIGHT, plan_blocked=on_cells((0.5, 0.0)))
+    outputs = [core.cycle(0.05 * i, (0.0, 0.0, 0.0), True) for i in range(40)]
+    assert core.replans == 1 and all(out.cmd == (0.3, 0.0) for out in outputs)
+
+
+def test_replans_for_new_obstacles_come_at_most_once_a_second():
+    obstacle = []
+
+    def plan(goal):
+        obstacle.clear()              # the new plan avoids what was seen ...
+        return STRAIGHT.copy()
+
+    core, _ = make_core(plan=plan, plan_blocked=lambda p, r: on_cells(*obstacle)(p, r))
+    core.cycle(0.0, (0.0, 0.0, 0.0), True)
+    for i in range(1, 61):            # ... and every cycle the sensors see a new cell on it
+        obstacle[:] = [(0.5, 0.0)]
+        core.cycle(0.05 * i, (0.0, 0.0, 0.0), True)
+    assert core.replans == 1 + 3      # at 0.05 s, 1.05 s and 2.05 s
 
 
 def test_periodic_replanning_while_controlling():

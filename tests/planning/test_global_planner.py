@@ -146,13 +146,14 @@ def test_a_plan_is_blocked_by_an_obstacle_seen_after_planning_not_by_unknown_spa
     costmap.costmap[:, 30:32] = NO_INFORMATION
     gp = planner(allow_unknown=True)
     poses = gp.make_plan(costmap, (1.05, 1.05, 0.0), (5.05, 1.05, 0.0)).poses
-    assert gp.blocked_pose(costmap, poses) is None
+    assert not gp.blocked_poses(costmap, poses).any()
     off_map = np.vstack([poses, [[-3.0, 1.0, 0.0]]])
-    assert gp.blocked_pose(costmap, off_map) is None
+    assert not gp.blocked_poses(costmap, off_map).any()
     costmap.costmap[:, 40] = 252      # a wall's inflation at the inscribed radius edge: impassable for the planner
-    index = gp.blocked_pose(costmap, poses)
-    assert index is not None and int(poses[index, 0] / 0.1) == 40
-    assert planner(allow_unknown=False).blocked_pose(costmap, poses) < index  # unknown blocks this one
+    blocked = gp.blocked_poses(costmap, poses)
+    assert blocked.any() and {int(x / 0.1) for x in poses[blocked, 0]} == {40}
+    unknown_blocks = planner(allow_unknown=False).blocked_poses(costmap, poses)
+    assert np.argmax(unknown_blocks) < np.argmax(blocked)  # unknown blocks this one earlier
 
 
 def test_goal_in_unknown_space_is_lethal_when_unknown_is_not_allowed():
