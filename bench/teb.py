@@ -25,6 +25,12 @@ obstacle extraction, optimisation of every band, feasibility check, command): wa
 the calling thread's CPU time ("cpu"), which other processes on the machine disturb less.
 "bands" is the mean number of bands optimised per cycle, "failed" the cycles without a valid
 command, "clearance" the smallest distance from the unpadded robot box to a lethal cell centre.
+The compiled kernels are loaded (warm_up) before the first cycle, as the node does.
+
+After each scene, "compiled vs reference evaluation" times one evaluation with Jacobian and
+normal equations (residuals, J^T J, J^T r) of the bands the homotopy run optimised (sampled every
+SAMPLE_EVERY cycles, each with its own association), by the compiled kernel and by the numpy
+reference (teb/reference.py), and gives the median of the per-band ratios.
 """
 
 from __future__ import annotations
@@ -42,8 +48,10 @@ sys.path.insert(0, str(ROOT))
 
 from simplebot_navigation.costmap.cost_values import LETHAL_OBSTACLE  # noqa: E402
 from simplebot_navigation.costmap.costmap_2d import Costmap2D  # noqa: E402
+from simplebot_navigation.teb import kernels, warm_up  # noqa: E402
 from simplebot_navigation.teb.config import TebConfig  # noqa: E402
 from simplebot_navigation.teb.planner import TebLocalPlanner  # noqa: E402
+from simplebot_navigation.teb.reference import ReferenceEvaluation  # noqa: E402
 
 RES = 0.05
 WORLD_ORIGIN = (-6.0, -6.0)
@@ -57,6 +65,7 @@ LAB_PARAMS = {
                         "rear_offset": 0.2, "rear_radius": 0.2},
 }
 PERIOD = 0.05
+SAMPLE_EVERY = 10
 
 
 def world_grid(walls, boxes) -> np.ndarray:
@@ -134,6 +143,7 @@ def run(scene: str, cycles: int, profile: bool) -> None:
     runs = {name: {"planner": make_planner(hcp, plan), "pose": np.zeros(3), "vel": (0.0, 0.0), "times": [], "cpu": [],
                    "bands": [], "done": None, "failures": 0, "clearance": math.inf}
             for name, hcp in (("homotopy off", False), ("homotopy on", True))}
+    samples = []
     profiler = None
     if profile:
         from pyinstrument import Profiler
@@ -150,6 +160,8 @@ def run(scene: str, cycles: int, profile: bool) -> None:
             r["times"].append(time.perf_counter() - t0)
             r["cpu"].append(time.thread_time() - c0)
             r["bands"].append(planner.planner.bands_optimized)
+            if planner.planner.enabled and k % SAMPLE_EVERY == 0:
+                samples += [(c.band.copy(), planner.obstacles.copy(), r["vel"]) for c in planner.planner.candidates]
             if cmd.goal_reached:
                 r["done"] = k * PERIOD
                 continue
@@ -171,6 +183,40 @@ def run(scene: str, cycles: int, profile: bool) -> None:
               f"{np.mean(r['bands']):6.2f} {r['failures']:6d} {arrived:>9s} {r['clearance']:11.3f}")
     off, on = (np.median(np.array(runs[n]["times"])) for n in runs)
     print(f"{scene:9s} median ratio on/off: {on / off:.2f}")
+    compare_evaluations(scene, runs["homotopy on"]["planner"], samples)
+
+
+def compare_evaluations(scene: str, planner: TebLocalPlanner, samples, repeats: int = 20) -> None:
+    """Time the compiled and the reference evaluation (with Jacobian and normal equations) of the
+    same bands at the final obstacle weight, median over repeats per band."""
+    cfg, optimizer = planner.cfg, planner.planner.optimizer
+    weight = cfg.weight_obstacle * cfg.weight_adapt_factor ** (cfg.no_outer_iterations - 1)
+    compiled, reference = [], []
+    for band, obstacles, vel in samples:
+        edges = optimizer.build_edges(band, obstacles, None, weight)
+        if edges.n < 1:
+            continue
+        optimizer.start_velocity, optimizer.free_goal_vel = vel, cfg.free_goal_vel
+        params = optimizer.parameters(edges)
+        args = (band.poses, band.time_diffs, params, edges.arrays, planner.model.kernel_model,
+                optimizer.residual_count(edges, params))
+        ref = ReferenceEvaluation(cfg, planner.model, vel, cfg.free_goal_vel)
+        layout = ref.layout(edges)
+        t_c, t_r = [], []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            kernels.normal_equations(*args)
+            t1 = time.perf_counter()
+            ref.normal_equations(ref.evaluate(band.poses, band.time_diffs, edges, True), layout)
+            t2 = time.perf_counter()
+            t_c.append(t1 - t0)
+            t_r.append(t2 - t1)
+        compiled.append(np.median(t_c))
+        reference.append(np.median(t_r))
+    compiled, reference = np.array(compiled) * 1e6, np.array(reference) * 1e6
+    print(f"{scene:9s} compiled vs reference evaluation ({len(compiled)} bands): compiled median "
+          f"{np.median(compiled):.1f} us, reference median {np.median(reference):.1f} us, "
+          f"ratio median {np.median(reference / compiled):.1f}x (min {np.min(reference / compiled):.1f}x)")
 
 
 def box_clearance(pose, obstacles) -> float:
@@ -188,6 +234,9 @@ def main() -> None:
     parser.add_argument("--scene", choices=[*SCENES, "all"], default="all")
     parser.add_argument("--profile", action="store_true", help="print a pyinstrument profile of the run")
     args = parser.parse_args()
+    t0 = time.perf_counter()
+    warm_up()
+    print(f"warm_up: {time.perf_counter() - t0:.2f} s")
     print(f"{'scene':9s} {'mode':13s} {'cycles':>6s} {'median ms':>10s} {'p95 ms':>8s} {'max ms':>8s} "
           f"{'cpu med':>8s} {'cpu p95':>8s} {'bands':>6s} {'failed':>6s} {'arrived s':>9s} {'clearance m':>11s}")
     for scene in (SCENES if args.scene == "all" else [args.scene]):

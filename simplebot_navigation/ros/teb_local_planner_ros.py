@@ -24,7 +24,7 @@ from simplebot_navigation.move_base.state_machine import ControlResult
 from simplebot_navigation.ros.conversions import path_msg, pose_array_msg, transform_to_xyyaw
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
 from simplebot_navigation.ros.tf import Buffer, TransformException
-from simplebot_navigation.teb import TebConfig, TebLocalPlanner
+from simplebot_navigation.teb import TebConfig, TebLocalPlanner, warm_up
 
 PLUGIN_TYPES = {"teb_local_planner/TebLocalPlannerROS": "TebLocalPlannerROS"}
 ODOM_STALE_S = 1.0
@@ -52,6 +52,7 @@ class TebLocalPlannerROS:
         self.logger = node.get_logger()
         self.config = TebConfig.from_params(given_parameter_tree(node, self.name))
         self.planner = TebLocalPlanner(self.config, costmap_ros.footprint, 1.0 / controller_frequency)
+        warm_up()  # compiled kernels loaded now, not in the first control cycle of the first goal
         for warning in self.planner.warnings:
             self.logger.warn(warning)
         declare_defaults(node, {f.name: getattr(self.config, f.name) for f in dataclasses.fields(self.config)
@@ -110,6 +111,8 @@ class TebLocalPlannerROS:
             result = self.planner.compute_velocity_commands(pose[:3], self._robot_velocity(),
                                                             self.costmap_ros.costmap)
         self._unpublished = True
+        for notice in self.planner.pop_notices():
+            self.logger.warn(notice)
         return ControlResult(result.ok, result.v, result.omega, result.message)
 
     def is_goal_reached(self) -> bool:

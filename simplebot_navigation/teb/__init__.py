@@ -1,7 +1,9 @@
-"""Timed elastic band local planner (teb_local_planner), pure numpy/scipy."""
+"""Timed elastic band local planner (teb_local_planner): numpy, with the optimiser's hot path
+compiled by numba (teb/kernels.py; warm_up() compiles or loads it ahead of the first goal)."""
 
 from simplebot_navigation.teb.config import TebConfig
 from simplebot_navigation.teb.footprint import FootprintModel
+from simplebot_navigation.teb.optimizer import warm_up
 from simplebot_navigation.teb.planner import TebLocalPlanner, VelocityCommandResult
 
-__all__ = ["TebConfig", "FootprintModel", "TebLocalPlanner", "VelocityCommandResult"]
+__all__ = ["TebConfig", "FootprintModel", "TebLocalPlanner", "VelocityCommandResult", "warm_up"]

@@ -10,6 +10,7 @@ dd/dp = -R(theta) dd/dq and dd/dtheta = dd/dq . (q_y, -q_x).
 from __future__ import annotations
 
 import math
+from functools import cached_property
 
 import numpy as np
 
@@ -95,7 +96,24 @@ class FootprintModel:
         return cls.polygon([tuple(v) for v in vertices])
 
     # -- geometry -----------------------------------------------------------------------
-    @property
+    @cached_property
+    def kernel_model(self) -> tuple:
+        """The model as teb/kernels.py takes it: (circles, segments, vertices, closed)."""
+        vertices = np.zeros((0, 2)) if self.vertices is None else self.vertices
+        return (np.ascontiguousarray(self.circles), np.ascontiguousarray(self.segments),
+                np.ascontiguousarray(vertices, dtype=float), bool(self.closed_polygon))
+
+    @cached_property
+    def bounding_radius(self) -> float:
+        """Largest distance from the robot centre to any point of the model."""
+        r = 0.0
+        if len(self.circles):
+            r = max(r, float(np.max(np.hypot(self.circles[:, 0], self.circles[:, 1]) + self.circles[:, 2])))
+        if len(self.segments):
+            r = max(r, float(np.max(np.hypot(self.segments[:, [0, 2]], self.segments[:, [1, 3]]))))
+        return r
+
+    @cached_property
     def inscribed_radius(self) -> float:
         if self.kind == "circular":
             return float(self.circles[0, 2])

@@ -6,13 +6,14 @@ into clusters (cells closer than the robot can pass between), each cluster is re
 key point, and a band's class is the vector of angles it sweeps around those key points: two
 bands with the same start and goal are in the same class when every swept angle agrees to within
 pi. New candidates are seeded by offset initial paths passing left and right of the clusters
-closest to the start-goal line, at most max_number_classes bands in total. To keep the control
-cycle bounded in Python, at most one new class is seeded per cycle, it gets one outer
-iteration in that cycle and competes from the next one, and a seed that merges into another
-class or is dropped as a detour is not tried again near the same detour point for
-REJECTED_SEED_CYCLES cycles. The alternatives to the band being followed are warm-started every
-cycle and run only the later half of the outer loop (at the same final obstacle weight, so their
-costs stay comparable); the followed band gets the full loop.
+closest to the start-goal line, at most max_number_classes bands in total. To bound the work
+of a control cycle, at most one new class is seeded per cycle, it gets one outer iteration in
+that cycle and competes from the next one, and a seed that merges into another class or is
+dropped as a detour is not tried again near the same detour point for REJECTED_SEED_CYCLES
+cycles. The alternatives to the band being followed are warm-started every cycle and run only
+the later half of the outer loop (at the same final obstacle weight, so their costs stay
+comparable); the followed band gets the full loop, first. A wall-clock deadline is the safety
+net on top of that bound: once it has passed, the alternatives sit the cycle out.
 
 With enable_homotopy_class_planning false the planner keeps exactly one band (TebOptimalPlanner).
 """
@@ -20,6 +21,7 @@ With enable_homotopy_class_planning false the planner keeps exactly one band (Te
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -92,6 +94,8 @@ class HomotopyClassPlanner:
         self.keypoints = np.zeros((0, 2))
         #: bands optimised in the last cycle (candidates before duplicates and detours are dropped)
         self.bands_optimized = 0
+        #: bands left out of the last cycle because its deadline had passed
+        self.postponed = 0
         # Detour points of seeds that merged into another class or were dropped as detours,
         # with the cycles left during which no seed is built through their neighbourhood.
         self.rejected: list[tuple[np.ndarray, int]] = []
@@ -110,13 +114,20 @@ class HomotopyClassPlanner:
 
     # -- one planning cycle -----------------------------------------------------------------
     def plan(self, initial_plan: np.ndarray, obstacles: np.ndarray, via_points, start_velocity,
-             free_goal_vel: bool, bounds=None, class_obstacles: np.ndarray | None = None) -> bool:
+             free_goal_vel: bool, bounds=None, class_obstacles: np.ndarray | None = None,
+             deadline: float | None = None) -> bool:
         """initial_plan (K,3): robot pose first, local goal last. bounds: (xmin, ymin, xmax, ymax)
         of the local costmap, where seeds may place their detour points. class_obstacles: every
         lethal cell of the local costmap (default: ``obstacles``). The optimiser's container skips
         cells far behind the robot, but a wall does not end where that filter cuts it: clusters,
         signatures and seed clearance use the whole map, or a seed would be routed around the cut
-        end of a wall, straight through the part behind the robot."""
+        end of a wall, straight through the part behind the robot.
+
+        deadline (time.perf_counter()): once passed, the bands other than the followed one are not
+        optimised this cycle (counted in ``postponed``). The followed band goes first and is always
+        optimised. The work per cycle is bounded by the configuration alone (max_number_classes
+        bands, one new seed, fixed iteration counts), so on a machine fast enough the deadline is
+        never reached and lock-step runs stay reproducible; it is only a safety net."""
         cfg = self.cfg
         start, goal = initial_plan[0], initial_plan[-1]
         self._update_candidates(start, goal)
@@ -137,8 +148,19 @@ class HomotopyClassPlanner:
         if not cfg.optimization_activate:
             self.best = self.candidates[0] if self.candidates else None
             return self.best is not None
-        self.bands_optimized = len(self.candidates)
-        for cand in self.candidates:
+        self.bands_optimized = self.postponed = 0
+        followed = self._followed()
+        late_seeds = []
+        for cand in sorted(self.candidates, key=lambda c: c is not followed):
+            if cand is not followed and deadline is not None and time.perf_counter() > deadline:
+                # Out of time (a slow or overloaded machine): an alternative sits this cycle out and
+                # cannot be selected, a new seed is dropped without blame and explored again later.
+                self.postponed += 1
+                cand.cost = math.inf
+                if cand.fresh_seed:
+                    late_seeds.append(cand)
+                continue
+            self.bands_optimized += 1
             if cand.fresh_seed:
                 # A new class gets one outer iteration now and competes from the next cycle on.
                 self.optimizer.optimize(cand.band, obstacles, via_points, start_velocity, free_goal_vel,
@@ -150,6 +172,7 @@ class HomotopyClassPlanner:
                 skip = cfg.no_outer_iterations // 2 if cand is not self.best and self.best is not None else 0
                 cand.cost = self.optimizer.optimize(cand.band, obstacles, via_points, start_velocity,
                                                     free_goal_vel, compute_cost=self.enabled, skip_outer=skip)
+        self.candidates = [c for c in self.candidates if c not in late_seeds]
         if self.enabled:
             seeds = {id(c): c.seed_point for c in self.candidates if c.fresh_seed}
             for cand in self.candidates:
@@ -164,6 +187,13 @@ class HomotopyClassPlanner:
         else:
             self.best = self.candidates[0]
         return self.best is not None
+
+    def _followed(self) -> Candidate | None:
+        """The band the robot follows: the selected one, else the global plan's (a new start)."""
+        if self.best is not None:
+            return self.best
+        return next((c for c in self.candidates if c.from_initial_plan),
+                    self.candidates[0] if self.candidates else None)
 
     def _update_candidates(self, start, goal) -> None:
         """Warm start every band, or drop them all when the goal moved too far (force_reinit_*)."""

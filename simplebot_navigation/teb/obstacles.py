@@ -7,6 +7,7 @@ import math
 import numpy as np
 
 from simplebot_navigation.costmap.cost_values import LETHAL_OBSTACLE
+from simplebot_navigation.teb import kernels
 
 
 def costmap_point_obstacles(costmap, robot_pose, behind_robot_dist: float) -> np.ndarray:
@@ -48,64 +49,10 @@ def associate_obstacles(model, poses: np.ndarray, obstacles: np.ndarray, min_obs
     from both sides on the centre line between the closest obstacles left and right of it: in a
     door narrower than the distances ask for, no pose can keep min_obstacle_dist, and the
     optimiser then asks for the centre line instead of pushing the poses out of the door (which
-    stalls the band, and the robot, in front of it)."""
-    n_int = len(poses) - 2
-    empty = np.zeros(0, dtype=np.int64)
-    if n_int <= 0 or len(obstacles) == 0:
-        return empty, empty, np.zeros(0)
-    inner = poses[1:-1]
-    cutoff = min_obstacle_dist * cutoff_factor
-    # Cheap centre-distance prefilter: a model point is never farther than its bounding radius.
-    rel = obstacles[None, :, :] - inner[:, None, :2]
-    centre_d2 = np.einsum("nmj,nmj->nm", rel, rel)
-    reach = cutoff + model_bounding_radius(model)
-    keep = np.nonzero((centre_d2 <= reach * reach).any(axis=0))[0]
-    if len(keep) == 0:
-        return empty, empty, np.zeros(0)
-    rel = rel[:, keep]
-    dist = model.distances(inner, obstacles[keep])                            # n_int, K
-    force = dist < min_obstacle_dist * force_inclusion_factor
-    candidate = ~force & (dist <= cutoff)
-    cross = np.cos(inner[:, 2])[:, None] * rel[..., 1] - np.sin(inner[:, 2])[:, None] * rel[..., 0]
-    rows = np.arange(n_int)
-    pose_idx, obst_idx = [], []
-    picks = [np.where(candidate & side, dist, np.inf) for side in (cross > 0, cross <= 0)]
-    sector = np.floor((np.arctan2(rel[..., 1], rel[..., 0]) + math.pi)
-                      * (FORCE_INCLUSION_SECTORS / (2 * math.pi))).astype(np.int64)
-    picks += [np.where(force & (sector == k), dist, np.inf) for k in range(FORCE_INCLUSION_SECTORS)]
-    for d_pick in picks:
-        j = np.argmin(d_pick, axis=1)
-        ok = np.isfinite(d_pick[rows, j])
-        pose_idx.append(rows[ok])
-        obst_idx.append(j[ok])
-    gap = _gap_clearance(model, inner, obstacles[keep], dist, cross)
-    pose_idx = np.concatenate(pose_idx)
-    return pose_idx + 1, keep[np.concatenate(obst_idx)], gap[pose_idx]
-
-
-def _gap_clearance(model, inner, points, dist, cross) -> np.ndarray:
-    """Per pose: the model's distance to the closest obstacles left and right of the heading when
-    placed on their midpoint with the pose's heading, if free space lies between them and they are
-    farther apart than the model is wide; else inf."""
-    rows = np.arange(len(inner))
-    left = np.argmin(np.where(cross > 0, dist, np.inf), axis=1)
-    right = np.argmin(np.where(cross <= 0, dist, np.inf), axis=1)
-    both = np.isfinite(dist[rows, left]) & (cross[rows, left] > 0) & (cross[rows, right] <= 0)
-    a, b = points[left], points[right]
-    mid = 0.5 * (a + b)
-    half = 0.5 * np.hypot(*(b - a).T)
-    to_mid = np.sqrt(((points[None, :, :] - mid[:, None, :]) ** 2).sum(axis=2)).min(axis=1)
-    centred = np.column_stack([mid, inner[:, 2]])
-    clearance = np.minimum(model.pair_distances(centred, a), model.pair_distances(centred, b))
-    passable = (half > model.inscribed_radius) & (clearance > 0)
-    return np.where(both & (to_mid >= GAP_FREE_FRACTION * half) & passable, clearance, np.inf)
-
-
-def model_bounding_radius(model) -> float:
-    """Largest distance from the robot centre to any point of the footprint model."""
-    r = 0.0
-    if len(model.circles):
-        r = max(r, float(np.max(np.hypot(model.circles[:, 0], model.circles[:, 1]) + model.circles[:, 2])))
-    if len(model.segments):
-        r = max(r, float(np.max(np.hypot(model.segments[:, [0, 2]], model.segments[:, [1, 3]]))))
-    return r
+    stalls the band, and the robot, in front of it). Compiled (teb/kernels.py): every pose meets
+    every nearby costmap cell, once per outer iteration and band."""
+    return kernels.associate_obstacles(np.ascontiguousarray(poses, dtype=float),
+                                       np.ascontiguousarray(obstacles, dtype=float), model.kernel_model,
+                                       min_obstacle_dist, force_inclusion_factor, cutoff_factor,
+                                       model.bounding_radius, model.inscribed_radius, FORCE_INCLUSION_SECTORS,
+                                       GAP_FREE_FRACTION)

@@ -6,6 +6,7 @@ pose and odometry velocity and the local Costmap2D, and publishes what the acces
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,6 +19,9 @@ from simplebot_navigation.teb.homotopy import HomotopyClassPlanner
 from simplebot_navigation.teb.obstacles import behind_robot_filter, costmap_point_obstacles
 
 GOAL_ORIENTATION_AVERAGE = 3
+#: Share of controller_period after which a cycle optimises no more alternative bands (the
+#: followed band is always optimised; the rest of the period is for the costmap and the shell).
+CYCLE_BUDGET_FRACTION = 0.5
 
 #: Parameters whose feature this diff-drive port leaves out: (name, value that means "off", effect).
 UNSUPPORTED = (
@@ -71,6 +75,8 @@ class TebLocalPlanner:
         self.via_points = np.zeros((0, 2))
         self.obstacles = np.zeros((0, 2))
         self.goal_reached = False
+        self._notices: list[str] = []
+        self._budget_reported = False
 
     # -- inputs -------------------------------------------------------------------------------
     def set_plan(self, global_plan_xyyaw) -> None:
@@ -85,8 +91,15 @@ class TebLocalPlanner:
         self.planner.clear()
 
     # -- the control cycle --------------------------------------------------------------------
+    def pop_notices(self) -> list[str]:
+        """One-time messages for the log since the last call (each situation is reported once)."""
+        notices, self._notices = self._notices, []
+        return notices
+
     def compute_velocity_commands(self, robot_pose, robot_velocity, costmap) -> VelocityCommandResult:
         cfg = self.cfg
+        budget = CYCLE_BUDGET_FRACTION * self.controller_period
+        deadline = time.perf_counter() + budget
         pose = np.asarray(robot_pose, dtype=float)
         vel = (float(robot_velocity[0]), float(robot_velocity[1]))
         if len(self.global_plan) == 0:
@@ -111,8 +124,16 @@ class TebLocalPlanner:
         bounds = (costmap.origin_x, costmap.origin_y,
                   costmap.origin_x + costmap.size_x * costmap.resolution,
                   costmap.origin_y + costmap.size_y * costmap.resolution)
-        if not self.planner.plan(transformed, self.obstacles, self.via_points, vel, cfg.free_goal_vel, bounds,
-                                 class_obstacles=lethal):
+        planned = self.planner.plan(transformed, self.obstacles, self.via_points, vel, cfg.free_goal_vel, bounds,
+                                    class_obstacles=lethal, deadline=deadline)
+        if self.planner.postponed and not self._budget_reported:
+            self._budget_reported = True
+            self._notices.append(
+                f"TEB: a control cycle used up its budget ({budget * 1000:.0f} ms, {CYCLE_BUDGET_FRACTION:.0%} of "
+                f"controller_period) before the homotopy alternatives were optimised; {self.planner.postponed} "
+                "alternative band(s) postponed to the next cycle. The followed band is always optimised. "
+                "Reported once; later occurrences are not logged.")
+        if not planned:
             self.planner.clear()
             return VelocityCommandResult(0.0, 0.0, False, "planner failed to find a trajectory")
 

@@ -4,7 +4,8 @@ import pytest
 from simplebot_navigation.teb.band import TimedElasticBand
 from simplebot_navigation.teb.config import TebConfig
 from simplebot_navigation.teb.footprint import FootprintModel
-from simplebot_navigation.teb.optimizer import EdgeSet, StaticLayout, TebOptimizer
+from simplebot_navigation.teb.optimizer import EdgeSet, TebOptimizer
+from simplebot_navigation.teb.reference import ReferenceEvaluation
 
 from .scenes import LAB_TWO_CIRCLES, straight_plan
 
@@ -95,8 +96,7 @@ def test_via_points_pull_the_band():
                                    FootprintModel.line([-0.3, 0.0], [0.3, 0.0])], ids=lambda m: m.kind)
 def test_analytic_jacobian_and_normal_equations_match_finite_differences(model, free_goal_vel):
     cfg = TebConfig.from_params({"obstacle_cost_exponent": 1.5})
-    opt = TebOptimizer(cfg, model)
-    opt.start_velocity, opt.free_goal_vel = (0.1, 0.05), free_goal_vel
+    ref = ReferenceEvaluation(cfg, model, (0.1, 0.05), free_goal_vel)
     rng = np.random.default_rng(0)
     n = 8
     poses = np.column_stack([np.linspace(0, 2, n + 1), 0.1 * rng.standard_normal(n + 1),
@@ -107,13 +107,13 @@ def test_analytic_jacobian_and_normal_equations_match_finite_differences(model, 
     edges = EdgeSet(np.array([2, 3, 4, 5, 3]), obstacles[[0, 0, 1, 2, 1]],
                     np.array([np.inf, 0.3, np.inf, 0.45, np.inf]), np.array([3, 7]),
                     np.array([[1.0, 0.2], [2.0, 0.0]]), 50.0, n=n)
-    edges.build_layout(StaticLayout(n, free_goal_vel, True))
-    families = opt.evaluate(poses, dts, edges, True)
+    layout = ref.layout(edges)
+    families = ref.evaluate(poses, dts, edges, True)
     n_vars = 4 * n - 3
     jac, res = [], []
     for name, (r, j) in families.items():
         dense = np.zeros((len(r), n_vars))
-        cols = edges.cols[name]
+        cols = layout.cols[name]
         rows = np.repeat(np.arange(len(r)), cols.shape[1])
         ok = cols.ravel() >= 0
         np.add.at(dense, (rows[ok], cols.ravel()[ok]), j.ravel()[ok])
@@ -122,13 +122,13 @@ def test_analytic_jacobian_and_normal_equations_match_finite_differences(model, 
     jac, res = np.vstack(jac), np.concatenate(res)
 
     def residuals(step):
-        p, t = opt.apply_step(poses, dts, step)
-        return np.concatenate([r for r, _ in opt.evaluate(p, t, edges, False).values()])
+        p, t = ref.apply_step(poses, dts, step)
+        return np.concatenate([r for r, _ in ref.evaluate(p, t, edges, False).values()])
 
     h = 1e-6
     numeric = np.column_stack([(residuals(h * e) - residuals(-h * e)) / (2 * h) for e in np.eye(n_vars)])
     np.testing.assert_allclose(jac, numeric, atol=1e-5)
-    banded, g = opt.normal_equations(families, edges)
+    banded, g = ref.normal_equations(families, layout)
     full = jac.T @ jac
     for k in range(len(banded)):
         np.testing.assert_allclose(banded[k, :n_vars - k], np.diag(full, -k), atol=1e-9)

@@ -3,6 +3,7 @@ import math
 import numpy as np
 import pytest
 
+from simplebot_navigation.teb import planner as planner_module
 from simplebot_navigation.teb.planner import TebLocalPlanner
 
 from .scenes import (LAB_FOOTPRINT, LAB_PADDED_FOOTPRINT, PERIOD, RES, box_cells, footprint_hits, lab_planner,
@@ -230,3 +231,32 @@ def test_lab_robot_turns_through_a_door_narrower_than_min_obstacle_dist_asks_for
     assert not any(footprint_hits(p, LAB_FOOTPRINT, walls) for p in poses)
     in_door = poses[np.abs(poses[:, 1] - 1.25) < 0.3]
     assert np.abs(in_door[:, 0] - 1.5).max() < 0.1                # on the centre line
+
+
+def test_an_exhausted_cycle_budget_postpones_the_alternatives_and_is_reported_once():
+    # a controller period so short that every cycle's budget is spent before the alternatives
+    barrier = box_cells(1.5, 0.0, 0.05, 1.0)
+    planner = TebLocalPlanner(lab_planner().cfg, LAB_PADDED_FOOTPRINT, 1e-9)
+    planner.set_plan(straight_plan(0.6, 3.5))
+    pose, notices = np.array([0.6, 0.0, 0.0]), []
+    for _ in range(5):
+        result = planner.compute_velocity_commands(pose, (0.0, 0.0), rolling_costmap(pose[0], pose[1], barrier))
+        notices += planner.pop_notices()
+        assert result.ok and planner.planner.bands_optimized == 1
+    # the seeds explored around the wall were never optimised: each was dropped, the followed band kept
+    assert len(planner.candidate_bands) == 1
+    assert len(notices) == 1 and "postponed" in notices[0]
+    assert planner.pop_notices() == []
+
+
+def test_a_budget_that_suffices_changes_nothing(monkeypatch):
+    barrier = box_cells(1.5, 0.0, 0.05, 1.0)
+    runs = []
+    for fraction in (planner_module.CYCLE_BUDGET_FRACTION, 1e9):
+        monkeypatch.setattr(planner_module, "CYCLE_BUDGET_FRACTION", fraction)
+        planner = lab_planner()
+        planner.set_plan(straight_plan(0.6, 3.5))
+        poses, _, _ = drive(planner, 3.5, barrier, seconds=3.0, pose=(0.6, 0.0, 0.0))
+        assert planner.pop_notices() == []
+        runs.append(poses)
+    np.testing.assert_array_equal(runs[0], runs[1])

@@ -1,0 +1,593 @@
+"""Compiled hot path of the TEB optimiser: edge errors and Jacobians, banded normal equations, the
+Levenberg-Marquardt inner loop, footprint distances and obstacle association.
+
+Why numba: a band has a few dozen poses and a few hundred edges, so a vectorised numpy evaluation
+spends its time in the fixed cost of some fifty small array calls per evaluation, not in
+arithmetic, and a 20 Hz control cycle runs hundreds of evaluations (several bands, four outer
+and five inner iterations, up to ten trial steps each). Written as plain loops over edges and
+compiled, one evaluation costs microseconds, the normal equations are accumulated straight into
+banded storage without scatter indices, and a whole inner loop (evaluate, assemble, damped
+banded Cholesky solve, step, chi2) is one call. teb/reference.py keeps the vectorised numpy
+evaluation as the oracle the tests hold these kernels to. Every kernel is compiled with
+``cache=True``, so only the very first process pays the compile time (see warm_up()), and
+releases the GIL.
+
+Variables are packed pose-major, [dT_0, x_1, y_1, th_1, dT_1, ..., x_{n-1}, y_{n-1}, th_{n-1},
+dT_{n-1}]: pose k -> columns 4k-3..4k-1, dT_i -> column 4i, the fixed poses 0 and n -> -1. The
+widest edge (an acceleration over two segments) spans BANDWIDTH columns, so J^T J is stored as
+LAPACK-style lower bands, h[i - j, j] = H[i, j].
+
+A footprint model is the tuple (circles (C, 3) cx cy r, segments (S, 4) ax ay bx by, vertices
+(V, 2), closed polygon flag), in the robot frame; the edge set of one outer iteration is the
+tuple (obstacle pose indices, obstacle points, gap clearances, via pose indices, via points).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+#: Columns between the first and last free variable of the widest edge (interior acceleration).
+BANDWIDTH = 10
+MIN_TIME_DIFF = 1e-3
+#: Edge families, in the order of the residual vector and of the per-family chi2.
+FAMILIES = ("vel", "acc", "acc_start", "acc_goal", "kin", "time", "obstacle", "via")
+F_VEL, F_ACC, F_ACC_START, F_ACC_GOAL, F_KIN, F_TIME, F_OBSTACLE, F_VIA = range(8)
+
+# Slots of the edge parameter vector (see edge_parameters).
+(P_EPS, P_VEL_W_X, P_VEL_W_TH, P_VEL_LO_X, P_VEL_LO_TH, P_VEL_HI_X, P_VEL_HI_TH, P_ACC_W_X, P_ACC_W_TH,
+ P_ACC_LIM_X, P_ACC_LIM_TH, P_START_V, P_START_OMEGA, P_FREE_GOAL, P_W_NH, P_W_FD, P_W_TIME, P_W_OBSTACLE,
+ P_MIN_OBSTACLE, P_EXPONENT, P_INFLATION, P_W_INFLATION, P_INFLATION_DIST, P_W_VIA, N_PARAMS) = range(25)
+
+_TWO_PI = 2.0 * math.pi
+
+
+def edge_parameters(cfg, obstacle_weight: float, start_velocity, free_goal_vel: bool,
+                    with_inflation: bool) -> np.ndarray:
+    """The scalars every edge family needs, square roots of the weights included (a residual is
+    sqrt(weight) * error, so chi2 carries the weight)."""
+    p = np.zeros(N_PARAMS)
+    p[P_EPS] = cfg.penalty_epsilon
+    p[P_VEL_W_X], p[P_VEL_W_TH] = math.sqrt(cfg.weight_max_vel_x), math.sqrt(cfg.weight_max_vel_theta)
+    p[P_VEL_LO_X], p[P_VEL_LO_TH] = -cfg.max_vel_x_backwards, -cfg.max_vel_theta
+    p[P_VEL_HI_X], p[P_VEL_HI_TH] = cfg.max_vel_x, cfg.max_vel_theta
+    p[P_ACC_W_X], p[P_ACC_W_TH] = math.sqrt(cfg.weight_acc_lim_x), math.sqrt(cfg.weight_acc_lim_theta)
+    p[P_ACC_LIM_X], p[P_ACC_LIM_TH] = cfg.acc_lim_x, cfg.acc_lim_theta
+    p[P_START_V], p[P_START_OMEGA] = start_velocity
+    p[P_FREE_GOAL] = float(free_goal_vel)
+    p[P_W_NH], p[P_W_FD] = math.sqrt(cfg.weight_kinematics_nh), math.sqrt(cfg.weight_kinematics_forward_drive)
+    p[P_W_TIME] = math.sqrt(cfg.weight_optimaltime)
+    p[P_W_OBSTACLE], p[P_MIN_OBSTACLE] = math.sqrt(obstacle_weight), cfg.min_obstacle_dist
+    p[P_EXPONENT] = cfg.obstacle_cost_exponent
+    p[P_INFLATION] = float(with_inflation)
+    p[P_W_INFLATION], p[P_INFLATION_DIST] = math.sqrt(cfg.weight_inflation), cfg.inflation_dist
+    p[P_W_VIA] = math.sqrt(cfg.weight_viapoint)
+    return p
+
+
+def residual_count(n: int, n_obstacle: int, n_via: int, params: np.ndarray) -> int:
+    """Length of the residual vector of a band with n time differences."""
+    return (2 * n + (2 * (n - 1) if n >= 2 else 0) + 2 + (0 if params[P_FREE_GOAL] else 2) + 3 * n
+            + n_obstacle * (2 if params[P_INFLATION] else 1) + 2 * n_via)
+
+
+# -- footprint models ------------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def _inside_polygon(qx, qy, vertices):
+    """Even-odd rule."""
+    inside = False
+    nv = vertices.shape[0]
+    for i in range(nv):
+        j = i - 1 if i > 0 else nv - 1
+        xi, yi, xj, yj = vertices[i, 0], vertices[i, 1], vertices[j, 0], vertices[j, 1]
+        if (yi > qy) != (yj > qy):
+            if qx < (xj - xi) * (qy - yi) / (yj - yi) + xi:
+                inside = not inside
+    return inside
+
+
+@njit(cache=True, nogil=True)
+def footprint_distance(x, y, th, px, py, model):
+    """Distance from the model placed at pose (x, y, th) to the point (px, py), and its gradient
+    with respect to the pose."""
+    return _footprint_distance(x, y, math.cos(th), math.sin(th), px, py, model)
+
+
+@njit(cache=True, nogil=True)
+def _footprint_distance(x, y, c, s, px, py, model):
+    """footprint_distance with the heading's cosine and sine (shared by all points of a pose). For
+    segments the point goes to the robot frame, q = R(-th) (p - pose), and the pose gradient
+    follows from dd/dpose_xy = -R(th) dd/dq and dd/dth = dd/dq . (q_y, -q_x)."""
+    circles, segments, vertices, closed = model
+    best, gx, gy, gth = np.inf, 0.0, 0.0, 0.0
+    for k in range(circles.shape[0]):
+        # circles in the world frame: the common case needs no rotation of the point
+        cx, cy = circles[k, 0], circles[k, 1]
+        ex, ey = px - (x + c * cx - s * cy), py - (y + s * cx + c * cy)
+        norm = math.hypot(ex, ey)
+        d = norm - circles[k, 2]
+        if d < best:
+            best = d
+            inv = 1.0 / norm if norm > 1e-12 else 0.0
+            gx, gy, gth = -ex * inv, -ey * inv, (ex * (s * cx + c * cy) - ey * (c * cx - s * cy)) * inv
+    if segments.shape[0]:
+        dx, dy = px - x, py - y
+        qx, qy = c * dx + s * dy, -s * dx + c * dy
+        seg_d, gqx, gqy = np.inf, 0.0, 0.0
+        for k in range(segments.shape[0]):
+            ax, ay = segments[k, 0], segments[k, 1]
+            abx, aby = segments[k, 2] - ax, segments[k, 3] - ay
+            aqx, aqy = qx - ax, qy - ay
+            len2 = abx * abx + aby * aby
+            t = (aqx * abx + aqy * aby) / (len2 if len2 > 0 else 1.0)
+            t = min(max(t, 0.0), 1.0)
+            ex, ey = aqx - t * abx, aqy - t * aby
+            norm = math.sqrt(ex * ex + ey * ey)
+            if norm < seg_d:
+                seg_d = norm
+                gqx, gqy = (ex / norm, ey / norm) if norm > 1e-12 else (0.0, 0.0)
+        if closed and _inside_polygon(qx, qy, vertices):
+            seg_d, gqx, gqy = -seg_d, -gqx, -gqy
+        if seg_d < best:
+            best, gx, gy, gth = seg_d, -(c * gqx - s * gqy), -(s * gqx + c * gqy), gqx * qy - gqy * qx
+    return best, gx, gy, gth
+
+
+# -- edges -----------------------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def _normalize_theta(a):
+    return (a + math.pi) % _TWO_PI - math.pi
+
+
+@njit(cache=True, nogil=True)
+def _bound_to_interval(value, lower, upper, eps):
+    """Penalty and derivative: zero inside [lower+eps, upper-eps], linear excess outside."""
+    lo, hi = lower + eps, upper - eps
+    if value < lo:
+        return lo - value, -1.0
+    if value > hi:
+        return value - hi, 1.0
+    return 0.0, 0.0
+
+
+@njit(cache=True, nogil=True)
+def _pose_col(k, n):
+    return 4 * k - 3 if 0 < k < n else -1
+
+
+@njit(cache=True, nogil=True)
+def _accumulate(h, g, cols, jac, res):
+    """Add one residual's J^T J and J^T r (free columns only; a column appears once per edge)."""
+    for a in range(cols.shape[0]):
+        ca = cols[a]
+        ja = jac[a]
+        if ca < 0 or ja == 0.0:
+            continue
+        g[ca] += ja * res
+        for b in range(cols.shape[0]):
+            cb = cols[b]
+            if 0 <= cb <= ca:
+                h[ca - cb, cb] += ja * jac[b]
+
+
+@njit(cache=True, nogil=True)
+def _set_pose_cols(cols, k, n):
+    """Columns of pose k at cols[0:3] (-1: a fixed pose)."""
+    c = _pose_col(k, n)
+    for j in range(3):
+        cols[j] = c + j if c >= 0 else -1
+
+
+@njit(cache=True, nogil=True)
+def _set_segment_cols(cols, i, n):
+    """Columns of pose i and pose i+1 at cols[0:6]."""
+    _set_pose_cols(cols, i, n)
+    _set_pose_cols(cols[3:], i + 1, n)
+
+
+@njit(cache=True, nogil=True)
+def evaluate(poses, dts, params, edges, model, jacobian, r, chi2, h, g, work):
+    """Weighted residuals of every edge into r (family after family, as FAMILIES lists them; the two
+    kinds of a family one after the other: all v rows, then all omega rows, ...), their squares
+    summed per family into chi2 (zeroed here), and with ``jacobian`` J^T J and J^T r added into the
+    zeroed h and g. Scratch (see _workspace): vw (2, n) and jvw (2, n, 7), each segment's
+    (v, omega) and their Jacobians over (pose i, pose i+1, dT_i); trig (2, n+1), the cosine and
+    sine of every heading; cols and jac (16,), one residual's Jacobian row."""
+    vw, jvw, trig, cols, jac = work
+    obst_pose, obst_point, obst_gap, via_pose, via_point = edges
+    n = dts.shape[0]
+    eps = params[P_EPS]
+    chi2[:] = 0.0
+    for k in range(n + 1):
+        trig[0, k], trig[1, k] = math.cos(poses[k, 2]), math.sin(poses[k, 2])
+    for i in range(n):
+        dx, dy = poses[i + 1, 0] - poses[i, 0], poses[i + 1, 1] - poses[i, 1]
+        c0, s0 = trig[0, i], trig[1, i]
+        dist = math.hypot(dx, dy)
+        proj = dx * c0 + dy * s0
+        u = 100.0 * proj
+        sig = u / (1.0 + abs(u))
+        inv_dt = 1.0 / dts[i]
+        v = sig * dist * inv_dt
+        omega = _normalize_theta(poses[i + 1, 2] - poses[i, 2]) * inv_dt
+        vw[0, i], vw[1, i] = v, omega
+        if jacobian:
+            # v = sigmoid(100 proj) |d| / dT: the sign of the motion along the heading, smoothed
+            a = 100.0 / (1.0 + abs(u)) ** 2 * dist * inv_dt
+            b = sig / dist * inv_dt if dist > 1e-12 else 0.0
+            jv = jvw[0, i]
+            jv[0] = -a * c0 - b * dx
+            jv[1] = -a * s0 - b * dy
+            jv[2] = a * (dy * c0 - dx * s0)
+            jv[3] = a * c0 + b * dx
+            jv[4] = a * s0 + b * dy
+            jv[5] = 0.0
+            jv[6] = -v * inv_dt
+            jw = jvw[1, i]
+            jw[:] = 0.0
+            jw[2], jw[5], jw[6] = -inv_dt, inv_dt, -omega * inv_dt
+    row = 0
+
+    # velocity
+    for kind in range(2):
+        w, lo, hi = params[P_VEL_W_X + kind], params[P_VEL_LO_X + kind], params[P_VEL_HI_X + kind]
+        for i in range(n):
+            e, de = _bound_to_interval(vw[kind, i], lo, hi, eps)
+            r[row] = w * e
+            chi2[F_VEL] += r[row] * r[row]
+            if jacobian and de != 0.0:
+                _set_segment_cols(cols, i, n)
+                cols[6] = 4 * i
+                for j in range(7):
+                    jac[j] = w * de * jvw[kind, i, j]
+                _accumulate(h, g, cols[:7], jac[:7], r[row])
+            row += 1
+
+    # acceleration over two segments; a pose shared by both gets the sum of its two columns
+    for kind in range(2):
+        w, lim = params[P_ACC_W_X + kind], params[P_ACC_LIM_X + kind]
+        for i in range(n - 1):
+            ssum = dts[i] + dts[i + 1]
+            acc = 2.0 * (vw[kind, i + 1] - vw[kind, i]) / ssum
+            e, de = _bound_to_interval(acc, -lim, lim, eps)
+            r[row] = w * e
+            chi2[F_ACC] += r[row] * r[row]
+            if jacobian and de != 0.0:
+                f = w * de / ssum
+                j0, j1 = jvw[kind, i], jvw[kind, i + 1]
+                _set_segment_cols(cols, i, n)
+                _set_pose_cols(cols[6:], i + 2, n)
+                for j in range(3):
+                    jac[j] = -2.0 * j0[j] * f
+                    jac[3 + j] = (2.0 * j1[j] - 2.0 * j0[3 + j]) * f
+                    jac[6 + j] = 2.0 * j1[3 + j] * f
+                cols[9], cols[10] = 4 * i, 4 * (i + 1)
+                jac[9] = (-2.0 * j0[6] - acc) * f
+                jac[10] = (2.0 * j1[6] - acc) * f
+                _accumulate(h, g, cols[:11], jac[:11], r[row])
+            row += 1
+
+    # start (odometry velocity) and goal (zero unless free_goal_vel) accelerations
+    for end in range(2 if params[P_FREE_GOAL] == 0.0 else 1):
+        i = 0 if end == 0 else n - 1
+        sign = 1.0 if end == 0 else -1.0
+        family = F_ACC_START if end == 0 else F_ACC_GOAL
+        for kind in range(2):
+            w, lim = params[P_ACC_W_X + kind], params[P_ACC_LIM_X + kind]
+            start = params[P_START_V + kind] if end == 0 else 0.0
+            acc = sign * (vw[kind, i] - start) / dts[i]
+            e, de = _bound_to_interval(acc, -lim, lim, eps)
+            r[row] = w * e
+            chi2[family] += r[row] * r[row]
+            if jacobian and de != 0.0:
+                f = w * de / dts[i]
+                _set_segment_cols(cols, i, n)
+                cols[6] = 4 * i
+                for j in range(6):
+                    jac[j] = sign * jvw[kind, i, j] * f
+                jac[6] = (sign * jvw[kind, i, 6] - acc) * f
+                _accumulate(h, g, cols[:7], jac[:7], r[row])
+            row += 1
+
+    # non-holonomic kinematics (both headings make equal angles with the chord), forward drive
+    w_nh, w_fd = params[P_W_NH], params[P_W_FD]
+    for i in range(n):
+        dx, dy = poses[i + 1, 0] - poses[i, 0], poses[i + 1, 1] - poses[i, 1]
+        c0, s0, c1, s1 = trig[0, i], trig[1, i], trig[0, i + 1], trig[1, i + 1]
+        cs, ss = c0 + c1, s0 + s1
+        r_nh = w_nh * (cs * dy - ss * dx)
+        proj = dx * c0 + dy * s0
+        r_fd = w_fd * max(-proj, 0.0)
+        r[row], r[row + n] = r_nh, r_fd
+        chi2[F_KIN] += r_nh * r_nh + r_fd * r_fd
+        if jacobian:
+            _set_segment_cols(cols, i, n)
+            jac[0], jac[1], jac[2] = w_nh * ss, -w_nh * cs, -w_nh * (s0 * dy + c0 * dx)
+            jac[3], jac[4], jac[5] = -w_nh * ss, w_nh * cs, -w_nh * (s1 * dy + c1 * dx)
+            _accumulate(h, g, cols[:6], jac[:6], r_nh)
+            if proj < 0.0:
+                jac[0], jac[1], jac[2] = w_fd * c0, w_fd * s0, -w_fd * (dy * c0 - dx * s0)
+                jac[3], jac[4], jac[5] = -w_fd * c0, -w_fd * s0, 0.0
+                _accumulate(h, g, cols[:6], jac[:6], r_fd)
+        row += 1
+    row += n
+
+    # time optimal
+    w = params[P_W_TIME]
+    for i in range(n):
+        r[row] = w * dts[i]
+        chi2[F_TIME] += r[row] * r[row]
+        if jacobian:
+            cols[0], jac[0] = 4 * i, w
+            _accumulate(h, g, cols[:1], jac[:1], r[row])
+        row += 1
+
+    # obstacles (+ inflation), both from the same footprint distance; in a gap narrower than the
+    # distances ask for, the limits fall to the gap's centre line (see associate_obstacles)
+    m = obst_pose.shape[0]
+    w_o, w_i, p = params[P_W_OBSTACLE], params[P_W_INFLATION], params[P_EXPONENT]
+    inflation = params[P_INFLATION] != 0.0
+    for k in range(m):
+        pose = obst_pose[k]
+        d, gx, gy, gth = _footprint_distance(poses[pose, 0], poses[pose, 1], trig[0, pose], trig[1, pose],
+                                             obst_point[k, 0], obst_point[k, 1], model)
+        e = max(min(params[P_MIN_OBSTACLE], obst_gap[k] - eps) + eps - d, 0.0)
+        de = -1.0 if e > 0.0 else 0.0
+        if p != 1.0 and e > 0.0:
+            de *= p * e ** (p - 1.0)
+            e = e ** p
+        r[row + k] = w_o * e
+        chi2[F_OBSTACLE] += r[row + k] * r[row + k]
+        if jacobian and e > 0.0:
+            _set_pose_cols(cols, pose, n)
+            jac[0], jac[1], jac[2] = w_o * de * gx, w_o * de * gy, w_o * de * gth
+            _accumulate(h, g, cols[:3], jac[:3], r[row + k])
+        if inflation:
+            e = max(min(params[P_INFLATION_DIST], obst_gap[k]) - d, 0.0)
+            r[row + m + k] = w_i * e
+            chi2[F_OBSTACLE] += r[row + m + k] * r[row + m + k]
+            if jacobian and e > 0.0:
+                _set_pose_cols(cols, pose, n)
+                jac[0], jac[1], jac[2] = -w_i * gx, -w_i * gy, -w_i * gth
+                _accumulate(h, g, cols[:3], jac[:3], r[row + m + k])
+    row += 2 * m if inflation else m
+
+    # via-points
+    nv = via_pose.shape[0]
+    w = params[P_W_VIA]
+    for k in range(nv):
+        c = _pose_col(via_pose[k], n)
+        for axis in range(2):
+            res = w * (poses[via_pose[k], axis] - via_point[k, axis])
+            r[row + axis * nv + k] = res
+            chi2[F_VIA] += res * res
+            if jacobian:
+                cols[0], jac[0] = (c + axis if c >= 0 else -1), w
+                _accumulate(h, g, cols[:1], jac[:1], res)
+    row += 2 * nv
+    return chi2.sum()
+
+
+@njit(cache=True, nogil=True)
+def _workspace(n, n_res):
+    """Outputs (r, chi2, h, g) and scratch of evaluate for a band with n time differences."""
+    n_vars = 4 * n - 3
+    scratch = (np.empty((2, n)), np.empty((2, n, 7)), np.empty((2, n + 1)), np.empty(16, np.int64), np.empty(16))
+    return np.empty(n_res), np.zeros(8), np.zeros((BANDWIDTH + 1, n_vars)), np.zeros(n_vars), scratch
+
+
+@njit(cache=True, nogil=True)
+def normal_equations(poses, dts, params, edges, model, n_res):
+    """Residuals, J^T J (lower bands), J^T r and chi2 of a band: what one inner iteration builds."""
+    r, chi2, h, g, work = _workspace(dts.shape[0], n_res)
+    total = evaluate(poses, dts, params, edges, model, True, r, chi2, h, g, work)
+    return r, h, g, total
+
+
+@njit(cache=True, nogil=True)
+def family_chi2(poses, dts, params, edges, model, n_res):
+    """chi2 of each edge family, in the order of FAMILIES."""
+    r, chi2, h, g, work = _workspace(dts.shape[0], n_res)
+    evaluate(poses, dts, params, edges, model, False, r, chi2, h, g, work)
+    return chi2
+
+
+# -- solver ----------------------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def banded_cholesky(ab):
+    """In place: lower bands of a symmetric positive definite matrix -> those of its Cholesky
+    factor L. False when the matrix is not (numerically) positive definite."""
+    bw = ab.shape[0] - 1
+    size = ab.shape[1]
+    for j in range(size):
+        d = ab[0, j]
+        for k in range(max(0, j - bw), j):
+            d -= ab[j - k, k] * ab[j - k, k]
+        if not d > 0.0 or not math.isfinite(d):
+            return False
+        ljj = math.sqrt(d)
+        ab[0, j] = ljj
+        for i in range(j + 1, min(size, j + bw + 1)):
+            s = ab[i - j, j]
+            for k in range(max(0, i - bw), j):
+                s -= ab[i - k, k] * ab[j - k, k]
+            ab[i - j, j] = s / ljj
+    return True
+
+
+@njit(cache=True, nogil=True)
+def banded_solve(ab, b, x):
+    """x = (L L^T)^-1 b for the banded Cholesky factor L."""
+    bw = ab.shape[0] - 1
+    size = ab.shape[1]
+    for i in range(size):
+        s = b[i]
+        for k in range(max(0, i - bw), i):
+            s -= ab[i - k, k] * x[k]
+        x[i] = s / ab[0, i]
+    for i in range(size - 1, -1, -1):
+        s = x[i]
+        for k in range(i + 1, min(size, i + bw + 1)):
+            s -= ab[k - i, i] * x[k]
+        x[i] = s / ab[0, i]
+
+
+@njit(cache=True, nogil=True)
+def apply_step(poses, dts, step, new_poses, new_dts):
+    """Add a step of the packed variables; time differences stay above MIN_TIME_DIFF."""
+    n = dts.shape[0]
+    new_poses[:] = poses
+    for i in range(n):
+        new_dts[i] = max(dts[i] + step[4 * i], MIN_TIME_DIFF)
+    for k in range(1, n):
+        new_poses[k, 0] += step[4 * k - 3]
+        new_poses[k, 1] += step[4 * k - 2]
+        new_poses[k, 2] = _normalize_theta(poses[k, 2] + step[4 * k - 1])
+
+
+@njit(cache=True, nogil=True)
+def levenberg_marquardt(poses, dts, params, edges, model, n_res, iterations):
+    """g2o's Levenberg-Marquardt on the band, in place: lambda starts at 1e-5 * max diag(H), shrinks
+    on gain and doubles its growth factor on each rejected step (at most 10 trials per
+    iteration). Returns the final chi2."""
+    n = dts.shape[0]
+    if n < 1:
+        return 0.0
+    r, chi2, h, g, work = _workspace(n, n_res)
+    n_vars = 4 * n - 3
+    damped = np.empty_like(h)
+    step = np.empty(n_vars)
+    trial_poses, trial_dts = np.empty_like(poses), np.empty_like(dts)
+    chi = evaluate(poses, dts, params, edges, model, True, r, chi2, h, g, work)
+    lam = -1.0
+    nu = 2.0
+    for iteration in range(iterations):
+        if lam < 0.0:
+            lam = 1e-5 * h[0].max()
+        accepted = False
+        for _trial in range(10):
+            damped[:] = h
+            damped[0] += lam
+            if not banded_cholesky(damped):
+                lam *= nu
+                nu *= 2.0
+                continue
+            banded_solve(damped, g, step)
+            step *= -1.0
+            apply_step(poses, dts, step, trial_poses, trial_dts)
+            new_chi = evaluate(trial_poses, trial_dts, params, edges, model, False, r, chi2, h, g, work)
+            gain = 0.0
+            for j in range(n_vars):
+                gain += step[j] * (lam * step[j] - g[j])
+            rho = (chi - new_chi) / (gain + 1e-3)
+            if rho > 0 and math.isfinite(new_chi):
+                lam *= max(1.0 / 3.0, min(1.0 - (2.0 * rho - 1.0) ** 3, 2.0 / 3.0))
+                nu = 2.0
+                poses[:] = trial_poses
+                dts[:] = trial_dts
+                chi = new_chi
+                accepted = True
+                break
+            lam *= nu
+            nu *= 2.0
+        if not accepted or iteration == iterations - 1:
+            break
+        h[:] = 0.0
+        g[:] = 0.0
+        evaluate(poses, dts, params, edges, model, True, r, chi2, h, g, work)
+    return chi
+
+
+# -- obstacle association --------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def associate_obstacles(poses, obstacles, model, min_obstacle_dist, force_inclusion_factor, cutoff_factor,
+                        bounding_radius, inscribed_radius, sectors, gap_free_fraction):
+    """Compiled obstacles.associate_obstacles: (pose indices, obstacle indices, gap clearances), pairs
+    ordered by selection (all left picks, all right picks, then force inclusions sector by sector)."""
+    n_int = poses.shape[0] - 2
+    m = obstacles.shape[0]
+    cutoff = min_obstacle_dist * cutoff_factor
+    force_dist = min_obstacle_dist * force_inclusion_factor
+    reach2 = (cutoff + bounding_radius) ** 2
+    keep = np.empty(m, np.int64)
+    n_keep = 0
+    for j in range(m):
+        for i in range(1, n_int + 1):
+            ex, ey = obstacles[j, 0] - poses[i, 0], obstacles[j, 1] - poses[i, 1]
+            if ex * ex + ey * ey <= reach2:
+                keep[n_keep] = j
+                n_keep += 1
+                break
+    picks = 2 + sectors
+    pick = np.full((picks, max(n_int, 0)), -1, np.int64)
+    pick_d = np.full((picks, max(n_int, 0)), np.inf)
+    gap = np.full(max(n_int, 0), np.inf)
+    for row in range(n_int):
+        x, y, th = poses[row + 1, 0], poses[row + 1, 1], poses[row + 1, 2]
+        c, s = math.cos(th), math.sin(th)
+        left, right, left_d, right_d = -1, -1, np.inf, np.inf
+        for kk in range(n_keep):
+            j = keep[kk]
+            ox, oy = obstacles[j, 0], obstacles[j, 1]
+            rx, ry = ox - x, oy - y
+            side = 0 if c * ry - s * rx > 0 else 1
+            # No model point is farther from the pose than the bounding radius: skip the footprint
+            # distance of a point that can beat neither the closest on its side, nor the pick of
+            # its side, nor that of its sector.
+            lower = math.sqrt(rx * rx + ry * ry) - bounding_radius - 1e-9
+            sector = -1
+            if lower < force_dist:
+                sector = 2 + int(math.floor((math.atan2(ry, rx) + math.pi) * (sectors / _TWO_PI))) % sectors
+            if (lower >= (left_d if side == 0 else right_d) and (lower > cutoff or lower >= pick_d[side, row])
+                    and (sector < 0 or lower >= pick_d[sector, row])):
+                continue
+            d = _footprint_distance(x, y, c, s, ox, oy, model)[0]
+            if side == 0 and d < left_d:
+                left, left_d = j, d
+            elif side == 1 and d < right_d:
+                right, right_d = j, d
+            if d < force_dist:
+                slot = sector
+            elif d <= cutoff:
+                slot = side
+            else:
+                continue
+            if d < pick_d[slot, row]:
+                pick[slot, row], pick_d[slot, row] = j, d
+        if left >= 0 and right >= 0:
+            gap[row] = _gap_clearance(c, s, obstacles, keep[:n_keep], left, right, model,
+                                      inscribed_radius, gap_free_fraction)
+    count = 0
+    for slot in range(picks):
+        for row in range(n_int):
+            count += pick[slot, row] >= 0
+    pose_idx, obst_idx, gaps = np.empty(count, np.int64), np.empty(count, np.int64), np.empty(count)
+    k = 0
+    for slot in range(picks):
+        for row in range(n_int):
+            if pick[slot, row] >= 0:
+                pose_idx[k], obst_idx[k], gaps[k] = row + 1, pick[slot, row], gap[row]
+                k += 1
+    return pose_idx, obst_idx, gaps
+
+
+@njit(cache=True, nogil=True)
+def _gap_clearance(c, s, obstacles, keep, left, right, model, inscribed_radius, gap_free_fraction):
+    """The model's distance to the closest obstacles left and right when placed on their midpoint
+    with the pose's heading (cosine c, sine s), if nothing lies nearer to the midpoint than
+    gap_free_fraction of their half distance and they are farther apart than the model is wide;
+    else inf."""
+    ax, ay, bx, by = obstacles[left, 0], obstacles[left, 1], obstacles[right, 0], obstacles[right, 1]
+    mx, my = 0.5 * (ax + bx), 0.5 * (ay + by)
+    half = 0.5 * math.hypot(bx - ax, by - ay)
+    to_mid2 = np.inf
+    for j in keep:
+        ex, ey = obstacles[j, 0] - mx, obstacles[j, 1] - my
+        to_mid2 = min(to_mid2, ex * ex + ey * ey)
+    clearance = min(_footprint_distance(mx, my, c, s, ax, ay, model)[0],
+                    _footprint_distance(mx, my, c, s, bx, by, model)[0])
+    if math.sqrt(to_mid2) >= gap_free_fraction * half and half > inscribed_radius and clearance > 0:
+        return clearance
+    return np.inf
