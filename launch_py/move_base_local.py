@@ -1,12 +1,15 @@
 """move_base_local.launch of the lab: move_base with the lab's costmap and planner configuration."""
 
-from simplebot_navigation.launch.description import Node, Remap, RosParam
+from simplebot_navigation.launch.description import Arg, Node, Remap, RosParam
 
 CONFIG = "$(find simplebot_navigation)/config"
 
 LAUNCH = [
+    Arg("respawn", default="false", choices=("true", "false"),
+        doc="restart move_base when it exits (the lab's file: false)"),
+
     # The main node that starts the navigation stack
-    Node(pkg="move_base", type="move_base", name="move_base", output="screen", respawn=False, params=[
+    Node(pkg="move_base", type="move_base", name="move_base", output="screen", respawn="$(arg respawn)", params=[
         # common configuration for both global and local costmaps
         RosParam(file=f"{CONFIG}/costmap_common.yaml", command="load", ns="global_costmap"),
         RosParam(file=f"{CONFIG}/costmap_common.yaml", command="load", ns="local_costmap"),

@@ -14,11 +14,14 @@ LAUNCH = [
     Arg("viewer", default="false", doc="also start the browser viewer on http://127.0.0.1:8765"),
     Arg("tight", default="false", choices=("true", "false"),
         doc="the narrow-door parameter set (config/tight/) over the lab's files"),
+    Arg("respawn", default="true", choices=("true", "false"),
+        doc="restart the simulator and move_base when they exit (roslaunch's respawn)"),
 
     # Every node runs on the simulator's clock.
     Param("/use_sim_time", True),
 
-    Node(pkg="simplebot_navigation", type="simulator", name="simulator", output="screen", params=[
+    Node(pkg="simplebot_navigation", type="simulator", name="simulator", output="screen",
+         respawn="$(arg respawn)", params=[
         Param("world", "$(arg world)"),
         Param("robot", "$(arg robot)"),
         Param("radius", "$(arg radius)"),
@@ -28,7 +31,7 @@ LAUNCH = [
     # The lab's TEB config reads odometry from /odom; the simulated diff-drive controller
     # publishes it on /simplebot_controller/odom, as the lab's Gazebo controller did.
     Group(remaps=[Remap("/odom", "/simplebot_controller/odom")], children=[
-        Include(file="$(find simplebot_navigation)/launch_py/move_base_local.py"),
+        Include(file="$(find simplebot_navigation)/launch_py/move_base_local.py", args={"respawn": "$(arg respawn)"}),
     ]),
 
     # Narrow doors: no padding, a fine global costmap, TEB with the box outline and small margins.

@@ -8,6 +8,7 @@ shell does the TF lookups and message conversion, using `laser_scan_to_observati
 from __future__ import annotations
 
 import logging
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -64,21 +65,51 @@ class ObservationSource:
                              f"use one of {', '.join(SUPPORTED_DATA_TYPES)}")
 
 
+def _scan_problem(r: np.ndarray, angle_min, angle_increment, range_min, range_max, sensor_pose) -> str | None:
+    """Why a LaserScan cannot be projected at all, or None: NaN or inf in its geometry would project
+    every beam to NaN, and a ranges list longer than one turn would wrap into a phantom ring."""
+    if r.ndim != 1:
+        return f"ranges must be a flat list, got shape {r.shape}"
+    for name, value in (("angle_min", angle_min), ("angle_increment", angle_increment),
+                        ("range_min", range_min), ("range_max", range_max)):
+        if not math.isfinite(value):
+            return f"{name} is {value}"
+    if not np.isfinite(sensor_pose).all():
+        return f"the sensor pose is not finite: {tuple(float(v) for v in sensor_pose)}"
+    if not range_min < range_max:
+        return f"range_min {range_min} is not below range_max {range_max}"
+    # One beam of slack: 360-degree scanners may repeat the first angle at the end.
+    if (len(r) - 1) * abs(angle_increment) > math.tau + abs(angle_increment):
+        return (f"{len(r)} ranges at angle_increment {angle_increment} sweep more than one turn; "
+                "ranges does not match the scan's angles")
+    return None
+
+
 def laser_scan_to_observation(ranges, angle_min: float, angle_increment: float, range_min: float,
                               range_max: float, sensor_pose, stamp: float, obstacle_range: float,
                               raytrace_range: float, inf_is_valid: bool = False) -> Observation:
     """Project a LaserScan taken at sensor_pose = (x, y, z, yaw) in the global frame.
 
-    Returns in [range_min, range_max) become hits; NaN and other out-of-range values are dropped.
-    With inf_is_valid, +inf becomes a clearing-only ray of length range_max - 1e-4 that never
-    marks (DESIGN §9: costmap_2d would mark a phantom ring there).
+    Returns in [range_min, range_max) become hits, but never a negative one (whatever range_min
+    says): NaN, negative and other out-of-range values are dropped. With inf_is_valid, +inf becomes
+    a clearing-only ray of length range_max - 1e-4 that never marks (DESIGN §9: costmap_2d would
+    mark a phantom ring there). A scan whose geometry is unusable (see _scan_problem) gives an empty
+    observation; both kinds of drop are logged as warnings, which the ROS shell throttles.
     """
     r = np.asarray(ranges, dtype=float)
     sx, sy, sz, syaw = (float(v) for v in sensor_pose)
+    origin = np.array([sx, sy, sz])
+    problem = _scan_problem(r, angle_min, angle_increment, range_min, range_max, sensor_pose)
+    if problem:
+        _log.warning("LaserScan dropped: %s", problem)
+        return Observation(origin, np.empty((0, 3)), float(obstacle_range), float(raytrace_range), float(stamp))
     angles = syaw + angle_min + angle_increment * np.arange(len(r))
     with np.errstate(invalid="ignore"):
-        hit = (r >= range_min) & (r < range_max)
-    origin = np.array([sx, sy, sz])
+        negative = r < 0
+        hit = (r >= max(range_min, 0.0)) & (r < range_max)
+    if negative.any():
+        _log.warning("LaserScan: %d negative ranges dropped (a range is never below 0, whatever range_min "
+                     "says; range_min is %s)", int(negative.sum()), range_min)
 
     def project(rr, aa):
         return np.stack([sx + rr * np.cos(aa), sy + rr * np.sin(aa), np.full(len(rr), sz)], axis=1)
@@ -183,6 +214,11 @@ class ObstacleLayer(CostmapLayer):
         except KeyError:
             raise KeyError(f"layer {self.name!r} has no observation source {source_name!r}; "
                            f"sources are {list(self.buffers)}") from None
+        if not np.isfinite(observation.origin).all():
+            # Raytracing from a NaN origin has no start cell; the data is dropped, not the layer.
+            _log.warning("layer %r, observation source %r: observation dropped, its sensor origin %s "
+                         "is not finite", self.name, source_name, observation.origin.tolist())
+            return
         buffer.buffer_observation(observation, self.layered_costmap.clock())
 
     def _gather(self):

@@ -61,6 +61,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--print-params", action="store_true", help="print the parameters each node gets, then exit")
     parser.add_argument("--single-process", action="store_true", help="run all nodes in this process, one executor")
     parser.add_argument("--record", metavar="FILE.mcap", help="record every topic of the run to an MCAP file")
+    parser.add_argument("--keep-run-dir", action="store_true",
+                        help="keep the run directory (simplebot_launch_* in the system temp folder: each node's "
+                             "parameter file, and the output of output=\"log\" nodes); without this option it is "
+                             "removed on exit, unless output=\"log\" nodes wrote to it")
     opts, rest = parser.parse_known_args(argv)
 
     if opts.list:
@@ -92,9 +96,9 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if opts.single_process:
         from simplebot_navigation.launch.runner import run_single_process
-        return run_single_process(config)
+        return run_single_process(config, opts.keep_run_dir)
     from simplebot_navigation.launch.runner import ProcessLauncher
-    return ProcessLauncher(config).run()
+    return ProcessLauncher(config, opts.keep_run_dir).run()
 
 
 if __name__ == "__main__":

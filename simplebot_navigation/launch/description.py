@@ -48,14 +48,19 @@ class Remap:
 
 @dataclass
 class Node:
-    """``<node pkg type name output respawn>`` with its private rosparams, params and remaps."""
+    """``<node pkg type name output respawn>`` with its private rosparams, params and remaps.
+
+    As in roslaunch, a node with ``respawn`` is restarted ``respawn_delay`` seconds after it exits,
+    and one that is ``required`` stops the launch when it exits; these may be substitutions
+    (``respawn="$(arg respawn)"``).
+    """
     pkg: str
     type: str
     name: str
     output: str = "screen"
-    respawn: bool = False
-    respawn_delay: float = 1.0
-    required: bool = False
+    respawn: bool | str = False
+    respawn_delay: float | str = 0.0
+    required: bool | str = False
     ns: str = ""
     args: str = ""
     params: list[RosParam | Param] = field(default_factory=list)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import math
 import os
 import re
 import runpy
@@ -46,6 +47,7 @@ class LaunchConfig:
 
 
 _SUBST = re.compile(r"\$\((\w+)\s*([^)]*)\)")
+_TRUTH = {"true": True, "1": True, "false": False, "0": False}
 
 
 class _Context:
@@ -83,27 +85,57 @@ class _Context:
         return _SUBST.sub(one, text)
 
     def _eval(self, expr: str) -> Any:
-        """roslaunch's $(eval): arguments are visible by name; only literals and comparisons are allowed."""
-        tree = ast.parse(expr, mode="eval")
+        """roslaunch's $(eval): arguments are visible by name; only literals and comparisons are allowed.
+
+        The expression is launch-file text: whatever is wrong with it is a LaunchError naming it.
+        """
+        try:
+            tree = ast.parse(expr, mode="eval")
+        except SyntaxError as err:
+            raise LaunchError(f"{self.file}: $(eval {expr}) is not a valid expression: {err.msg}") from None
         allowed = (ast.Expression, ast.Compare, ast.BoolOp, ast.UnaryOp, ast.Name, ast.Constant, ast.Load,
                    ast.Eq, ast.NotEq, ast.And, ast.Or, ast.Not, ast.In, ast.NotIn, ast.Tuple, ast.List)
         for node in ast.walk(tree):
             if not isinstance(node, allowed):
                 raise LaunchError(f"{self.file}: $(eval {expr}): only comparisons of arguments are supported")
-        return eval(compile(tree, self.file, "eval"), {"__builtins__": {}}, dict(self.args))  # noqa: S307
+        try:
+            return eval(compile(tree, self.file, "eval"), {"__builtins__": {}}, dict(self.args))  # noqa: S307
+        except NameError as err:
+            raise LaunchError(f"{self.file}: $(eval {expr}): {err.name!r} is not a declared argument") from None
+        except Exception as err:  # noqa: BLE001 - e.g. `in` on a non-container
+            raise LaunchError(f"{self.file}: $(eval {expr}): {type(err).__name__}: {err}") from None
 
     def enabled(self, item: Any) -> bool:
         cond_if, cond_unless = getattr(item, "if_", None), getattr(item, "unless", None)
-        truth = {"true": True, "1": True, "false": False, "0": False}
         for cond, want in ((cond_if, True), (cond_unless, False)):
             if cond is None:
                 continue
             value = self.subst(cond).strip().lower()
-            if value not in truth:
+            if value not in _TRUTH:
                 raise LaunchError(f"{self.file}: condition {cond!r} evaluated to {value!r}, expected true or false")
-            if truth[value] != want:
+            if _TRUTH[value] != want:
                 return False
         return True
+
+    def flag(self, value: Any, what: str) -> bool:
+        """A boolean attribute (a bool, or text such as "$(arg respawn)")."""
+        if isinstance(value, bool):
+            return value
+        text = str(self.subst(value))
+        if text.strip().lower() not in _TRUTH:
+            raise LaunchError(f"{self.file}: {what} {text!r} must be true or false")
+        return _TRUTH[text.strip().lower()]
+
+    def seconds(self, value: Any, what: str) -> float:
+        """A duration attribute (a number, or text that substitutes to one)."""
+        text = self.subst(value)
+        try:
+            number = float(text)
+        except (TypeError, ValueError):
+            number = math.nan
+        if not (math.isfinite(number) and number >= 0):
+            raise LaunchError(f"{self.file}: {what} '{text}' must be a number of seconds >= 0")
+        return number
 
 
 def _typed(value: Any) -> Any:
@@ -226,10 +258,15 @@ def load_launch(path: str, given_args: dict[str, str] | None = None) -> LaunchCo
             raise LaunchError(str(err)) from None
         if global_use_sim_time is not None:
             overrides.setdefault("use_sim_time", bool(global_use_sim_time))
+        respawn = ctx.flag(node.respawn, f"node {full}: respawn")
+        required = ctx.flag(node.required, f"node {full}: required")
+        if respawn and required:
+            raise LaunchError(f"{ctx.file}: node {full}: respawn and required cannot both be set")
         specs.append(NodeSpec(
             pkg=ctx.subst(node.pkg), type=ctx.subst(node.type), name=name, namespace=namespace,
-            output=node.output, respawn=bool(node.respawn), respawn_delay=float(node.respawn_delay),
-            required=bool(node.required),
+            output=node.output, respawn=respawn, respawn_delay=ctx.seconds(node.respawn_delay,
+                                                                           f"node {full}: respawn_delay"),
+            required=required,
             remaps=ctx.remaps + [(ctx.subst(r.from_), ctx.subst(r.to)) for r in node.remaps],
             parameters=overrides))
     return LaunchConfig(file=top, args=args, params=params, nodes=specs, arg_docs=declared)

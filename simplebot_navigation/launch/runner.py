@@ -2,15 +2,19 @@
 
 from __future__ import annotations
 
+import contextlib
 import gc
 import importlib
 import os
+import shutil
 import signal
 import subprocess
 import sys
 import tempfile
 import threading
 import time
+from collections import deque
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 
 import yaml
@@ -19,6 +23,8 @@ from simplebot_navigation.launch.loader import LaunchConfig, NodeSpec
 from simplebot_navigation.launch.nodes import Executable, ExecutableNotFound, resolve_executable
 
 SHUTDOWN_GRACE_S = 5.0
+#: respawns are also counted over this window, so a node that keeps dying stands out in the log
+RESPAWN_WINDOW_S = 60.0
 
 
 def ros_args(spec: NodeSpec, params_file: str) -> list[str]:
@@ -40,6 +46,26 @@ def _log(message: str) -> None:
     print(f"[launch] {message}", flush=True)
 
 
+@contextlib.contextmanager
+def run_directory(keep: bool, logs: Callable[[], list[str]]) -> Iterator[str]:
+    """A fresh simplebot_launch_* folder in the system temp folder for the nodes' parameter files.
+
+    It is removed afterwards, unless the user asked to keep it or it holds the output of
+    output="log" nodes (``logs()`` names those files), which would otherwise be lost.
+    """
+    path = tempfile.mkdtemp(prefix="simplebot_launch_")
+    try:
+        yield path
+    finally:
+        kept_logs = logs()
+        if keep:
+            _log(f"run directory kept: {path}")
+        elif kept_logs:
+            _log(f"node output kept in {path}: {', '.join(kept_logs)}")
+        else:
+            shutil.rmtree(path, ignore_errors=True)
+
+
 @dataclass
 class _Process:
     spec: NodeSpec
@@ -47,6 +73,7 @@ class _Process:
     popen: subprocess.Popen | None = None
     exit_code: int | None = None
     respawns: int = 0
+    recent_respawns: deque = field(default_factory=deque)  # monotonic times within RESPAWN_WINDOW_S
     restart_at: float | None = None
     log_file: str | None = None
     threads: list[threading.Thread] = field(default_factory=list)
@@ -55,9 +82,10 @@ class _Process:
 class ProcessLauncher:
     """roslaunch's process monitor: prefixed output, respawn, required nodes, clean shutdown."""
 
-    def __init__(self, config: LaunchConfig, run_dir: str | None = None):
+    def __init__(self, config: LaunchConfig, keep_run_dir: bool = False):
         self.config = config
-        self.run_dir = run_dir or tempfile.mkdtemp(prefix="simplebot_launch_")
+        self.keep_run_dir = keep_run_dir
+        self.run_dir = ""
         self.processes: list[_Process] = []
         self.missing: list[str] = []
         self._stop = threading.Event()
@@ -76,22 +104,27 @@ class ProcessLauncher:
             self.processes.append(_Process(spec, command))
 
     def _pump(self, proc: _Process, stream, sink) -> None:
+        """Copy one run's output to the console or its log file; closes both ends when the run ends."""
         prefix = f"[{proc.spec.name}] "
-        for raw in iter(stream.readline, b""):
-            line = raw.decode("utf-8", "replace").rstrip("\n")
-            with self._print_lock:
-                if sink is not None:
-                    sink.write(line + "\n")
-                    sink.flush()
-                else:
-                    print(prefix + line, flush=True)
-        stream.close()
+        try:
+            for raw in iter(stream.readline, b""):
+                line = raw.decode("utf-8", "replace").rstrip("\n")
+                with self._print_lock:
+                    if sink is not None:
+                        sink.write(line + "\n")
+                        sink.flush()
+                    else:
+                        print(prefix + line, flush=True)
+        finally:
+            stream.close()
+            if sink is not None:
+                sink.close()
 
     def _start(self, proc: _Process) -> None:
         sink = None
         if proc.spec.output == "log":
             proc.log_file = os.path.join(self.run_dir, f"{proc.spec.name}.log")
-            sink = open(proc.log_file, "a", encoding="utf-8")  # noqa: SIM115 - closed with the pump
+            sink = open(proc.log_file, "a", encoding="utf-8")  # noqa: SIM115 - the pump closes it
         proc.popen = subprocess.Popen(proc.command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                       stdin=subprocess.DEVNULL, start_new_session=True,
                                       env={**os.environ, "SIMPLEBOT_LAUNCHER_PID": str(os.getpid())})
@@ -108,6 +141,13 @@ class ProcessLauncher:
 
     def run(self) -> int:
         """Run until Ctrl-C/SIGTERM or until every process has ended; the exit code says what failed."""
+        with run_directory(self.keep_run_dir, self._log_files) as self.run_dir:
+            return self._run()
+
+    def _log_files(self) -> list[str]:
+        return [os.path.basename(p.log_file) for p in self.processes if p.log_file]
+
+    def _run(self) -> int:
         self._prepare()
         for message in self.missing:
             _log(f"NOT STARTED {message}")
@@ -124,8 +164,7 @@ class ProcessLauncher:
                 for proc in self.processes:
                     if proc.restart_at is not None:
                         alive += 1
-                        if time.monotonic() >= proc.restart_at:
-                            proc.respawns += 1
+                        if time.monotonic() >= proc.restart_at and not self._stop.is_set():
                             self._start(proc)
                         continue
                     if proc.popen is None or proc.exit_code is not None:
@@ -139,8 +178,7 @@ class ProcessLauncher:
                         thread.join(timeout=1.0)
                     _log(f"process {proc.spec.full_name} (pid {proc.popen.pid}) ended with exit code {code}")
                     if proc.spec.respawn:
-                        _log(f"respawning {proc.spec.full_name} in {proc.spec.respawn_delay:.1f} s")
-                        proc.restart_at = time.monotonic() + proc.spec.respawn_delay
+                        self._schedule_respawn(proc)
                         alive += 1
                     elif code != 0:
                         failed.append(f"{proc.spec.full_name} (exit code {code})")
@@ -158,6 +196,16 @@ class ProcessLauncher:
             _log("failed: " + ", ".join(failed))
             return 1
         return 0
+
+    def _schedule_respawn(self, proc: _Process) -> None:
+        now = time.monotonic()
+        proc.respawns += 1
+        proc.recent_respawns.append(now)
+        while now - proc.recent_respawns[0] > RESPAWN_WINDOW_S:
+            proc.recent_respawns.popleft()
+        _log(f"respawning {proc.spec.full_name} in {proc.spec.respawn_delay:.1f} s (respawn #{proc.respawns}, "
+             f"{len(proc.recent_respawns)} in the last {RESPAWN_WINDOW_S:.0f} s)")
+        proc.restart_at = now + proc.spec.respawn_delay
 
     def shutdown(self) -> None:
         """SIGINT to every process group, then SIGTERM, then SIGKILL: no orphans."""
@@ -180,7 +228,7 @@ class ProcessLauncher:
                 thread.join(timeout=1.0)
 
 
-def run_single_process(config: LaunchConfig) -> int:
+def run_single_process(config: LaunchConfig, keep_run_dir: bool = False) -> int:
     """All nodes in this process under one executor (for debugging and profiling)."""
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
@@ -188,7 +236,6 @@ def run_single_process(config: LaunchConfig) -> int:
     from simplebot_navigation.ros.lockstep import LockstepDriver
     from simplebot_navigation.ros.node_main import stopped_by_ctrl_c
 
-    run_dir = tempfile.mkdtemp(prefix="simplebot_launch_")
     classes: list[tuple[NodeSpec, type]] = []
     for spec in config.nodes:
         try:
@@ -207,7 +254,7 @@ def run_single_process(config: LaunchConfig) -> int:
     executor = SingleThreadedExecutor()
     nodes = []
     try:
-        with stopped_by_ctrl_c():
+        with stopped_by_ctrl_c(), run_directory(keep_run_dir, list) as run_dir:
             for spec, cls in classes:
                 node = cls(cli_args=ros_args(spec, write_params_file(spec, run_dir)), use_global_arguments=False)
                 nodes.append(node)

@@ -55,8 +55,18 @@ class OdomNoise:
 
 
 def wheel_targets(v: float, w: float, separation: float, radius: float, max_speed: float) -> np.ndarray:
-    """[left, right] wheel speeds (rad/s) for body velocity (v, w), saturated along the curvature."""
+    """[left, right] wheel speeds (rad/s) for body velocity (v, w), saturated along the curvature.
+
+    A command beyond what the drive can do is first scaled down (v and w together) to the drive's
+    limits, so even 1e308 saturates instead of overflowing to inf and turning into NaN.
+    Raises ValueError for a non-finite command.
+    """
+    if not (math.isfinite(v) and math.isfinite(w)):
+        raise ValueError(f"cmd_vel must be finite, got linear.x={v}, angular.z={w}")
     half = separation / 2
+    top_v = max_speed * radius
+    scale = min(1.0, top_v / abs(v) if v else 1.0, top_v / half / abs(w) if w else 1.0)
+    v, w = v * scale, w * scale
     targets = np.array([(v - w * half) / radius, (v + w * half) / radius])
     peak = np.max(np.abs(targets))
     if peak > max_speed:
@@ -89,7 +99,12 @@ class WheelOdometry:
         self.v = self.w = 0.0
 
     def update(self, wheel_speeds, dt: float) -> None:
-        speeds = np.asarray(wheel_speeds, dtype=float) * self._scale
+        """Integrate one step; non-finite input raises ValueError and leaves the pose as it was."""
+        speeds = np.asarray(wheel_speeds, dtype=float)
+        if not (np.isfinite(speeds).all() and math.isfinite(dt)):
+            raise ValueError(f"wheel odometry needs finite wheel speeds and dt, got {speeds.tolist()} "
+                             f"and dt={dt}")
+        speeds = speeds * self._scale
         if self.noise.speed_std:
             speeds = speeds * (1.0 + self._rng.normal(0.0, self.noise.speed_std, 2))
         left, right = (float(s) * self.radius for s in speeds)

@@ -4,12 +4,20 @@ GET /frame?after=V&<layer>=<version>... answers as soon as the scene is newer th
 (or after a second, so the page notices a dead link), never faster than ``rate``
 frames a second; costmaps and the robot body are only sent when the page's copy is
 stale. POST /goal with {"x", "y", "yaw"} (fixed frame, radians) sets a navigation goal.
+
+A goal moves the robot, so it is taken only from the viewer's own page: the Host header must
+name this server (a foreign name is DNS rebinding), a browser's Origin must be that same
+server (anything else is a cross-site request), and the body must be application/json, which
+an HTML form cannot send.
 """
 
 from __future__ import annotations
 
+import ipaddress
 import json
 import math
+import re
+import socket
 import threading
 import time
 from http import HTTPStatus
@@ -26,6 +34,46 @@ STATIC = {"/": ("index.html", "text/html; charset=utf-8"),
           "/viewer.css": ("viewer.css", "text/css; charset=utf-8")}
 LONG_POLL_S = 1.0
 MAX_BODY = 4096
+#: a client that stops sending mid-request frees its thread after this long
+REQUEST_TIMEOUT_S = 10.0
+_DIGITS = re.compile(r"[0-9]+")
+
+
+def _ip(name: str):
+    try:
+        return ipaddress.ip_address(name)
+    except ValueError:
+        return None
+
+
+def split_authority(authority: str) -> tuple[str, int | None]:
+    """A Host header as (lower-case host name, port); the port is 80 when absent, None when malformed."""
+    authority = authority.strip().lower()
+    if authority.startswith("["):
+        host, _, rest = authority[1:].partition("]")
+        port = rest[1:] if rest.startswith(":") else ("80" if not rest else "")
+    else:
+        host, colon, port = authority.partition(":")
+        port = port if colon else "80"
+    return host, int(port) if _DIGITS.fullmatch(port) else None
+
+
+def is_own_host(authority: str, bound: str, port: int, machine_names: frozenset[str]) -> bool:
+    """Whether a Host header addresses the server bound to bound:port.
+
+    A loopback server answers to any loopback address and "localhost"; one on every interface
+    (0.0.0.0) to any IP address and this machine's names; others to their address and the
+    machine's names. A domain name from elsewhere is what a DNS-rebinding page sends.
+    """
+    name, asked_port = split_authority(authority)
+    if asked_port != port:
+        return False
+    address, bound_ip = _ip(name), ipaddress.ip_address(bound)
+    if bound_ip.is_loopback:
+        return name == "localhost" or (address is not None and address.is_loopback)
+    if bound_ip.is_unspecified:
+        return address is not None or name == "localhost" or name in machine_names
+    return address == bound_ip or name in machine_names
 
 
 class _HTTPServer(ThreadingHTTPServer):
@@ -49,6 +97,9 @@ class ViewerServer:
                         for path, (name, kind) in STATIC.items()}
         self.httpd = _HTTPServer((host, port), self._handler_class())
         self._thread: threading.Thread | None = None
+        bound = self.httpd.server_address[0]
+        self._machine_names = frozenset() if ipaddress.ip_address(bound).is_loopback else \
+            frozenset(n.lower() for n in (socket.gethostname(), socket.getfqdn()))
 
     @property
     def url(self) -> str:
@@ -76,6 +127,15 @@ class ViewerServer:
             self._last_frame = time.monotonic()
             return self.scene.encode(self.lookup, known, self.base_frame)
 
+    def host_refusal(self, authority: str | None) -> str | None:
+        """Why a request with this Host header is refused, or None."""
+        bound, port = self.httpd.server_address[:2]
+        if authority is None:
+            return f"refused, the request has no Host header (this viewer is {bound}:{port})"
+        if not is_own_host(authority, bound, port, self._machine_names):
+            return f"refused, Host {authority!r} is not this viewer ({bound}:{port}); open {self.url}"
+        return None
+
     def goal(self, body: bytes) -> dict:
         """Parse and publish a goal; ValueError names what is wrong with the request."""
         try:
@@ -98,6 +158,7 @@ class ViewerServer:
 
         class Handler(BaseHTTPRequestHandler):
             protocol_version = "HTTP/1.1"
+            timeout = REQUEST_TIMEOUT_S
 
             def log_message(self, *args) -> None:  # the console belongs to the navigation nodes
                 pass
@@ -107,10 +168,24 @@ class ViewerServer:
                 self.send_header("Content-Type", kind)
                 self.send_header("Content-Length", str(len(body)))
                 self.send_header("Cache-Control", "no-store")
+                if status >= 400:  # the request's body may be unread: it must not be taken for the next request
+                    self.send_header("Connection", "close")
+                    self.close_connection = True
                 self.end_headers()
                 self.wfile.write(body)
 
+            def _refuse(self, status: int, message: str) -> None:
+                self._send(status, message.encode(), "text/plain; charset=utf-8")
+
+            def _host_ok(self, prefix: str = "") -> bool:
+                refusal = server.host_refusal(self.headers.get("Host"))
+                if refusal:
+                    self._refuse(HTTPStatus.FORBIDDEN, prefix + refusal)
+                return refusal is None
+
             def do_GET(self) -> None:  # noqa: N802 - http.server's name
+                if not self._host_ok():
+                    return
                 url = urlsplit(self.path)
                 if url.path == "/frame":
                     query = {k: v[-1] for k, v in parse_qs(url.query).items()}
@@ -118,27 +193,69 @@ class ViewerServer:
                         after = int(query.pop("after", "-1"))
                         known = {k: int(v) for k, v in query.items()}
                     except ValueError:
-                        self._send(HTTPStatus.BAD_REQUEST, b"frame: versions must be integers", "text/plain")
+                        self._refuse(HTTPStatus.BAD_REQUEST, "frame: versions must be integers")
                         return
                     self._send(HTTPStatus.OK, server.frame(after, known), "application/octet-stream")
                 elif url.path in server._static:
                     self._send(HTTPStatus.OK, *server._static[url.path])
                 else:
-                    self._send(HTTPStatus.NOT_FOUND, f"no such page: {url.path}".encode(), "text/plain")
+                    self._refuse(HTTPStatus.NOT_FOUND, f"no such page: {url.path}")
 
             def do_POST(self) -> None:  # noqa: N802
                 if urlsplit(self.path).path != "/goal":
-                    self._send(HTTPStatus.NOT_FOUND, b"POST only to /goal", "text/plain")
+                    self._refuse(HTTPStatus.NOT_FOUND, "POST only to /goal")
                     return
-                length = int(self.headers.get("Content-Length") or 0)
-                if not 0 < length <= MAX_BODY:
-                    self._send(HTTPStatus.BAD_REQUEST, b"goal: body missing or too long", "text/plain")
+                if not self._host_ok("goal: "):
+                    return
+                origin = self.headers.get("Origin")
+                if origin is not None and origin.strip().lower() != f"http://{self.headers['Host'].strip().lower()}":
+                    self._refuse(HTTPStatus.FORBIDDEN,
+                                 f"goal: refused, Origin {origin!r} is not this viewer (a cross-site request)")
+                    return
+                kind = self.headers.get("Content-Type", "")
+                if kind.partition(";")[0].strip().lower() != "application/json":
+                    self._refuse(HTTPStatus.FORBIDDEN,
+                                 f"goal: refused, Content-Type must be application/json, got {kind!r}")
+                    return
+                body = self._read_body()
+                if body is None:
                     return
                 try:
-                    sent = server.goal(self.rfile.read(length))
+                    sent = server.goal(body)
                 except ValueError as err:
-                    self._send(HTTPStatus.BAD_REQUEST, str(err).encode(), "text/plain")
+                    self._refuse(HTTPStatus.BAD_REQUEST, str(err))
                     return
                 self._send(HTTPStatus.OK, json.dumps(sent).encode(), "application/json")
+
+            def _read_body(self) -> bytes | None:
+                """The body as Content-Length announces it, or None after answering what was wrong."""
+                declared = self.headers.get("Content-Length")
+                if declared is None:
+                    self._refuse(HTTPStatus.LENGTH_REQUIRED, "goal: Content-Length is required")
+                    return None
+                if not _DIGITS.fullmatch(declared.strip()):
+                    self._refuse(HTTPStatus.BAD_REQUEST, f"goal: Content-Length {declared!r} is not a number of bytes")
+                    return None
+                length = int(declared)
+                if length == 0:
+                    self._refuse(HTTPStatus.BAD_REQUEST, "goal: the body is empty")
+                    return None
+                if length > MAX_BODY:
+                    self._refuse(HTTPStatus.REQUEST_ENTITY_TOO_LARGE,
+                                 f"goal: a body of {length} bytes is too long (at most {MAX_BODY})")
+                    return None
+                body = b""
+                try:
+                    while len(body) < length:
+                        chunk = self.rfile.read1(length - len(body))
+                        if not chunk:
+                            break
+                        body += chunk
+                except TimeoutError:
+                    pass
+                if len(body) < length:
+                    self._refuse(HTTPStatus.BAD_REQUEST, f"goal: the body ended after {len(body)} of {length} bytes")
+                    return None
+                return body
 
         return Handler

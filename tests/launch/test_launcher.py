@@ -13,6 +13,8 @@ import time
 
 import pytest
 
+from simplebot_navigation.launch.loader import LaunchError, load_launch
+
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
@@ -29,10 +31,10 @@ def _die_with_this_test() -> None:
     ctypes.CDLL(None).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG: no launcher outlives a killed test run
 
 
-def start(launch_file: str) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "simplebot_navigation.launch", launch_file], cwd=REPO,
+def start(launch_file: str, *options: str, env: dict | None = None) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "simplebot_navigation.launch", launch_file, *options], cwd=REPO,
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True,
-                            preexec_fn=_die_with_this_test)
+                            preexec_fn=_die_with_this_test, env=None if env is None else {**os.environ, **env})
 
 
 def read_until(proc: subprocess.Popen, pattern: str, timeout: float = 90.0, lines: list | None = None) -> list[str]:
@@ -56,6 +58,15 @@ def read_until(proc: subprocess.Popen, pattern: str, timeout: float = 90.0, line
         if re.search(pattern, line):
             return lines
     raise AssertionError(f"{pattern!r} not seen; output so far:\n" + "\n".join(lines))
+
+
+def rest_of_output(proc: subprocess.Popen) -> list[str]:
+    """Every line left once the launcher has ended (after read_until)."""
+    proc.wait(timeout=20)
+    lines = []
+    while (line := proc.lines.get(timeout=5)) is not None:
+        lines.append(line.rstrip("\n"))
+    return lines
 
 
 def alive(pid: int) -> bool:
@@ -168,3 +179,100 @@ def test_cli_rejects_a_bad_argument_with_one_line():
     assert out.stderr.strip().splitlines() == [
         "[launch] error: " + os.path.join(REPO, "launch_py", "navigation.py")
         + ": argument robot='tank' is not one of box, round"]
+
+
+def test_respawns_are_counted_and_sigint_ends_them(tmp_path):
+    launch = write_launch(tmp_path, """
+        Node(pkg="python", type="tests.launch.dummy_node", name="phoenix", respawn=True,
+             params=[Param("exit_after", 0.2), Param("exit_code", 3)]),
+    """)
+    proc = start(launch)
+    try:
+        # roslaunch's default respawn_delay is 0; a node that keeps dying is restarted each time.
+        lines = read_until(proc, r"respawning /phoenix in 0\.0 s \(respawn #3, 3 in the last 60 s\)")
+        read_until(proc, r"started /phoenix", lines=lines)
+        proc.send_signal(signal.SIGINT)
+        after = rest_of_output(proc)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert proc.returncode == 0, "\n".join(lines + after)
+    assert not any("started /phoenix" in line for line in after), "\n".join(after)
+    assert not any(alive(pid) for pid in child_pids(lines))
+
+
+def test_the_run_directory_goes_away_after_the_run(tmp_path):
+    launch = write_launch(tmp_path, """
+        Node(pkg="python", type="tests.launch.dummy_node", name="alpha"),
+    """)
+    temp = tmp_path / "tmp"
+    temp.mkdir()
+    proc = start(launch, env={"TMPDIR": str(temp)})
+    try:
+        lines = read_until(proc, r"\[alpha\] /alpha says hello")
+        assert list(temp.glob("simplebot_launch_*")), "the run directory should exist while the nodes run"
+        proc.send_signal(signal.SIGINT)
+        lines += rest_of_output(proc)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert proc.returncode == 0, "\n".join(lines)
+    assert not list(temp.glob("simplebot_launch_*"))
+
+
+def test_node_logs_are_kept_and_closed_after_each_run(tmp_path):
+    launch = write_launch(tmp_path, """
+        Node(pkg="python", type="tests.launch.dummy_node", name="logger", output="log", respawn=True,
+             params=[Param("exit_after", 0.2)]),
+    """)
+    temp = tmp_path / "tmp"
+    temp.mkdir()
+    proc = start(launch, env={"TMPDIR": str(temp), "PYTHONWARNINGS": "always::ResourceWarning"})
+    try:
+        lines = read_until(proc, r"respawning /logger .*respawn #3")
+        proc.send_signal(signal.SIGINT)
+        lines += rest_of_output(proc)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    output = "\n".join(lines)
+    assert proc.returncode == 0 and "unclosed file" not in output, output
+    log = next(temp.glob("simplebot_launch_*/logger.log"))
+    assert f"node output kept in {log.parent}" in output
+    assert log.read_text().count("/logger says hello") >= 3
+
+
+def test_keep_run_dir_keeps_the_parameter_files(tmp_path):
+    launch = write_launch(tmp_path, """
+        Node(pkg="python", type="tests.launch.dummy_node", name="fails",
+             params=[Param("exit_after", 0.2), Param("exit_code", 4)]),
+    """)
+    temp = tmp_path / "tmp"
+    temp.mkdir()
+    proc = start(launch, "--keep-run-dir", env={"TMPDIR": str(temp)})
+    out, _ = proc.communicate(timeout=60)
+    params = next(temp.glob("simplebot_launch_*/fails.params.yaml"))
+    assert f"run directory kept: {params.parent}" in out and "exit_after: 0.2" in params.read_text()
+
+
+def test_navigation_respawns_its_nodes_unless_told_not_to():
+    def respawn(args):
+        return {node.name: (node.respawn, node.respawn_delay) for node in load_launch("navigation", args).nodes}
+
+    assert respawn({}) == {"simulator": (True, 0.0), "move_base": (True, 0.0)}
+    assert respawn({"respawn": "false"}) == {"simulator": (False, 0.0), "move_base": (False, 0.0)}
+    assert respawn({"viewer": "true"})["viewer"] == (False, 0.0)
+
+
+@pytest.mark.parametrize("attributes, message", [
+    ('respawn="maybe"', "node /n: respawn 'maybe' must be true or false"),
+    ('respawn=True, respawn_delay="soon"', "node /n: respawn_delay 'soon' must be a number of seconds >= 0"),
+    ('respawn=True, respawn_delay=-1', "node /n: respawn_delay '-1' must be a number of seconds >= 0"),
+    ('respawn=True, required=True', "node /n: respawn and required cannot both be set"),
+])
+def test_bad_respawn_attributes_are_named(tmp_path, attributes, message):
+    launch = write_launch(tmp_path, f"""
+        Node(pkg="python", type="tests.launch.dummy_node", name="n", {attributes}),
+    """)
+    with pytest.raises(LaunchError, match=re.escape(f"{launch}: {message}")):
+        load_launch(launch)
