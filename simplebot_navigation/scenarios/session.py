@@ -221,9 +221,10 @@ class _Session(abc.ABC):
 
 
 def launch_args(world: str, robot: str, radius: float, rtf: float, tight: bool) -> dict[str, str]:
-    """The navigation launch file's arguments for a session."""
+    """The navigation launch file's arguments for a session; a node that dies is not respawned, so a
+    scenario shows the crash instead of hiding it."""
     return {"world": str(world), "robot": robot, "radius": str(radius), "rtf": str(rtf),
-            "tight": "true" if tight else "false"}
+            "tight": "true" if tight else "false", "respawn": "false"}
 
 
 class NavigationSession(_Session):
