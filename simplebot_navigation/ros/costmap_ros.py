@@ -23,7 +23,6 @@ from geometry_msgs.msg import Polygon, PolygonStamped
 from map_msgs.msg import OccupancyGridUpdate
 from nav_msgs.msg import OccupancyGrid
 from rclpy.clock import Clock, ClockType
-from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from rclpy.time import Time
@@ -37,6 +36,7 @@ from simplebot_navigation.costmap.obstacle_layer import (Observation, Observatio
 from simplebot_navigation.costmap.static_layer import StaticLayer
 from simplebot_navigation.ros.conversions import occupancy_grid_msg, polygon_msg, quaternion_to_yaw
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
+from simplebot_navigation.ros.publishers import create_publisher
 from simplebot_navigation.ros.tf import (Buffer, ConnectivityException, ExtrapolationException, LookupException,
                                          TransformException, strip_frame)
 
@@ -211,11 +211,10 @@ class Costmap2DROS:
         self._new_subscriber = False
         self._last_publish_s = -math.inf
 
-        self.costmap_pub = node.create_publisher(
-            OccupancyGrid, f"/{name}/costmap", LATCHED, callback_group=callback_group,
-            event_callbacks=PublisherEventCallbacks(matched=self._on_costmap_matched))
-        self.updates_pub = node.create_publisher(OccupancyGridUpdate, f"/{name}/costmap_updates", UPDATES_QOS)
-        self.footprint_pub = node.create_publisher(PolygonStamped, self._topic(c.published_footprint_topic),
+        self.costmap_pub = create_publisher(node, OccupancyGrid, f"/{name}/costmap", LATCHED,
+                                            matched=self._on_costmap_matched, callback_group=callback_group)
+        self.updates_pub = create_publisher(node, OccupancyGridUpdate, f"/{name}/costmap_updates", UPDATES_QOS)
+        self.footprint_pub = create_publisher(node, PolygonStamped, self._topic(c.published_footprint_topic),
                                                    1)
         # costmap_2d subscribes geometry_msgs/Polygon on footprint_topic; under its default name that
         # topic is the published PolygonStamped one, which cannot carry both types, so it is skipped.

@@ -29,6 +29,7 @@ from simplebot_navigation.planning import (GLOBAL_PLANNER, NAVFN, GlobalPlannerC
                                            warm_up)
 from simplebot_navigation.ros.conversions import occupancy_grid_msg, path_msg, pose_to_xyyaw
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
+from simplebot_navigation.ros.publishers import create_publisher
 from simplebot_navigation.ros.tf import strip_frame
 
 #: base_global_planner value -> the planner's name (its parameter namespace and topic prefix)
@@ -99,8 +100,8 @@ class GlobalPlannerROS:
         warm_up()
         self._last_off_map_warning: dict[PlanFailure, float] = {}
 
-        self.plan_pub = node.create_publisher(Path, f"~/{self.name}/plan", 1)
-        self.potential_pub = node.create_publisher(OccupancyGrid, f"~/{self.name}/potential", 1)
+        self.plan_pub = create_publisher(node, Path, f"~/{self.name}/plan", 1)
+        self.potential_pub = create_publisher(node, OccupancyGrid, f"~/{self.name}/potential", 1)
         self.make_plan_srv = node.create_service(GetPlan, f"~/{self.name}/make_plan", self._on_make_plan,
                                                  callback_group=callback_group)
 

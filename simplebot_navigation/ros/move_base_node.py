@@ -32,6 +32,7 @@ from simplebot_navigation.ros.conversions import path_msg, pose_to_xyyaw, xyyaw_
 from simplebot_navigation.ros.costmap_ros import Costmap2DROS
 from simplebot_navigation.ros.global_planner_ros import GlobalPlannerROS
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
+from simplebot_navigation.ros.publishers import create_publisher
 from simplebot_navigation.ros.teb_local_planner_ros import TebLocalPlannerROS
 from simplebot_navigation.ros.tf import Buffer, TransformException, TransformListener, strip_frame
 from simplebot_navigation.teb.feasibility import footprint_costs
@@ -95,9 +96,9 @@ class MoveBaseNode(Node):
         self.core = MoveBaseCore(self.cfg, self._build_recoveries(), self._plan_to, _ControllerAdapter(self),
                                  self.planner.blocked_poses)
 
-        self.cmd_vel_pub = self.create_publisher(Twist, "cmd_vel", 1)
-        self.current_goal_pub = self.create_publisher(PoseStamped, "~/current_goal", 1)
-        self.status_pub = self.create_publisher(GoalStatusArray, "~/status", 1)
+        self.cmd_vel_pub = create_publisher(self, Twist, "cmd_vel", 1)
+        self.current_goal_pub = create_publisher(self, PoseStamped, "~/current_goal", 1)
+        self.status_pub = create_publisher(self, GoalStatusArray, "~/status", 1)
         group = ReentrantCallbackGroup()
         self.action_server = ActionServer(self, MoveBase, "move_base", execute_callback=self._execute,
                                           goal_callback=lambda _req: GoalResponse.ACCEPT,
@@ -115,7 +116,7 @@ class MoveBaseNode(Node):
         self._last_missed_warning = -math.inf
         self.create_timer(self.period, self._control_cycle)
         self.create_timer(STATUS_PERIOD_S, self._publish_status)
-        self.diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self.diagnostics_pub = create_publisher(self, DiagnosticArray, "/diagnostics", 10)
         self._diagnostics_snapshot = self.cycle_stats.snapshot()
         self.create_timer(DIAGNOSTICS_PERIOD_S, self._publish_diagnostics,
                           clock=Clock(clock_type=ClockType.STEADY_TIME))

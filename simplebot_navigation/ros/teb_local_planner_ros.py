@@ -23,6 +23,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from simplebot_navigation.move_base.state_machine import ControlResult
 from simplebot_navigation.ros.conversions import path_msg, pose_array_msg, transform_to_xyyaw
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
+from simplebot_navigation.ros.publishers import create_publisher
 from simplebot_navigation.ros.tf import Buffer, TransformException
 from simplebot_navigation.teb import TebConfig, TebLocalPlanner, warm_up
 
@@ -59,10 +60,10 @@ class TebLocalPlannerROS:
                                 if f.name != "warnings"}, self.name)
         self.frame = costmap_ros.global_frame
         base = f"/{node.get_name()}/{self.name}"
-        self.local_plan_pub = node.create_publisher(Path, f"{base}/local_plan", 1)
-        self.global_plan_pub = node.create_publisher(Path, f"{base}/global_plan", 1)
-        self.poses_pub = node.create_publisher(PoseArray, f"{base}/teb_poses", 1)
-        self.markers_pub = node.create_publisher(MarkerArray, f"{base}/teb_markers", 1)
+        self.local_plan_pub = create_publisher(node, Path, f"{base}/local_plan", 1)
+        self.global_plan_pub = create_publisher(node, Path, f"{base}/global_plan", 1)
+        self.poses_pub = create_publisher(node, PoseArray, f"{base}/teb_poses", 1)
+        self.markers_pub = create_publisher(node, MarkerArray, f"{base}/teb_markers", 1)
         self.odom_topic = self.config.odom_topic
         self._velocity = (0.0, 0.0)
         self._odom_time: float | None = None  # node clock (sim time), so lockstep runs do not depend on wall speed

@@ -20,6 +20,8 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rclpy.time import Time
 from tf2_msgs.msg import TFMessage
 
+from simplebot_navigation.ros.publishers import create_publisher
+
 
 class TransformException(Exception):
     """Base of the lookup errors, as tf2.TransformException."""
@@ -327,7 +329,7 @@ class TransformListener:
 
 class TransformBroadcaster:
     def __init__(self, node: Node, qos: QoSProfile = TF_QOS):
-        self._pub = node.create_publisher(TFMessage, "/tf", qos)
+        self._pub = create_publisher(node, TFMessage, "/tf", qos)
 
     def send_transform(self, transform: TransformStamped | list[TransformStamped]) -> None:
         self._pub.publish(TFMessage(transforms=list(transform) if isinstance(transform, list) else [transform]))
@@ -337,7 +339,7 @@ class StaticTransformBroadcaster:
     """Latched /tf_static: every send republishes all static transforms sent so far, by child frame."""
 
     def __init__(self, node: Node, qos: QoSProfile = TF_STATIC_QOS):
-        self._pub = node.create_publisher(TFMessage, "/tf_static", qos)
+        self._pub = create_publisher(node, TFMessage, "/tf_static", qos)
         self._by_child: dict[str, TransformStamped] = {}
 
     def send_transform(self, transform: TransformStamped | list[TransformStamped]) -> None:

@@ -1,0 +1,21 @@
+"""Publishers without rclpy's default QoS-event handlers.
+
+rclpy gives every publisher two event handlers (incompatible QoS, incompatible type) unless told
+otherwise, and a Python executor walks every handler of a node each time it wakes: move_base wakes
+some 300 times a second (/clock, /tf, odometry, scans, timers), and its 17 publishers' 34 handlers
+were a large part of its CPU time. A mismatch is still reported where it hurts, by the
+subscriber (ros2 topic echo, RViz, Foxglove, and this project's own subscriptions, which keep
+their handlers).
+"""
+
+from __future__ import annotations
+
+from rclpy.event_handler import PublisherEventCallbacks
+from rclpy.node import Node
+
+
+def create_publisher(node: Node, msg_type, topic: str, qos, matched=None, **kwargs):
+    """node.create_publisher with no event handler but the optional ``matched`` callback."""
+    return node.create_publisher(msg_type, topic, qos, **kwargs,
+                                 event_callbacks=PublisherEventCallbacks(matched=matched,
+                                                                         use_default_callbacks=False))
