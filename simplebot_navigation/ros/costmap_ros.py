@@ -363,6 +363,12 @@ class Costmap2DROS:
 
     # -- sensor input: a tf2 message filter ------------------------------------------------------
     def _on_sensor(self, inp: _SourceInput, msg) -> None:
+        stamp = msg.header.stamp
+        if stamp.sec < 0:
+            if self._throttle(("bad stamp", inp.key), 5.0):
+                self.logger.warning(f"{self.name}: Discarding message from [{inp.source.topic}]: header.stamp.sec "
+                                    f"{stamp.sec} is negative")
+            return
         frame = inp.source.sensor_frame or strip_frame(msg.header.frame_id)
         if not frame:
             if self._throttle(("empty frame", inp.key), 5.0):

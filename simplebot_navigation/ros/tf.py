@@ -143,13 +143,28 @@ class Buffer:
     def set_transform_static(self, transform: TransformStamped, authority: str) -> bool:
         return self._insert(transform, authority, static=True)
 
+    def _unusable(self, parent: str, child: str, value, stamp, static: bool) -> str:
+        """Why a transform must not enter the buffer: one from the far future would evict every
+        transform of its edge and make the real ones look too old to keep, for good."""
+        if not parent or not child or parent == child:
+            return "frame ids must be non-empty and differ"
+        if not all(math.isfinite(v) for v in value):
+            return "it holds a NaN or inf"
+        if stamp.sec < 0:
+            return f"its stamp is negative ({stamp.sec} s)"
+        now = self._node.get_clock().now().nanoseconds if self._node is not None else 0
+        if not static and now > 0:          # 0: simulated time has not started yet
+            ahead = _stamp_ns(stamp) - now
+            if ahead > self.cache_ns:
+                return f"its stamp is {ahead * 1e-9:.1f} s ahead of this node's clock"
+        return ""
+
     def _insert(self, transform: TransformStamped, authority: str, static: bool) -> bool:
         parent = strip_frame(transform.header.frame_id)
         child = strip_frame(transform.child_frame_id)
         value = _to_tuple(transform)
-        finite = all(math.isfinite(v) for v in value)
-        if not parent or not child or parent == child or not finite:
-            reason = "it holds a NaN or inf" if not finite else "frame ids must be non-empty and differ"
+        reason = self._unusable(parent, child, value, transform.header.stamp, static)
+        if reason:
             if self._node is not None:
                 self._node.get_logger().warn(
                     f"ignoring transform {parent!r} -> {child!r} from {authority or 'unknown'}: {reason}",
