@@ -257,12 +257,12 @@ def run_scenarios(options: ScenarioOptions, progress: Callable[[str], None] = pr
         raise ValueError(f"--time-budget must be a positive number of sim seconds, got {options.time_budget}")
     results: list[GoalResult] = []
     worlds: list[World] = []
-    folder = tempfile.mkdtemp(prefix="simplebot_scenarios_")
     for index in range(options.repeat):
         seed = options.seed + index
         session_class = ProcessSession if options.processes else NavigationSession
-        with session_class(world_for_run(options.world, seed, folder), options.robot, options.radius,
-                           options.rtf, seed, options.range_noise, tight=options.tight) as session:
+        with tempfile.TemporaryDirectory(prefix="simplebot_scenarios_") as folder, \
+                session_class(world_for_run(options.world, seed, folder), options.robot, options.radius,
+                              options.rtf, seed, options.range_noise, tight=options.tight) as session:
             goals = parse_goals(options.goals, session.world)
             worlds.append(session.world)
             session.wait_ready(wall_timeout_s=options.wall_timeout_s or 120.0)

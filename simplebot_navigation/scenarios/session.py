@@ -15,6 +15,7 @@ import dataclasses
 import importlib
 import math
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -244,17 +245,17 @@ class NavigationSession(_Session):
         self.client = None
         self.driver: LockstepDriver | None = None
         try:
-            run_dir = tempfile.mkdtemp(prefix="simplebot_scenario_")
-            for spec in config.nodes:
-                exe = resolve_executable(spec.pkg, spec.type)
-                if exe.node_class is None:
-                    raise ValueError(f"{spec.full_name}: {exe.module} runs only as its own process")
-                if spec.type == "simulator":
-                    spec = dataclasses.replace(spec, parameters={**spec.parameters, "seed": seed,
-                                                                 "range_noise_std": float(range_noise)})
-                cls = getattr(importlib.import_module(exe.module), exe.node_class)
-                self.nodes.append(cls(cli_args=ros_args(spec, write_params_file(spec, run_dir)),
-                                      use_global_arguments=False, context=self.context))
+            with tempfile.TemporaryDirectory(prefix="simplebot_scenario_") as run_dir:  # read as nodes are built
+                for spec in config.nodes:
+                    exe = resolve_executable(spec.pkg, spec.type)
+                    if exe.node_class is None:
+                        raise ValueError(f"{spec.full_name}: {exe.module} runs only as its own process")
+                    if spec.type == "simulator":
+                        spec = dataclasses.replace(spec, parameters={**spec.parameters, "seed": seed,
+                                                                     "range_noise_std": float(range_noise)})
+                    cls = getattr(importlib.import_module(exe.module), exe.node_class)
+                    self.nodes.append(cls(cli_args=ros_args(spec, write_params_file(spec, run_dir)),
+                                          use_global_arguments=False, context=self.context))
             self.sim = next(n for n in self.nodes if isinstance(n, SimulatorNode))
             self.move_base = next(n for n in self.nodes if n.get_name() == "move_base")
             self.client = ScenarioClient(self.context)
@@ -338,7 +339,7 @@ class ProcessSession(_Session):
         self.world = load_world(world, robot_radius=self.description.inscribed_radius)
         args = launch_args(world, robot, radius, rtf, tight)
         self.launch = load_launch(launch_file, args)
-        run_dir = tempfile.mkdtemp(prefix="simplebot_scenario_")
+        self.run_dir = run_dir = tempfile.mkdtemp(prefix="simplebot_scenario_")
         wrapper = os.path.join(run_dir, "scenario_launch.py")
         with open(wrapper, "w", encoding="utf-8") as handle:
             handle.write(WRAPPER_LAUNCH.format(launch=self.launch.file, args=args, seed=seed,
@@ -382,6 +383,8 @@ class ProcessSession(_Session):
             except subprocess.TimeoutExpired:
                 os.killpg(self.process.pid, signal.SIGKILL)
                 self.process.wait()
+        if self.process.returncode == 0:      # otherwise its log stays for the error message to point at
+            shutil.rmtree(self.run_dir, ignore_errors=True)
         self.executor.shutdown()
         self.client.destroy_node()
         if self.context.ok():
