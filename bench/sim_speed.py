@@ -1,6 +1,6 @@
 """Simulator speed: the real-time factor the simulator reaches headless, both lidars at 10 Hz.
 
-    /work/devenv/bin/python bench/sim_speed.py [--sim-seconds 20] [--repeats 5] [--quick]
+    .venv/bin/python bench/sim_speed.py [--sim-seconds 20] [--repeats 5] [--quick]
 
 Every runner drives the same run: the lab robot in a world, a controller-like cmd_vel at 10 Hz
 (0.3 m/s along the corridor, weaving

@@ -7,6 +7,10 @@ node steps the simulation against the wall clock at ``real_time_factor``; with
 
 /clock goes out on every physics step, so sim-time timers fire at the physics resolution
 (10 ms) rather than in bursts; it is about 4 % of the node's stepping cost (bench/sim_speed.py).
+
+At real time the steps run in a thread of their own, paced by the wall clock, and the executor
+only wakes for cmd_vel: an executor round per 10 ms tick cost more than the physics step it ran.
+The node is the clock, so it never follows /clock itself (use_sim_time is turned off).
 """
 
 from __future__ import annotations
@@ -15,6 +19,7 @@ import array
 import io
 import math
 import sys
+import threading
 import time
 
 import numpy as np
@@ -24,6 +29,7 @@ from geometry_msgs.msg import TransformStamped, Twist
 from nav_msgs.msg import Odometry
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import LaserScan
@@ -37,8 +43,8 @@ from simplebot_navigation.sim.simulator import SimplebotSim
 from simplebot_navigation.sim.world import load_world
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-# Wall-clock ticks come once per physics step but no faster than this: an executor round costs
-# about as much as a physics step, so at high real-time factors each tick steps several times.
+# Wall-clock ticks come once per physics step but no faster than this: a tick costs about as much
+# as a physics step, so at high real-time factors each tick steps several times.
 MIN_WALL_TICK_S = 0.005
 MAX_LAG_S = 0.5
 # Launch files and `-p name:=2` give whole numbers as integers; the numeric parameters take both.
@@ -90,6 +96,8 @@ class SimulatorNode(Node):
             raise
 
     def _setup(self) -> None:
+        if self.get_parameter("use_sim_time").value:
+            self.set_parameters([Parameter("use_sim_time", value=False)])
         p = self._checked_parameters()
         self.description = robot_description(p["robot"], p["radius"])
         try:
@@ -127,11 +135,14 @@ class SimulatorNode(Node):
         self._reported_collisions = -1
         self._publish_collisions()
         self._steps = 0
-        self._wall_start: float | None = None  # set by the first tick: time until spinning starts is not lag
-        self._sim_start = self.sim.sim_time
+        self._stepper: threading.Thread | None = None
+        self._stop = threading.Event()
+        self._stepper_error: BaseException | None = None
         if self.rtf > 0:
-            self.create_timer(max(self.sim.dt / self.rtf, MIN_WALL_TICK_S), self._on_wall_tick,
-                              clock=Clock(clock_type=ClockType.STEADY_TIME))
+            self._stepper_failed = self.create_guard_condition(self._raise_stepper_error)
+            # The stepping thread starts with the first executor round: time until spinning starts is not lag.
+            self._start_timer = self.create_timer(0.0, self._start_stepping,
+                                                  clock=Clock(clock_type=ClockType.STEADY_TIME))
         start = self.world.start
         self.get_logger().info(
             f"world '{self.world.name}', {self.description.body} robot at ({start.x:.2f}, {start.y:.2f}, "
@@ -153,18 +164,35 @@ class SimulatorNode(Node):
         while self.sim.sim_time + self.sim.dt <= end + 1e-9:
             self._step()
 
-    def _on_wall_tick(self) -> None:
-        if self._wall_start is None:
-            self._wall_start = time.monotonic()
-        target = self._sim_start + (time.monotonic() - self._wall_start) * self.rtf
-        lag = target - self.sim.sim_time
-        if lag > MAX_LAG_S:
-            self.get_logger().warn(f"cannot keep real_time_factor {self.rtf:g}: simulation is {lag:.2f} s behind; "
-                                   "slowing down", throttle_duration_sec=5.0)
-            self._wall_start = time.monotonic()
-            self._sim_start = self.sim.sim_time
-            target = self.sim.sim_time + self.sim.dt
-        self.advance(target - self.sim.sim_time)
+    def _start_stepping(self) -> None:
+        self.destroy_timer(self._start_timer)
+        self._stepper = threading.Thread(target=self._step_against_wall_clock, name="simulator steps", daemon=True)
+        self._stepper.start()
+
+    def _step_against_wall_clock(self) -> None:
+        """Ticks once per physics step (at most every MIN_WALL_TICK_S), each advancing to rtf x wall time."""
+        period = max(self.sim.dt / self.rtf, MIN_WALL_TICK_S)
+        wall_start = next_tick = time.monotonic()
+        sim_start = self.sim.sim_time
+        try:
+            while not self._stop.wait(max(0.0, next_tick - time.monotonic())):
+                now = time.monotonic()
+                next_tick = max(next_tick + period, now)  # late ticks are skipped, as a timer's are
+                target = sim_start + (now - wall_start) * self.rtf
+                lag = target - self.sim.sim_time
+                if lag > MAX_LAG_S:
+                    self.get_logger().warn(f"cannot keep real_time_factor {self.rtf:g}: simulation is {lag:.2f} s "
+                                           "behind; slowing down", throttle_duration_sec=5.0)
+                    wall_start, sim_start = now, self.sim.sim_time
+                    target = self.sim.sim_time + self.sim.dt
+                self.advance(target - self.sim.sim_time)
+        except BaseException as err:  # handed to the executor, whose spin then raises it
+            if not self._stop.is_set() and self.context.ok():
+                self._stepper_error = err
+                self._stepper_failed.trigger()
+
+    def _raise_stepper_error(self) -> None:
+        raise self._stepper_error
 
     def _step(self) -> None:
         self.sim.step()
@@ -251,6 +279,10 @@ class SimulatorNode(Node):
         return joints
 
     def destroy_node(self) -> None:
+        stop, stepper = getattr(self, "_stop", None), getattr(self, "_stepper", None)
+        if stepper is not None:
+            stop.set()
+            stepper.join()
         sim = getattr(self, "sim", None)
         if sim is not None:
             sim.close()

@@ -122,9 +122,11 @@ class SimplebotSim:
         self._client = pb.connect(pb.DIRECT)
         self._finalizer = weakref.finalize(self, _disconnect, self._client)
         self._steps = 0
-        self._cmd: tuple[float, float] | None = None
-        self._cmd_time = 0.0
+        # (v, w, received at): one tuple, so a command set from another thread is never half-new.
+        self._cmd: tuple[float, float, float] | None = None
         self._wheel_cmd = np.zeros(2)
+        self._stopped = np.zeros(2)
+        self._target_of: tuple | None = None  # (command, its wheel targets): computed once per command
         self._pending_scans: list[LaserScanData] = []
         self._collision_count = 0
         self._touching: set[int] = set()
@@ -205,21 +207,20 @@ class SimplebotSim:
         """
         if not (math.isfinite(v) and math.isfinite(w)):
             raise ValueError(f"cmd_vel with non-finite values ignored: linear.x={v}, angular.z={w}")
-        self._cmd = (float(v), float(w))
-        self._cmd_time = self.sim_time if now is None else float(now)
+        self._cmd = (float(v), float(w), self.sim_time if now is None else float(now))
 
     def step(self) -> None:
         """Advance one physics step: drive control, physics, odometry, contacts, due scans."""
         c = self._client
-        if self._cmd is None or self.sim_time - self._cmd_time > self.drive.cmd_timeout:
-            target = np.zeros(2)
-        else:
-            target = wheel_targets(*self._cmd, self.description.wheel_separation,
-                                   self.description.wheel_radius, self.drive.max_wheel_speed)
-        wheel_cmd = ramp(self._wheel_cmd, target, self.drive.max_wheel_accel * self.dt)
-        if not np.array_equal(wheel_cmd, self._wheel_cmd):
-            self._wheel_cmd = wheel_cmd
-            self._apply_wheel_cmd()
+        target = self._wheel_target()
+        if target is not self._wheel_cmd:
+            wheel_cmd = ramp(self._wheel_cmd, target, self.drive.max_wheel_accel * self.dt)
+            changed = not np.array_equal(wheel_cmd, self._wheel_cmd)
+            # Once the ramp reaches the target, the target itself is kept: the identity test above
+            # then skips the ramp while the wheels hold their speed.
+            self._wheel_cmd = target if np.array_equal(wheel_cmd, target) else wheel_cmd
+            if changed:
+                self._apply_wheel_cmd()
         pb.stepSimulation(physicsClientId=c)
         self._steps += 1
         states = pb.getJointStates(self._robot, self._wheels, physicsClientId=c)
@@ -228,6 +229,16 @@ class SimplebotSim:
         due = [i for i, period in enumerate(self._scan_period_steps) if self._steps % period == 0]
         if due:
             self._cast(due)
+
+    def _wheel_target(self) -> np.ndarray:
+        """Wheel speeds the current command asks for (zero without one, or after its timeout)."""
+        cmd = self._cmd
+        if cmd is None or self.sim_time - cmd[2] > self.drive.cmd_timeout:
+            return self._stopped
+        if self._target_of is None or self._target_of[0] is not cmd:
+            self._target_of = (cmd, wheel_targets(cmd[0], cmd[1], self.description.wheel_separation,
+                                                  self.description.wheel_radius, self.drive.max_wheel_speed))
+        return self._target_of[1]
 
     def step_until(self, t: float) -> None:
         """Step while the next step ends at or before sim time t."""

@@ -285,6 +285,52 @@ def test_real_time_factor_is_honoured(context):
     assert np.median(rates) == pytest.approx(2.0, rel=0.1), np.round(rates, 2)
 
 
+def test_a_failing_step_ends_the_spin_with_its_error(context):
+    # At real time the steps run in their own thread; an error there must not leave a frozen clock.
+    sim = SimulatorNode(context=context, parameter_overrides=[Parameter("world", value="empty")])
+
+    def broken_step():
+        raise RuntimeError("physics broke")
+
+    sim.sim.step = broken_step
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(sim)
+    try:
+        with pytest.raises(RuntimeError, match="physics broke"):
+            deadline = time.monotonic() + 5.0
+            while time.monotonic() < deadline:
+                executor.spin_once(timeout_sec=0.01)
+    finally:
+        executor.shutdown()
+        sim.destroy_node()
+
+
+def test_destroying_the_node_stops_its_clock(context):
+    sim = SimulatorNode(context=context, parameter_overrides=[Parameter("world", value="empty")])
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(sim)
+    try:
+        while sim.sim.sim_time < 0.2:
+            executor.spin_once(timeout_sec=0.01)
+    finally:
+        executor.shutdown()
+        sim.destroy_node()
+    stopped_at = sim.sim.sim_time
+    time.sleep(0.1)
+    assert sim.sim.sim_time == stopped_at
+
+
+def test_the_simulator_does_not_follow_its_own_clock(context):
+    # It publishes /clock; subscribing to it as well only cost a callback per physics step.
+    sim = SimulatorNode(context=context, parameter_overrides=[Parameter("use_sim_time", value=True),
+                                                              Parameter("real_time_factor", value=0.0)])
+    try:
+        assert sim.get_parameter("use_sim_time").value is False
+        assert "/clock" not in [s.topic_name for s in sim.subscriptions]
+    finally:
+        sim.destroy_node()
+
+
 # -- bad input -----------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("name, value, message", [

@@ -1,0 +1,373 @@
+"""Real-time load: the lab tour through the launcher's processes at real time, with and without stress.
+
+    .venv/bin/python bench/realtime.py [--goals nw_office,library] [--stress 2] [--baseline /work/baseline]
+
+Each run starts ``python -m simplebot_navigation.launch navigation world:=lab rtf:=1`` (every node its
+own process, as a user runs it), sends the tour's goals one after the other through the move_base
+action and measures, only while a goal is active ("while driving"):
+
+  CPU %       utime + stime of the move_base and simulator processes (/proc/<pid>/stat, all
+              threads), as a percentage of one core.
+  cycle       move_base's control-cycle compute times from its /diagnostics reports ("move_base:
+              control loop": p50/p95/max over every cycle_times_ms of the drive; missed % =
+              missed_total / cycles_total over the drive). "-" when move_base has no such report.
+  cmd_vel     the intervals between consecutive /simplebot_controller/cmd_vel messages, taken from
+              the publisher's DDS source timestamps, so this process's own scheduling does not
+              enter: what any version can be compared by. "late" is the share of intervals longer
+              than 1.5 controller periods.
+
+Runs: this tree at the machine's load, then (with --baseline, a checkout with its own .venv) the
+baseline; then both again with --stress busy-loop processes beside them (--stress 0: no stress
+runs). Each version runs in its own ROS domain. The table ends with the 1-minute load average at
+the end of each run (/proc/loadavg).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+
+import rclpy  # noqa: E402
+from action_msgs.msg import GoalStatus  # noqa: E402
+from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
+from geometry_msgs.msg import Twist  # noqa: E402
+from nav_msgs.msg import Odometry  # noqa: E402
+from rclpy.action import ActionClient  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.node import Node  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+
+from move_base_msgs.action import MoveBase  # noqa: E402
+from simplebot_description import robot_description  # noqa: E402
+from simplebot_navigation.launch.loader import load_launch  # noqa: E402
+from simplebot_navigation.scenarios.runner import parse_goals, time_budget  # noqa: E402
+from simplebot_navigation.sim.world import Pose2D, World, load_world  # noqa: E402
+
+WORLD = "lab"
+LOOP_STATUS = "move_base: control loop"
+LATE_FACTOR = 1.5
+WARM_UP_S = 2.0          # sim seconds before the first goal, as the scenario runner waits
+START_TIMEOUT_S = 120.0  # wall seconds for the launcher's nodes to come up
+CANCEL_WAIT_S = 5.0
+STOP_GRACE_S = 15.0
+CLOCK_TICK = os.sysconf("SC_CLK_TCK")
+STATUS_NAMES = {GoalStatus.STATUS_SUCCEEDED: "reached", GoalStatus.STATUS_ABORTED: "aborted",
+                GoalStatus.STATUS_CANCELED: "canceled over budget", GoalStatus.STATUS_UNKNOWN: "no result"}
+
+
+@dataclass(frozen=True)
+class Version:
+    label: str
+    python: str
+    checkout: Path
+    domain: int
+
+
+@dataclass
+class RunResult:
+    version: str
+    load: str
+    goals_reached: int = 0
+    goals: int = 0
+    drive_s: float = 0.0
+    cpu_s: dict[str, float] = field(default_factory=lambda: {"move_base": 0.0, "simulator": 0.0})
+    cycle_ms: list[float] = field(default_factory=list)
+    cycles: int = 0
+    missed: int = 0
+    has_diagnostics: bool = False
+    intervals_ms: list[float] = field(default_factory=list)
+    loadavg: str = ""
+    error: str = ""
+
+
+def cpu_seconds(pid: int) -> float:
+    """utime + stime of every thread of the process (fields 14 and 15 of /proc/<pid>/stat)."""
+    with open(f"/proc/{pid}/stat", encoding="ascii") as handle:
+        fields = handle.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / CLOCK_TICK
+
+
+def node_pids(launcher_pid: int, names: tuple[str, ...]) -> dict[str, int]:
+    """The launcher's child process of each node, found by the ``__node:=<name>`` of its command line."""
+    found = {}
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/stat", encoding="ascii") as handle:
+                ppid = int(handle.read().rsplit(")", 1)[1].split()[1])
+            with open(f"/proc/{entry}/cmdline", "rb") as handle:
+                argv = handle.read().decode(errors="replace").split("\0")
+        except OSError:
+            continue
+        if ppid != launcher_pid:
+            continue
+        for name in names:
+            if f"__node:={name}" in argv:
+                found[name] = int(entry)
+    return found
+
+
+def loadavg() -> str:
+    with open("/proc/loadavg", encoding="ascii") as handle:
+        return handle.read().split()[0]
+
+
+class BenchClient(Node):
+    """Goals through the action; cmd_vel publish times, loop diagnostics and ground truth from topics."""
+
+    def __init__(self, context):
+        super().__init__("realtime_bench", context=context,
+                         parameter_overrides=[Parameter("use_sim_time", value=True)])
+        self.action = ActionClient(self, MoveBase, "move_base")
+        self.pose: Pose2D | None = None
+        self.cmd_stamps_ns: list[int] = []
+        self.loop_reports: list[dict[str, str]] = []
+        self.create_subscription(Twist, "/simplebot_controller/cmd_vel", self._on_cmd_vel, 100)
+        self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 10)
+        self.create_subscription(Odometry, "/simplebot/ground_truth", self._on_truth, 10)
+
+    def _on_cmd_vel(self, _msg: Twist, info) -> None:
+        self.cmd_stamps_ns.append(info["source_timestamp"])
+
+    def _on_diagnostics(self, msg: DiagnosticArray) -> None:
+        for status in msg.status:
+            if status.name == LOOP_STATUS:
+                self.loop_reports.append({kv.key: kv.value for kv in status.values})
+
+    def _on_truth(self, msg: Odometry) -> None:
+        p, q = msg.pose.pose.position, msg.pose.pose.orientation
+        self.pose = Pose2D(p.x, p.y, 2.0 * math.atan2(q.z, q.w))
+
+    def sim_time(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
+
+class Run:
+    """One launcher of one version, driven through the goals; close() stops every process it started."""
+
+    def __init__(self, version: Version, log_dir: str):
+        self.version = version
+        self.log_file = os.path.join(log_dir, f"{version.label.split()[0]}_{version.domain}_{time.time():.0f}.log")
+        env = dict(os.environ, ROS_DOMAIN_ID=str(version.domain))
+        with open(self.log_file, "w", encoding="utf-8") as log:
+            self.launcher = subprocess.Popen(
+                [version.python, "-u", "-m", "simplebot_navigation.launch", "navigation", f"world:={WORLD}",
+                 "rtf:=1"], cwd=version.checkout, env=env, stdout=log, stderr=subprocess.STDOUT,
+                stdin=subprocess.DEVNULL, start_new_session=True)
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context, domain_id=version.domain)
+        self.client = BenchClient(self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.client)
+        self.pids: dict[str, int] = {}
+
+    def spin_until(self, done, wall_timeout_s: float) -> bool:
+        deadline = time.monotonic() + wall_timeout_s
+        while not done():
+            if self.launcher.poll() is not None:
+                raise RuntimeError(f"the launcher ended with exit code {self.launcher.returncode}; "
+                                   f"see {self.log_file}")
+            if time.monotonic() > deadline:
+                return False
+            self.executor.spin_once(timeout_sec=0.01)
+        return True
+
+    def wait_ready(self) -> None:
+        def ready() -> bool:
+            if len(self.pids) < 2:
+                self.pids = node_pids(self.launcher.pid, ("move_base", "simulator"))
+            return (len(self.pids) == 2 and self.client.pose is not None and self.client.sim_time() >= WARM_UP_S
+                    and self.client.action.server_is_ready())
+        if not self.spin_until(ready, START_TIMEOUT_S):
+            raise RuntimeError(f"the nodes did not come up within {START_TIMEOUT_S:g} s; see {self.log_file}")
+
+    def drive(self, world: World, goals: list[Pose2D], max_vel_x: float, result: RunResult) -> None:
+        """Each goal in turn; CPU, cycles and cmd_vel intervals accumulate over the goals' active spans."""
+        for goal in goals:
+            budget = time_budget(world, self.client.pose, goal, max_vel_x)
+            cpu0 = {name: cpu_seconds(pid) for name, pid in self.pids.items()}
+            wall0 = time.monotonic()
+            epoch0 = time.time_ns()
+            reports0 = len(self.client.loop_reports)
+            status = self.send(goal, world.start, budget)
+            wall1, epoch1 = time.monotonic(), time.time_ns()
+            for name, pid in self.pids.items():
+                result.cpu_s[name] += cpu_seconds(pid) - cpu0[name]
+            result.drive_s += wall1 - wall0
+            result.goals += 1
+            result.goals_reached += status == GoalStatus.STATUS_SUCCEEDED
+            stamps = [t for t in self.client.cmd_stamps_ns if epoch0 <= t <= epoch1]
+            result.intervals_ms += list(np.diff(stamps) * 1e-6)
+            self.add_cycles(reports0, result)
+            print(f"  {goal.name}: {STATUS_NAMES.get(status, f'status {status}')} in {wall1 - wall0:.0f} s "
+                  f"(budget {budget:.0f} s)", flush=True)
+
+    def send(self, goal: Pose2D, start: Pose2D, budget_s: float) -> int:
+        """Send a goal (world frame), wait for its result (cancel after budget_s); its final status."""
+        c, s = math.cos(start.yaw), math.sin(start.yaw)
+        dx, dy = goal.x - start.x, goal.y - start.y
+        yaw = math.remainder(goal.yaw - start.yaw, 2 * math.pi)
+        msg = MoveBase.Goal()
+        msg.target_pose.header.frame_id = "odom"
+        msg.target_pose.header.stamp = self.client.get_clock().now().to_msg()
+        position, orientation = msg.target_pose.pose.position, msg.target_pose.pose.orientation
+        position.x, position.y = c * dx + s * dy, -s * dx + c * dy
+        orientation.z, orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
+        sent = self.client.action.send_goal_async(msg)
+        if not self.spin_until(sent.done, 10.0) or not sent.result().accepted:
+            return GoalStatus.STATUS_UNKNOWN
+        handle = sent.result()
+        result = handle.get_result_async()
+        if not self.spin_until(result.done, budget_s):
+            handle.cancel_goal_async()
+            if not self.spin_until(result.done, CANCEL_WAIT_S):
+                return GoalStatus.STATUS_UNKNOWN
+        return result.result().status
+
+    def add_cycles(self, first_report: int, result: RunResult) -> None:
+        """Cycle times of the reports that arrived during the goal; counters against the report before it."""
+        reports = self.client.loop_reports
+        during = reports[first_report:]
+        if not during:
+            return
+        result.has_diagnostics = True
+        for report in during:
+            result.cycle_ms += [float(v) for v in report.get("cycle_times_ms", "").split()]
+        before = reports[first_report - 1] if first_report else {"cycles_total": "0", "missed_total": "0"}
+        result.cycles += int(during[-1]["cycles_total"]) - int(before["cycles_total"])
+        result.missed += int(during[-1]["missed_total"]) - int(before["missed_total"])
+
+    def close(self) -> None:
+        if self.launcher.poll() is None:
+            os.killpg(self.launcher.pid, signal.SIGINT)
+            try:
+                self.launcher.wait(timeout=STOP_GRACE_S)
+            except subprocess.TimeoutExpired:
+                os.killpg(self.launcher.pid, signal.SIGKILL)
+                self.launcher.wait()
+        self.executor.shutdown()
+        self.client.destroy_node()
+        if self.context.ok():  # Ctrl-C has shut it down already
+            rclpy.shutdown(context=self.context)
+
+
+def run_tour(version: Version, load: str, world: World, goals: list[Pose2D], max_vel_x: float,
+             log_dir: str) -> RunResult:
+    result = RunResult(version.label, load)
+    print(f"{version.label}, {load}:", flush=True)
+    run = Run(version, log_dir)
+    try:
+        run.wait_ready()
+        run.drive(world, goals, max_vel_x, result)
+    except (RuntimeError, OSError) as err:  # OSError: a node's /proc entry vanished (it died)
+        result.error = str(err)
+        print(f"  {err}", flush=True)
+    finally:
+        result.loadavg = loadavg()
+        run.close()
+    return result
+
+
+def start_stress(count: int) -> list[subprocess.Popen]:
+    return [subprocess.Popen([sys.executable, "-c", "while True: pass"], start_new_session=True)
+            for _ in range(count)]
+
+
+def stop_stress(processes: list[subprocess.Popen]) -> None:
+    for process in processes:
+        process.kill()
+        process.wait()
+
+
+def percentiles(values: list[float]) -> str:
+    if not values:
+        return "-"
+    p50, p95 = np.percentile(values, [50, 95])
+    return f"{p50:.1f}/{p95:.1f}/{max(values):.1f}"
+
+
+def table(results: list[RunResult], period_ms: float) -> str:
+    header = (f"{'version':22} {'load':9} {'goals':>5} {'mb CPU%':>7} {'sim CPU%':>8} {'cycle p50/p95/max ms':>21} "
+              f"{'missed%':>7} {'cmd_vel p50/p95/max ms':>23} {'late%':>6} {'load1':>5}")
+    lines = [header, "-" * len(header)]
+    for r in results:
+        cpu = {name: f"{100 * s / r.drive_s:.1f}" if r.drive_s else "-" for name, s in r.cpu_s.items()}
+        missed = f"{100 * r.missed / r.cycles:.2f}" if r.has_diagnostics and r.cycles else "-"
+        late = (f"{100 * np.mean(np.asarray(r.intervals_ms) > LATE_FACTOR * period_ms):.2f}"
+                if r.intervals_ms else "-")
+        lines.append(f"{r.version:22} {r.load:9} {f'{r.goals_reached}/{r.goals}':>5} {cpu['move_base']:>7} "
+                     f"{cpu['simulator']:>8} {percentiles(r.cycle_ms):>21} {missed:>7} "
+                     f"{percentiles(r.intervals_ms):>23} {late:>6} {r.loadavg:>5}"
+                     + (f"  ({r.error})" if r.error else ""))
+    return "\n".join(lines)
+
+
+def describe(checkout: Path) -> str:
+    """Short commit of a checkout, with '+' when its tracked files differ from it."""
+    commit = subprocess.run(["git", "-C", str(checkout), "rev-parse", "--short", "HEAD"], capture_output=True,
+                            text=True).stdout.strip() or "?"
+    dirty = subprocess.run(["git", "-C", str(checkout), "diff", "--quiet", "HEAD"]).returncode != 0
+    return commit + ("+" if dirty else "")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--goals", help="goal names of the lab world, comma-separated (default: the whole tour)")
+    parser.add_argument("--stress", type=int, default=2, help="busy-loop processes of the stress runs (0: none)")
+    parser.add_argument("--baseline", type=Path, help="a checkout with its own .venv to compare against")
+    parser.add_argument("--python", default=sys.executable, help="interpreter of this tree (default: this one)")
+    parser.add_argument("--domain", type=int, default=int(os.environ.get("ROS_DOMAIN_ID", "42")),
+                        help="ROS domain of this tree's runs (default: $ROS_DOMAIN_ID or 42)")
+    parser.add_argument("--baseline-domain", type=int, default=44, help="ROS domain of the baseline's runs")
+    args = parser.parse_args()
+    if args.stress < 0:
+        parser.error(f"--stress must be >= 0, got {args.stress}")
+    world = load_world(WORLD, robot_radius=robot_description("box").inscribed_radius)
+    try:
+        goals = parse_goals(args.goals, world)
+    except ValueError as err:
+        parser.error(str(err))
+    versions = [Version(f"current {describe(ROOT)}", args.python, ROOT, args.domain)]
+    if args.baseline is not None:
+        python = args.baseline / ".venv" / "bin" / "python"
+        if not python.exists():
+            parser.error(f"--baseline {args.baseline}: no {python}")
+        versions.append(Version(f"baseline {describe(args.baseline)}", str(python), args.baseline.resolve(),
+                                args.baseline_domain))
+    move_base = next(n for n in load_launch("navigation", {"world": WORLD}).nodes if n.name == "move_base")
+    max_vel_x = float(move_base.parameters.get("TebLocalPlannerROS.max_vel_x", 0.4))
+    period_ms = 1e3 / float(move_base.parameters.get("controller_frequency", 20.0))
+
+    log_dir = tempfile.mkdtemp(prefix="simplebot_realtime_")
+    print(f"lab tour: {', '.join(g.name for g in goals)}; launcher logs in {log_dir}", flush=True)
+    results = [run_tour(v, "normal", world, goals, max_vel_x, log_dir) for v in versions]
+    if args.stress:
+        stress = start_stress(args.stress)
+        try:
+            results += [run_tour(v, f"stress {args.stress}", world, goals, max_vel_x, log_dir) for v in versions]
+        finally:
+            stop_stress(stress)
+    print()
+    print(f"CPU % of one core while a goal is active; cycle: move_base's /diagnostics; cmd_vel: intervals between "
+          f"publishes, late > {LATE_FACTOR:g} x {period_ms:g} ms; load1: 1-min load average at the end of the run")
+    print(table(results, period_ms))
+
+
+if __name__ == "__main__":
+    main()
