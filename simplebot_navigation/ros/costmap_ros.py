@@ -13,6 +13,7 @@ import logging
 import math
 import threading
 import time
+import weakref
 from collections import deque
 from dataclasses import dataclass, fields
 from typing import NamedTuple
@@ -147,6 +148,47 @@ def point_cloud_xyz(msg: PointCloud2) -> np.ndarray:
     rows = raw[:msg.height * msg.row_step].reshape(msg.height, msg.row_step)[:, :n_row]
     points = np.ascontiguousarray(rows).reshape(-1).view(dtype)
     return np.stack([points[a].astype(float) for a in "xyz"], axis=1)
+
+
+class _SensorSubscriptions:
+    """One subscription per sensor topic for all the costmaps of a node, each message handed to
+    every costmap that reads the topic: the lab's two costmaps read the same two scans, and every
+    subscription costs a message copy and an executor round."""
+
+    _of_node: "weakref.WeakKeyDictionary[Node, _SensorSubscriptions]" = weakref.WeakKeyDictionary()
+
+    def __init__(self, node: Node):
+        self._node = weakref.ref(node)          # the registry must not keep its node alive
+        self._topics: dict[tuple, tuple[object, list]] = {}
+
+    @classmethod
+    def of(cls, node: Node) -> "_SensorSubscriptions":
+        if node not in cls._of_node:
+            cls._of_node[node] = cls(node)
+        return cls._of_node[node]
+
+    def add(self, msg_type, topic: str, callback, callback_group) -> tuple:
+        key = (msg_type, topic, id(callback_group))
+        if key not in self._topics:
+            callbacks: list = []
+
+            def dispatch(msg, callbacks=callbacks):
+                for handler in list(callbacks):
+                    handler(msg)
+
+            subscription = self._node().create_subscription(msg_type, topic, dispatch, qos_profile_sensor_data,
+                                                            callback_group=callback_group)
+            self._topics[key] = (subscription, callbacks)
+        self._topics[key][1].append(callback)
+        return key, callback
+
+    def remove(self, token: tuple) -> None:
+        key, callback = token
+        subscription, callbacks = self._topics[key]
+        callbacks.remove(callback)
+        if not callbacks:
+            self._node().destroy_subscription(subscription)
+            del self._topics[key]
 
 
 @dataclass
@@ -297,9 +339,8 @@ class Costmap2DROS:
         node, group = self.node, self.callback_group
         for inp in self._inputs:
             msg_type = LaserScan if inp.source.data_type == "LaserScan" else PointCloud2
-            inp.subscription = node.create_subscription(
-                msg_type, inp.source.topic, lambda msg, inp=inp: self._on_sensor(inp, msg),
-                qos_profile_sensor_data, callback_group=group)
+            inp.subscription = _SensorSubscriptions.of(node).add(
+                msg_type, inp.source.topic, lambda msg, inp=inp: self._on_sensor(inp, msg), group)
         for layer in self._static_layers:
             self._static_subscriptions.append(node.create_subscription(
                 OccupancyGrid, layer.map_topic, lambda msg, layer=layer: self._on_map(layer, msg), LATCHED,
@@ -322,7 +363,7 @@ class Costmap2DROS:
     def _deactivate(self) -> None:
         for inp in self._inputs:
             if inp.subscription is not None:
-                self.node.destroy_subscription(inp.subscription)
+                _SensorSubscriptions.of(self.node).remove(inp.subscription)
                 inp.subscription = None
             with self._queue_lock:
                 inp.queue.clear()

@@ -467,6 +467,27 @@ def test_stop_unsubscribes_and_start_subscribes_again(lab):
     fake.spin_until(lambda: costmap.update_map_now() and costmap.is_current(), what="a current costmap")
 
 
+def test_both_costmaps_read_a_scan_through_one_subscription(lab):
+    fake = lab()
+    local, global_ = fake.costmap("local_costmap"), fake.costmap("global_costmap")
+    front = fake.scan_pubs["front_laser_link"]
+
+    def marked(costmap) -> bool:
+        with costmap.lock:
+            master = costmap.costmap
+            return master.get_cost(*master.world_to_map(FRONT_X, 0.0)) == 254
+
+    fake.spin_until(lambda: marked(local) and marked(global_), what="the wall in both costmaps")
+    assert front.get_subscription_count() == 1
+    local.stop()
+    with global_.lock:
+        global_.reset_layers()
+    fake.spin_until(lambda: marked(global_), what="the global costmap fed after the local one stopped")
+    assert front.get_subscription_count() == 1
+    global_.stop()
+    fake.spin_until(lambda: front.get_subscription_count() == 0, what="the shared subscription to go")
+
+
 def test_static_layer_takes_its_size_from_the_map(lab):
     fake = lab(**{"global_costmap.plugins": ["static_layer", "obstacles", "inflation_layer"],
                   "global_costmap.static_layer.plugin": "costmap_2d::StaticLayer"})
