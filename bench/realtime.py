@@ -336,6 +336,7 @@ def main() -> None:
                         help="ROS domain of this tree's runs (default: $ROS_DOMAIN_ID or 42)")
     parser.add_argument("--baseline-domain", type=int, default=44, help="ROS domain of the baseline's runs")
     args = parser.parse_args()
+    signal.signal(signal.SIGTERM, signal.default_int_handler)  # stopped from outside, it still stops its launchers
     if args.stress < 0:
         parser.error(f"--stress must be >= 0, got {args.stress}")
     world = load_world(WORLD, robot_radius=robot_description("box").inscribed_radius)
