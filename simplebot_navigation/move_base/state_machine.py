@@ -9,9 +9,11 @@ Three deviations keep a robot from circling forever in a world it discovers as i
 goal inside a table whose far side it has not seen, or whose edges grazing rays keep erasing
 from the 0.2 m global costmap):
 - a plan that runs into an obstacle seen after planning is replaced at once (as Nav2's
-  IsPathValid does), even with planner_frequency 0. Only a crossing that is new counts (poses
-  the planner itself put on blocked cells, next to a robot standing in an inflated zone, do
-  not), and such replans come at most once per BLOCKED_REPLAN_INTERVAL_S, so a robot
+  IsPathValid does), even with planner_frequency 0. Only a crossing that is new and within
+  BLOCKED_CHECK_AHEAD_M of the robot counts: poses the planner itself put on blocked cells
+  (next to a robot standing in an inflated zone) do not, and a crossing far ahead may be wall
+  cells that grazing rays erase and re-mark in turn, which would send the robot back and forth
+  between two routes. Such replans come at most once per BLOCKED_REPLAN_INTERVAL_S, so a robot
   discovering a forest cell by cell does not replan every cycle;
 - ``progress_timeout`` (30 s; 0 disables): a robot that has for that long neither come
   oscillation_distance closer to the goal nor entered a square metre it had not been in during
@@ -37,6 +39,7 @@ from simplebot_navigation.move_base.recovery import Recovery
 
 PROGRESS_CELL_M = 1.0  # size of the squares whose first visit counts as progress
 BLOCKED_REPLAN_INTERVAL_S = 1.0
+BLOCKED_CHECK_AHEAD_M = 3.0   # of plan ahead of the robot: what it drives within the next several seconds
 
 
 class State(Enum):
@@ -197,7 +200,10 @@ class MoveBaseCore:
                 or now < self._last_blocked_replan + BLOCKED_REPLAN_INTERVAL_S):
             return None
         nearest = int(np.argmin(np.hypot(self.plan[:, 0] - pose[0], self.plan[:, 1] - pose[1])))
-        new = self._plan_blocked(self.plan[nearest:], pose) & ~self._blocked_at_plan[nearest:]
+        ahead = self.plan[nearest:]
+        along = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(ahead[:, :2], axis=0).T))])
+        end = nearest + int(np.searchsorted(along, BLOCKED_CHECK_AHEAD_M, side="right"))
+        new = self._plan_blocked(self.plan[nearest:end], pose) & ~self._blocked_at_plan[nearest:end]
         if not new.any():
             return None
         self.state = State.PLANNING

@@ -205,6 +205,20 @@ def test_a_plan_made_through_a_blocked_cell_is_not_replaced_for_it():
     assert core.replans == 1 and all(out.cmd == (0.3, 0.0) for out in outputs)
 
 
+def test_only_a_crossing_the_robot_will_reach_soon_replaces_the_plan():
+    """A wall cell far ahead may be one that grazing rays erase and re-mark in turn: replanning for
+    it would send the robot back and forth between two routes."""
+    long_plan = np.column_stack([np.arange(0.0, 10.01, 0.1), np.zeros(101), np.zeros(101)])
+    obstacle = [(6.0, 0.0)]
+    core, _ = make_core(plan=lambda goal: long_plan, plan_blocked=lambda p, r: on_cells(*obstacle)(p, r))
+    core.cycle(0.0, (0.0, 0.0, 0.0), True)
+    obstacle.append((8.0, 0.0))
+    core.cycle(0.05, (0.0, 0.0, 0.0), True)
+    assert core.replans == 1                      # 8 m ahead: not yet
+    out = core.cycle(0.10, (5.5, 0.0, 0.0), True)  # 2.5 m ahead now
+    assert core.replans == 2 and out.event.startswith("the global plan now crosses an obstacle at (8.00, 0.00)")
+
+
 def test_replans_for_new_obstacles_come_at_most_once_a_second():
     obstacle = []
 
