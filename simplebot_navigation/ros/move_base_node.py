@@ -39,6 +39,7 @@ from simplebot_navigation.teb.feasibility import footprint_costs
 from simplebot_navigation.ros.node_main import run_node
 
 STATUS_PERIOD_S = 0.2
+WATCHDOG_PERIOD_S = 0.05
 DIAGNOSTICS_PERIOD_S = 1.0
 MISSED_RATE_WARNING_PERIOD_S = 5.0
 FINISHED_STATUS_KEEP_S = 5.0
@@ -114,12 +115,17 @@ class MoveBaseNode(Node):
         self.period = 1.0 / self.cfg.controller_frequency
         self.cycle_stats = ControlLoopStats(self.period)
         self._last_missed_warning = -math.inf
+        steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(self.period, self._control_cycle)
-        self.create_timer(STATUS_PERIOD_S, self._publish_status)
+        # Status and the watchdog run on the steady clock: they must keep going when /clock stops.
+        self.create_timer(STATUS_PERIOD_S, self._publish_status, clock=steady)
+        self._last_cycle_wall = time.monotonic()
+        self._watchdog_tripped = False
+        if self.cfg.watchdog_timeout > 0:
+            self.create_timer(WATCHDOG_PERIOD_S, self._watchdog, clock=steady)
         self.diagnostics_pub = create_publisher(self, DiagnosticArray, "/diagnostics", 10)
         self._diagnostics_snapshot = self.cycle_stats.snapshot()
-        self.create_timer(DIAGNOSTICS_PERIOD_S, self._publish_diagnostics,
-                          clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self.create_timer(DIAGNOSTICS_PERIOD_S, self._publish_diagnostics, clock=steady)
         self.get_logger().info(f"move_base ready: {self.cfg.base_global_planner} + {self.cfg.base_local_planner}, "
                                f"controller {self.cfg.controller_frequency:g} Hz, "
                                f"{len(self.core.recoveries)} recovery behaviours "
@@ -217,6 +223,7 @@ class MoveBaseNode(Node):
             self._finish(self.goal, ActionlibStatus.PREEMPTED, "preempted by a new goal")
         goal.status = ActionlibStatus.ACTIVE
         self.goal = goal
+        self._last_cycle_wall = time.monotonic()  # the watchdog judges the loop from this goal on
         reason = validate_goal(goal.pose)
         target = None
         if reason is None:
@@ -276,7 +283,23 @@ class MoveBaseNode(Node):
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds / 1e9
 
+    def _watchdog(self) -> None:
+        """Stop the robot when the control loop has not run for watchdog_timeout of wall time while a goal is
+        active: the loop runs on /clock, so a dead simulator (or time source) would leave the last command standing."""
+        silent = time.monotonic() - self._last_cycle_wall
+        if self.goal is None or silent < self.cfg.watchdog_timeout:
+            return
+        self._publish_zero()
+        if not self._watchdog_tripped:
+            self._watchdog_tripped = True
+            self.get_logger().error(f"no control cycle for {silent:.2f} s of wall time (is /clock running? "
+                                    f"node time {self._now():.2f} s): robot stopped")
+
     def _control_cycle(self) -> None:
+        self._last_cycle_wall = time.monotonic()
+        if self._watchdog_tripped:
+            self._watchdog_tripped = False
+            self.get_logger().info("control loop running again")
         goal = self.goal
         if goal is None:
             return

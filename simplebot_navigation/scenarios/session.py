@@ -253,6 +253,9 @@ class NavigationSession(_Session):
                     if spec.type == "simulator":
                         spec = dataclasses.replace(spec, parameters={**spec.parameters, "seed": seed,
                                                                      "range_noise_std": float(range_noise)})
+                    elif spec.name == "move_base" and rtf == 0:
+                        # In lockstep /clock waits for the nodes, not the other way round: no watchdog.
+                        spec = dataclasses.replace(spec, parameters={**spec.parameters, "watchdog_timeout": 0.0})
                     cls = getattr(importlib.import_module(exe.module), exe.node_class)
                     self.nodes.append(cls(cli_args=ros_args(spec, write_params_file(spec, run_dir)),
                                           use_global_arguments=False, context=self.context))

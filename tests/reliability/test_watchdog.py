@@ -1,0 +1,39 @@
+"""The simulator dies in the middle of a goal: move_base's control loop runs on /clock, which stops with it."""
+
+import time
+
+import pytest
+from geometry_msgs.msg import Twist
+
+from simplebot_navigation.scenarios.session import NavigationSession
+from simplebot_navigation.sim.world import Pose2D
+
+
+@pytest.mark.timeout(240)
+def test_move_base_stops_the_robot_when_the_simulator_dies(capfd):
+    with NavigationSession("lab", rtf=1.0) as session:
+        session.wait_ready(wall_timeout_s=120.0)
+        commands: list[tuple[float, float, float]] = []
+        session.client.create_subscription(
+            Twist, "/simplebot_controller/cmd_vel",
+            lambda msg: commands.append((time.monotonic(), msg.linear.x, msg.angular.z)), 10)
+        run = session.send_goal(Pose2D(4.0, 0.0, 0.0, "corridor"))
+        session.run_for(4.0, wall_timeout_s=60.0)
+        assert any(abs(v) > 0.05 for _, v, _ in commands[-10:]), "the robot should be driving"
+
+        session.executor.remove_node(session.sim)       # the simulator dies: no /clock, TF or scans
+        session.nodes.remove(session.sim)
+        session.sim.destroy_node()
+        session.client.status = None
+        killed = time.monotonic()
+        while time.monotonic() < killed + 1.5:
+            session.executor.spin_once(timeout_sec=0.01)
+        stops = [t - killed for t, v, w in commands if t > killed and v == 0.0 and w == 0.0]
+        assert stops and stops[0] <= 0.5, f"first zero command {stops[:1]} s after the clock stopped"
+        last = [c for c in commands if c[0] > killed + 0.5]
+        assert last and all(v == 0.0 and w == 0.0 for _, v, w in last)
+        err = capfd.readouterr().err
+        assert "no control cycle for" in err and "robot stopped" in err
+        status = session.client.status
+        assert status is not None and status.status_list, "move_base/status goes on while the clock is stopped"
+
