@@ -43,6 +43,7 @@ class MoveBaseConfig:
     oscillation_distance: float = 0.5
     progress_timeout: float = 30.0   # ours, not ROS 1 (0 disables): see state_machine
     watchdog_timeout: float = 0.3    # ours (0 disables): wall seconds without a control cycle before stopping the robot
+    max_wait: float = 30.0           # ours (0 disables): seconds a goal may wait for its pose, sensors or clock
     recovery_behavior_enabled: bool = True
     clearing_rotation_allowed: bool = True
     shutdown_costmaps: bool = False
@@ -76,6 +77,7 @@ class MoveBaseConfig:
         cfg.oscillation_distance = _number(params, "oscillation_distance", cfg.oscillation_distance, 0.0)
         cfg.progress_timeout = _number(params, "progress_timeout", cfg.progress_timeout, 0.0)
         cfg.watchdog_timeout = _number(params, "watchdog_timeout", cfg.watchdog_timeout, 0.0)
+        cfg.max_wait = _number(params, "max_wait", cfg.max_wait, 0.0)
         cfg.conservative_reset_dist = _number(params, "conservative_reset_dist", cfg.conservative_reset_dist, 0.0)
         for key in ("recovery_behavior_enabled", "clearing_rotation_allowed", "shutdown_costmaps",
                     "make_plan_clear_costmap", "make_plan_add_unreachable_goal"):

@@ -121,6 +121,7 @@ class MoveBaseNode(Node):
         self.create_timer(STATUS_PERIOD_S, self._publish_status, clock=steady)
         self._last_cycle_wall = time.monotonic()
         self._watchdog_tripped = False
+        self._waiting_since: float | None = None   # node time since when the goal lacks its pose or sensors
         if self.cfg.watchdog_timeout > 0:
             self.create_timer(WATCHDOG_PERIOD_S, self._watchdog, clock=steady)
         self.diagnostics_pub = create_publisher(self, DiagnosticArray, "/diagnostics", 10)
@@ -224,6 +225,7 @@ class MoveBaseNode(Node):
         goal.status = ActionlibStatus.ACTIVE
         self.goal = goal
         self._last_cycle_wall = time.monotonic()  # the watchdog judges the loop from this goal on
+        self._waiting_since = None
         reason = validate_goal(goal.pose)
         target = None
         if reason is None:
@@ -294,6 +296,23 @@ class MoveBaseNode(Node):
             self._watchdog_tripped = True
             self.get_logger().error(f"no control cycle for {silent:.2f} s of wall time (is /clock running? "
                                     f"node time {self._now():.2f} s): robot stopped")
+        if 0 < self.cfg.max_wait < silent:
+            self._abort_waiting(f"no control cycle for {silent:.0f} s of wall time (is /clock running?)")
+
+    def _wait_for_data(self, reason: str) -> None:
+        """A goal may wait max_wait seconds of node time for its pose and sensors, then it is aborted."""
+        now = self._now()
+        if self._waiting_since is None:
+            self._waiting_since = now
+        elif 0 < self.cfg.max_wait < now - self._waiting_since:
+            self._abort_waiting(f"{reason} for {now - self._waiting_since:.0f} s")
+
+    def _abort_waiting(self, reason: str) -> None:
+        message = f"Aborting the goal: {reason} (max_wait {self.cfg.max_wait:g} s)"
+        self.get_logger().error(message)
+        self.core.reset()
+        self._publish_zero()
+        self._finish(self.goal, ActionlibStatus.ABORTED, message)
 
     def _control_cycle(self) -> None:
         self._last_cycle_wall = time.monotonic()
@@ -314,6 +333,7 @@ class MoveBaseNode(Node):
             self._publish_zero()
             self.get_logger().warn(f"waiting for the robot pose: {self.global_costmap.last_pose_error}",
                                    throttle_duration_sec=5.0)
+            self._wait_for_data(f"no robot pose: {self.global_costmap.last_pose_error}")
             return
         if goal.handle is not None:
             feedback = MoveBase.Feedback()
@@ -322,6 +342,12 @@ class MoveBaseNode(Node):
             feedback.base_position.pose = xyyaw_to_pose(*pose[:3])
             goal.handle.publish_feedback(feedback)
         stale = self.local_costmap.stale_sources()
+        if stale:
+            self._wait_for_data(f"sensor data out of date: {', '.join(f'local_costmap/{s}' for s in stale)}")
+            if self.goal is None:
+                return
+        else:
+            self._waiting_since = None
         out = self.core.cycle(self._now(), pose[:3], self.local_costmap.is_current(),
                               ", ".join(f"local_costmap/{s}" for s in stale))
         if out.cmd is not None:

@@ -37,3 +37,21 @@ def test_move_base_stops_the_robot_when_the_simulator_dies(capfd):
         status = session.client.status
         assert status is not None and status.status_list, "move_base/status goes on while the clock is stopped"
 
+
+
+@pytest.mark.timeout(240)
+def test_a_goal_waiting_for_a_dead_clock_is_aborted_after_max_wait(capfd):
+    with NavigationSession("lab", rtf=1.0) as session:
+        session.wait_ready(wall_timeout_s=120.0)
+        session.move_base.cfg.max_wait = 1.0          # 30 s by default
+        run = session.send_goal(Pose2D(4.0, 0.0, 0.0, "corridor"))
+        session.run_for(2.0, wall_timeout_s=60.0)
+        session.executor.remove_node(session.sim)
+        session.nodes.remove(session.sim)
+        session.sim.destroy_node()
+        end = time.monotonic() + 5.0
+        while not run.done and time.monotonic() < end:
+            session.executor.spin_once(timeout_sec=0.01)
+        assert run.status == "ABORTED"
+        err = capfd.readouterr().err
+        assert "Aborting the goal: no control cycle for" in err and "(is /clock running?) (max_wait 1 s)" in err
