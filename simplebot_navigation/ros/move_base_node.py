@@ -39,7 +39,7 @@ from simplebot_navigation.teb.feasibility import footprint_costs
 from simplebot_navigation.ros.node_main import run_node
 
 STATUS_PERIOD_S = 0.2
-WATCHDOG_PERIOD_S = 0.05
+WATCHDOG_PERIOD_S = 0.1
 DIAGNOSTICS_PERIOD_S = 1.0
 MISSED_RATE_WARNING_PERIOD_S = 5.0
 FINISHED_STATUS_KEEP_S = 5.0
