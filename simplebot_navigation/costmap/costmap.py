@@ -101,6 +101,14 @@ class Costmap:
         """The clear_costmaps service: master to its default, every layer reset."""
         self.layered.reset_layers()
 
+    def forget_history(self) -> None:
+        """After time jumped back: reset every layer and drop every buffered observation, whose stamps
+        belong to a timeline that no longer exists."""
+        self.layered.reset_layers()
+        for layer in self.layered.plugins:
+            if isinstance(layer, ObstacleLayer):
+                layer.clear_observations()
+
     def clear_layers_outside(self, robot_x: float, robot_y: float, reset_distance: float,
                              layer_names=None, invert_area: bool = False) -> list[str]:
         """clear_costmap_recovery on this costmap: in each named layer (default: every obstacle layer),

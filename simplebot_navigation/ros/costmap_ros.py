@@ -715,6 +715,17 @@ class Costmap2DROS:
             self.cm.reset_layers()
             self._touch_window(0, 0, self.costmap.size_x, self.costmap.size_y)
 
+    def forget_history(self) -> None:
+        """Time jumped back: layers, observations and the message filter queues start again, and the
+        next update publishes the whole map."""
+        with self._queue_lock:
+            for inp in self._inputs:
+                inp.queue.clear()
+        with self.lock:
+            self.cm.forget_history()
+            self._touch_window(0, 0, self.costmap.size_x, self.costmap.size_y)
+        self._last_publish_s = -math.inf
+
     def clear_layers_outside(self, robot_x: float, robot_y: float, reset_distance: float, layer_names=None,
                              invert_area: bool = False) -> list[str]:
         """clear_costmap_recovery; see Costmap.clear_layers_outside."""

@@ -18,7 +18,8 @@ from geometry_msgs.msg import PoseStamped, Twist
 from nav_msgs.srv import GetPlan
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
-from rclpy.clock import Clock, ClockType
+from rclpy.clock import Clock, ClockType, JumpThreshold, TimeJump
+from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.task import Future
 from std_srvs.srv import Empty
@@ -124,6 +125,9 @@ class MoveBaseNode(Node):
         self._waiting_since: float | None = None   # node time since when the goal lacks its pose or sensors
         if self.cfg.watchdog_timeout > 0:
             self.create_timer(WATCHDOG_PERIOD_S, self._watchdog, clock=steady)
+        self._jump_handle = self.get_clock().create_jump_callback(
+            JumpThreshold(min_forward=None, min_backward=Duration(nanoseconds=-1), on_clock_change=False),
+            post_callback=self._on_time_jump)
         self.diagnostics_pub = create_publisher(self, DiagnosticArray, "/diagnostics", 10)
         self._diagnostics_snapshot = self.cycle_stats.snapshot()
         self.create_timer(DIAGNOSTICS_PERIOD_S, self._publish_diagnostics, clock=steady)
@@ -298,6 +302,23 @@ class MoveBaseNode(Node):
                                     f"node time {self._now():.2f} s): robot stopped")
         if 0 < self.cfg.max_wait < silent:
             self._abort_waiting(f"no control cycle for {silent:.0f} s of wall time (is /clock running?)")
+
+    def _on_time_jump(self, jump: TimeJump) -> None:
+        """A restarted simulator or a looped bag: what was seen belongs to another timeline. Costmaps and the
+        controller start again (TF clears itself), and a goal in progress is aborted, since its robot pose,
+        plan and timers are gone. New goals work as soon as data flows again."""
+        back = -jump.delta.nanoseconds * 1e-9
+        for costmap in (self.global_costmap, self.local_costmap):
+            costmap.forget_history()
+        self.controller.reset()
+        self._waiting_since = None
+        self.get_logger().warn(f"time jumped back by {back:.2f} s (simulator restarted?): costmaps cleared")
+        if self.goal is not None:
+            reason = f"time jumped back by {back:.2f} s (simulator restarted?)"
+            self.get_logger().error(f"Aborting the goal: {reason}")
+            self.core.reset()
+            self._publish_zero()
+            self._finish(self.goal, ActionlibStatus.ABORTED, reason)
 
     def _wait_for_data(self, reason: str) -> None:
         """A goal may wait max_wait seconds of node time for its pose and sensors, then it is aborted."""

@@ -14,6 +14,7 @@ import threading
 from dataclasses import dataclass
 
 from geometry_msgs.msg import PoseStamped, TransformStamped
+from rclpy.clock import JumpThreshold, TimeJump
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -135,6 +136,17 @@ class Buffer:
         self._edges: dict[str, _Edge] = {}
         self._cond = threading.Condition()
         self._node = node
+        if node is not None:
+            # As tf2_ros: a backward jump of the node's clock (a restarted simulator, a looped bag) empties the
+            # buffer, or every transform of the new timeline would be "extrapolation into the past".
+            self._jump_handle = node.get_clock().create_jump_callback(
+                JumpThreshold(min_forward=None, min_backward=Duration(nanoseconds=-1), on_clock_change=False),
+                post_callback=self._on_time_jump)
+
+    def _on_time_jump(self, jump: TimeJump) -> None:
+        self.clear()
+        self._node.get_logger().warn(f"time jumped back by {-jump.delta.nanoseconds * 1e-9:.2f} s: "
+                                     "transform buffer cleared (static transforms kept)")
 
     # -- filling ----------------------------------------------------------------------------
     def set_transform(self, transform: TransformStamped, authority: str) -> bool:
@@ -195,8 +207,9 @@ class Buffer:
         return True
 
     def clear(self) -> None:
+        """Forget every dynamic transform; static ones stay, as in tf2."""
         with self._cond:
-            self._edges.clear()
+            self._edges = {child: edge for child, edge in self._edges.items() if edge.static}
 
     def all_frames_as_string(self) -> str:
         with self._cond:

@@ -15,6 +15,7 @@ import dataclasses
 import importlib
 import math
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -221,11 +222,12 @@ class _Session(abc.ABC):
         self.close()
 
 
-def launch_args(world: str, robot: str, radius: float, rtf: float, tight: bool) -> dict[str, str]:
-    """The navigation launch file's arguments for a session; a node that dies is not respawned, so a
-    scenario shows the crash instead of hiding it."""
+def launch_args(world: str, robot: str, radius: float, rtf: float, tight: bool,
+                respawn: bool = False) -> dict[str, str]:
+    """The navigation launch file's arguments for a session; by default a node that dies is not respawned,
+    so a scenario shows the crash instead of hiding it."""
     return {"world": str(world), "robot": robot, "radius": str(radius), "rtf": str(rtf),
-            "tight": "true" if tight else "false", "respawn": "false"}
+            "tight": "true" if tight else "false", "respawn": "true" if respawn else "false"}
 
 
 class NavigationSession(_Session):
@@ -335,12 +337,13 @@ class ProcessSession(_Session):
     """
 
     def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, rtf: float = 1.0,
-                 seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation", tight: bool = False):
+                 seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation", tight: bool = False,
+                 respawn: bool = False):
         if not (math.isfinite(rtf) and rtf > 0):
             raise ValueError(f"separate processes need rtf > 0 (lockstep is single-process), got {rtf!r}")
         self.description = robot_description(robot, radius)
         self.world = load_world(world, robot_radius=self.description.inscribed_radius)
-        args = launch_args(world, robot, radius, rtf, tight)
+        args = launch_args(world, robot, radius, rtf, tight, respawn)
         self.launch = load_launch(launch_file, args)
         self.run_dir = run_dir = tempfile.mkdtemp(prefix="simplebot_scenario_")
         wrapper = os.path.join(run_dir, "scenario_launch.py")
@@ -372,6 +375,16 @@ class ProcessSession(_Session):
         if self.process.poll() is not None:
             raise RuntimeError(f"the launcher ended with exit code {self.process.returncode}; see {self.log_file}")
         return self.client.action.server_is_ready() and bool(self.client.truth)
+
+    def node_pid(self, name: str) -> int | None:
+        """Process id of a node's latest start, from the launcher's "started /name (...) pid N" line."""
+        with open(self.log_file, encoding="utf-8") as log:
+            found = re.findall(rf"started /{re.escape(name)} \(.*?\) pid (\d+)", log.read())
+        return int(found[-1]) if found else None
+
+    def log_text(self) -> str:
+        with open(self.log_file, encoding="utf-8") as log:
+            return log.read()
 
     def controller_param(self, name: str, default: float) -> float:
         move_base = next(n for n in self.launch.nodes if n.name == "move_base")

@@ -207,3 +207,24 @@ def test_recovery_clearing_forgets_obstacles_outside_the_square():
     assert layer.get_cost(mx + 10, my) == NO_INFORMATION and layer.get_cost(0, 0) == NO_INFORMATION
     cm.update_map(0.0, 0.0, 0.0)
     assert cm.update_window == (0, 0, 100, 100)
+
+
+def test_forget_history_after_a_backward_time_jump_drops_observations_of_the_old_timeline():
+    clock = Clock()
+    cm = Costmap("local_costmap", local_costmap_params(), clock=clock)
+    clock.now = 60.0
+    x, y, yaw = next(iter(scenario.robot_path(1)))
+    for laser in scenario.LASERS:
+        pose = scenario.laser_pose(x, y, yaw, laser)
+        cm.add_laser_scan(laser, scenario.scan_ranges(pose[0], pose[1], pose[3]), scenario.ANGLE_MIN,
+                          scenario.ANGLE_INCREMENT, scenario.RANGE_MIN, scenario.RANGE_MAX, pose, clock.now)
+    cm.update_map(x, y, yaw)
+    assert (cm.master.costmap == LETHAL_OBSTACLE).any()
+
+    clock.now = 0.5                                   # the simulator restarted
+    cm.forget_history()
+    layer = cm.layered.layer("obstacles")
+    assert all(not buffer.get_observations() for buffer in layer.buffers.values())
+    cm.update_map(x, y, yaw)
+    assert not (cm.master.costmap == LETHAL_OBSTACLE).any(), "old obstacles came back from the buffers"
+    assert cm.is_current(), "sensors are judged from the jump on"

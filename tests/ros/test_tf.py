@@ -119,3 +119,32 @@ def test_transform_pose(robot):
     out = robot.transform_pose(pose, "odom")
     assert (out.pose.position.x, out.pose.position.y) == pytest.approx((1.0, 1.0))
     assert out.header.frame_id == "odom"
+
+
+def test_a_backward_jump_of_the_node_clock_clears_dynamic_transforms_and_keeps_static_ones(context):
+    """A restarted simulator: the old history would make every new transform 'extrapolation into the past'."""
+    from rclpy.node import Node
+
+    node = Node("tf_jump", context=context)
+    try:
+        clock = node.get_clock()
+        clock._set_ros_time_is_active(True)
+        clock.set_ros_time_override(Time(seconds=60.0))
+        buf = Buffer(node=node)
+        buf.set_transform(tf("odom", "base_link", 59.0, x=5.0), "sim")
+        buf.set_transform(tf("odom", "base_link", 60.0, x=6.0), "sim")
+        buf.set_transform_static(tf("base_link", "front_laser_link", 0.0, x=0.35), "sim")
+        assert buf.can_transform("odom", "base_link", Time(seconds=59.5))
+
+        clock.set_ros_time_override(Time(seconds=0.5))           # the simulator starts again
+        assert not buf.can_transform("odom", "base_link", Time())
+        buf.set_transform(tf("odom", "base_link", 0.5, x=0.1), "sim")
+        buf.set_transform(tf("odom", "base_link", 0.6, x=0.2), "sim")
+        assert xy_yaw(buf.lookup_transform("odom", "base_link", Time(seconds=0.55)))[0] == pytest.approx(0.15)
+        laser = buf.lookup_transform("base_link", "front_laser_link", Time())
+        assert laser.transform.translation.x == pytest.approx(0.35)
+
+        clock.set_ros_time_override(Time(seconds=0.7))           # forward: nothing is cleared
+        assert buf.can_transform("odom", "base_link", Time(seconds=0.55))
+    finally:
+        node.destroy_node()
