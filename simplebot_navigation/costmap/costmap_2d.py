@@ -46,14 +46,12 @@ class Costmap2D:
                 self.origin_y + (my + 0.5) * self.resolution)
 
     def world_to_map(self, wx: float, wy: float) -> tuple[int, int] | None:
-        """Cell containing (wx, wy), or None when it lies off the grid."""
-        if wx < self.origin_x or wy < self.origin_y:
+        """Cell containing (wx, wy), or None when it lies off the grid (or is not a finite number)."""
+        fx = (wx - self.origin_x) / self.resolution
+        fy = (wy - self.origin_y) / self.resolution
+        if not (0 <= fx < self.size_x and 0 <= fy < self.size_y):   # compared as floats: 1e308 and NaN too
             return None
-        mx = int((wx - self.origin_x) / self.resolution)
-        my = int((wy - self.origin_y) / self.resolution)
-        if mx < self.size_x and my < self.size_y:
-            return mx, my
-        return None
+        return int(fx), int(fy)
 
     def world_to_map_no_bounds(self, wx: float, wy: float) -> tuple[int, int]:
         return (int((wx - self.origin_x) / self.resolution),

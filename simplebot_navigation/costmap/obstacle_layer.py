@@ -65,23 +65,24 @@ class ObservationSource:
                              f"use one of {', '.join(SUPPORTED_DATA_TYPES)}")
 
 
-def _scan_problem(r: np.ndarray, angle_min, angle_increment, range_min, range_max, sensor_pose) -> str | None:
-    """Why a LaserScan cannot be projected at all, or None: NaN or inf in its geometry would project
+def _scan_problem(r: np.ndarray, angle_min, angle_increment, range_min, range_max,
+                  sensor_pose) -> tuple[str, str] | None:
+    """(field, why) a LaserScan cannot be projected at all, or None: NaN or inf in its geometry would project
     every beam to NaN, and a ranges list longer than one turn would wrap into a phantom ring."""
     if r.ndim != 1:
-        return f"ranges must be a flat list, got shape {r.shape}"
+        return "ranges", f"ranges must be a flat list, got shape {r.shape}"
     for name, value in (("angle_min", angle_min), ("angle_increment", angle_increment),
                         ("range_min", range_min), ("range_max", range_max)):
         if not math.isfinite(value):
-            return f"{name} is {value}"
+            return name, f"{name} is {value}"
     if not np.isfinite(sensor_pose).all():
-        return f"the sensor pose is not finite: {tuple(float(v) for v in sensor_pose)}"
+        return "sensor pose", f"the sensor pose is not finite: {tuple(float(v) for v in sensor_pose)}"
     if not range_min < range_max:
-        return f"range_min {range_min} is not below range_max {range_max}"
+        return "range_min", f"range_min {range_min:g} is not below range_max {range_max:g}"
     # One beam of slack: 360-degree scanners may repeat the first angle at the end.
     if (len(r) - 1) * abs(angle_increment) > math.tau + abs(angle_increment):
-        return (f"{len(r)} ranges at angle_increment {angle_increment} sweep more than one turn; "
-                "ranges does not match the scan's angles")
+        return "ranges", (f"{len(r)} ranges at angle_increment {angle_increment:g} sweep more than one turn; "
+                          "ranges does not match the scan's angles")
     return None
 
 
@@ -101,7 +102,8 @@ def laser_scan_to_observation(ranges, angle_min: float, angle_increment: float, 
     origin = np.array([sx, sy, sz])
     problem = _scan_problem(r, angle_min, angle_increment, range_min, range_max, sensor_pose)
     if problem:
-        _log.warning("LaserScan dropped: %s", problem)
+        field, why = problem
+        _log.warning("LaserScan dropped: %s", why, extra={"throttle_key": field})
         return Observation(origin, np.empty((0, 3)), float(obstacle_range), float(raytrace_range), float(stamp))
     angles = syaw + angle_min + angle_increment * np.arange(len(r))
     with np.errstate(invalid="ignore"):

@@ -65,12 +65,14 @@ def _seconds(t: Time) -> float:
 
 # -- Python logging of the costmap package -> the logger of the node whose costmap is working -------
 _ACTIVE: contextvars.ContextVar["Costmap2DROS | None"] = contextvars.ContextVar("active_costmap", default=None)
+_TOPIC: contextvars.ContextVar[str] = contextvars.ContextVar("sensor_topic", default="")
 _process_lock = threading.Lock()
 _process_prepared = False
 
 
 class _NodeLogHandler(logging.Handler):
-    """Forwards warnings of simplebot_navigation.costmap to the node logger, throttled per message."""
+    """Forwards warnings of simplebot_navigation.costmap to the node logger, naming the sensor topic being
+    processed; throttled per costmap, topic and message (and per record.throttle_key, such as the bad field)."""
 
     def __init__(self):
         super().__init__(logging.WARNING)
@@ -79,12 +81,13 @@ class _NodeLogHandler(logging.Handler):
 
     def emit(self, record: logging.LogRecord) -> None:
         costmap = _ACTIVE.get()
-        key = (id(costmap), record.name, record.msg)
+        topic = _TOPIC.get()
+        key = (id(costmap), topic, record.name, record.msg, getattr(record, "throttle_key", None))
         now = time.monotonic()
         if now - self._last.get(key, -math.inf) < 5.0:
             return
         self._last[key] = now
-        text = record.getMessage()
+        text = f"[{topic}] {record.getMessage()}" if topic else record.getMessage()
         if costmap is None:
             self._fallback.warning(text)
         else:
@@ -467,7 +470,7 @@ class Costmap2DROS:
         t = tf.transform.translation
         origin = np.array([t.x, t.y, t.z])
         rotation = _rotation_matrix(tf.transform.rotation)
-        token = _ACTIVE.set(self)
+        token, topic_token = _ACTIVE.set(self), _TOPIC.set(src.topic)
         try:
             if isinstance(msg, LaserScan):
                 local = laser_scan_to_observation(np.asarray(msg.ranges, dtype=np.float32), msg.angle_min,
@@ -488,6 +491,7 @@ class Costmap2DROS:
             with self.lock:
                 self.cm.add_observation(inp.key, observation)
         finally:
+            _TOPIC.reset(topic_token)
             _ACTIVE.reset(token)
 
     def _on_map(self, layer: StaticLayer, msg: OccupancyGrid) -> None:

@@ -21,6 +21,7 @@ from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.clock import Clock, ClockType, JumpThreshold, TimeJump
 from rclpy.duration import Duration
 from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
 from std_srvs.srv import Empty
 
@@ -44,6 +45,10 @@ WATCHDOG_PERIOD_S = 0.1
 DIAGNOSTICS_PERIOD_S = 1.0
 MISSED_RATE_WARNING_PERIOD_S = 5.0
 FINISHED_STATUS_KEEP_S = 5.0
+#: requests a burst may queue on the action's goal, cancel and result services before the middleware drops
+#: them (the services' default keeps 10); ROS 1 actionlib queued 50 goals
+ACTION_SERVICE_QOS = QoSProfile(depth=50, history=HistoryPolicy.KEEP_LAST, reliability=ReliabilityPolicy.RELIABLE,
+                                durability=DurabilityPolicy.VOLATILE)
 
 
 class _Goal:
@@ -105,7 +110,9 @@ class MoveBaseNode(Node):
         self.action_server = ActionServer(self, MoveBase, "move_base", execute_callback=self._execute,
                                           goal_callback=lambda _req: GoalResponse.ACCEPT,
                                           cancel_callback=lambda _handle: CancelResponse.ACCEPT,
-                                          callback_group=group)
+                                          callback_group=group, goal_service_qos_profile=ACTION_SERVICE_QOS,
+                                          result_service_qos_profile=ACTION_SERVICE_QOS,
+                                          cancel_service_qos_profile=ACTION_SERVICE_QOS)
         self.create_subscription(PoseStamped, "move_base_simple/goal", self._on_simple_goal, 1)
         self.create_subscription(GoalID, "~/cancel", self._on_cancel, 1)
         self.create_service(GetPlan, "~/make_plan", self._on_make_plan)
@@ -264,7 +271,7 @@ class MoveBaseNode(Node):
         if master.world_to_map(x, y) is None:
             x1, y1 = master.origin_x + master.size_x * master.resolution, \
                 master.origin_y + master.size_y * master.resolution
-            return None, (f"goal ({x:.2f}, {y:.2f}) is outside the global costmap "
+            return None, (f"goal ({x:.6g}, {y:.6g}) is outside the global costmap "
                           f"[{master.origin_x:.2f}, {x1:.2f}] x [{master.origin_y:.2f}, {y1:.2f}] in {frame}")
         return target, None
 

@@ -38,6 +38,7 @@ from std_msgs.msg import String
 from simplebot_description import robot_description
 from simplebot_navigation.ros.node_main import run_node
 from simplebot_navigation.ros.params import declare_checked
+from simplebot_navigation.ros.simulator_faults import SimulatorFaults
 from simplebot_navigation.ros.tf import StaticTransformBroadcaster, TransformBroadcaster, compose
 from simplebot_navigation.sim.simulator import SimplebotSim
 from simplebot_navigation.sim.world import load_world
@@ -116,6 +117,7 @@ class SimulatorNode(Node):
         self.scan_pubs = {frame: self.create_publisher(LaserScan, "/" + scan.topic.lstrip("/"),
                                                        qos_profile_sensor_data)
                           for frame, scan in self.description.scans.items()}
+        self.faults = SimulatorFaults(self, self.scan_pubs)
         self.tf_broadcaster = TransformBroadcaster(self)
         self.create_publisher(String, "/robot_description", LATCHED).publish(String(data=self.description.urdf))
         StaticTransformBroadcaster(self).send_transform([
@@ -203,7 +205,8 @@ class SimulatorNode(Node):
         if self._steps % self._odom_every == 0:
             self._publish_odometry()
         for scan in self.sim.due_scans():
-            self.scan_pubs[scan.frame].publish(self._scan_msg(scan))
+            if not self.faults.drops_scan(scan.frame):
+                self.scan_pubs[scan.frame].publish(self._scan_msg(scan))
         if self.sim.collisions().count != self._reported_collisions:
             self._publish_collisions()
 
@@ -211,7 +214,10 @@ class SimulatorNode(Node):
     def _publish_odometry(self) -> None:
         stamp = self._clock_msg.clock
         odom = self.sim.odometry()
+        odometry_dropout = self.faults.odometry_dropout
         for source, (pub, msg) in zip((odom, self.sim.ground_truth()), self._odom_msgs):
+            if odometry_dropout and pub is self.odom_pub:
+                continue
             msg.header.stamp = stamp
             pose, twist = msg.pose.pose, msg.twist.twist
             pose.position.x, pose.position.y = source.x, source.y
@@ -220,7 +226,7 @@ class SimulatorNode(Node):
             pub.publish(msg)
         self._odom_tf.header.stamp = stamp
         _set_transform(self._odom_tf, (odom.x, odom.y, 0.0, 0.0, 0.0, math.sin(odom.yaw / 2), math.cos(odom.yaw / 2)))
-        transforms = [self._odom_tf]
+        transforms = [] if odometry_dropout else [self._odom_tf]
         joints = self.sim.joint_states()
         for name, angle in zip(joints.names, joints.positions):
             _, _, origin, axis = self._wheel_joints[name]
@@ -230,7 +236,9 @@ class SimulatorNode(Node):
             _set_transform(tf, compose(origin, (0.0, 0.0, 0.0, axis[0] * s, axis[1] * s, axis[2] * s,
                                                 math.cos(angle / 2))))
             transforms.append(tf)
-        self.tf_broadcaster.send_transform(transforms)
+        due = self.faults.transforms_due(self.sim.sim_time, transforms)
+        if due:
+            self.tf_broadcaster.send_transform(due)
 
     def _scan_msg(self, scan) -> LaserScan:
         msg = self._scan_msgs[scan.frame]

@@ -45,6 +45,7 @@ from simplebot_navigation.launch.nodes import resolve_executable
 from simplebot_navigation.launch.runner import ros_args, write_params_file
 from simplebot_navigation.move_base.cycle_stats import CycleSnapshot
 from simplebot_navigation.ros.lockstep import LockstepDriver
+from simplebot_navigation.ros.move_base_node import ACTION_SERVICE_QOS
 from simplebot_navigation.ros.simulator_node import SimulatorNode
 from simplebot_navigation.sim.world import Pose2D, World, load_world
 
@@ -78,7 +79,9 @@ class ScenarioClient(Node):
     def __init__(self, context):
         super().__init__("scenario_runner", context=context,
                          parameter_overrides=[Parameter("use_sim_time", value=True)])
-        self.action = ActionClient(self, MoveBase, "move_base")
+        self.action = ActionClient(self, MoveBase, "move_base", goal_service_qos_profile=ACTION_SERVICE_QOS,
+                                   result_service_qos_profile=ACTION_SERVICE_QOS,
+                                   cancel_service_qos_profile=ACTION_SERVICE_QOS)
         self.truth: list[tuple[float, float, float, float]] = []  # (t, x, y, yaw) in the world frame
         self.collisions = 0
         self.status: GoalStatusArray | None = None

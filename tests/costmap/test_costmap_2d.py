@@ -78,7 +78,8 @@ def test_convex_polygon_fill_fails_whole_if_a_vertex_is_off_the_map():
     assert not cm.costmap.any()
 
 
-@pytest.mark.parametrize("wx, expected", [(-0.01, None), (0.0, (0, 0)), (0.999, (9, 0)), (1.0, None)])
+@pytest.mark.parametrize("wx, expected", [(-0.01, None), (0.0, (0, 0)), (0.999, (9, 0)), (1.0, None), (1e308, None),
+                                         (-1e308, None), (float("inf"), None), (float("nan"), None)])
 def test_world_to_map_bounds(wx, expected):
     assert Costmap2D(10, 10, 0.1, 0.0, 0.0).world_to_map(wx, 0.0) == expected
 

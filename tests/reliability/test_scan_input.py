@@ -56,7 +56,7 @@ def test_negative_ranges_are_never_obstacles_behind_the_sensor(caplog):
     ("range_max", math.nan, "range_max is nan"),
     ("range_max", math.inf, "range_max is inf"),
     ("range_min", math.nan, "range_min is nan"),
-    ("range_min", 6.0, "range_min 6.0 is not below range_max 5.6"),
+    ("range_min", 6.0, "range_min 6 is not below range_max 5.6"),
     ("angle_increment", 1e308, "3 ranges at angle_increment 1e+308 sweep more than one turn"),
     ("ranges", [1.0] * 100_000, "100000 ranges at angle_increment 0.01 sweep more than one turn"),
     ("ranges", [[1.0, 1.0]], "ranges must be a flat list, got shape (1, 2)"),
