@@ -34,15 +34,17 @@ from simplebot_navigation.ros.conversions import path_msg, pose_to_xyyaw, xyyaw_
 from simplebot_navigation.ros.costmap_ros import Costmap2DROS
 from simplebot_navigation.ros.global_planner_ros import GlobalPlannerROS
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
-from simplebot_navigation.ros.publishers import create_publisher
+from simplebot_navigation.ros.publishers import create_publisher, drop_event_handlers_of_best_effort_subscriptions
 from simplebot_navigation.ros.teb_local_planner_ros import TebLocalPlannerROS
 from simplebot_navigation.ros.tf import Buffer, TransformException, TransformListener, strip_frame
 from simplebot_navigation.teb.feasibility import footprint_costs
 from simplebot_navigation.ros.node_main import run_node
 
-STATUS_PERIOD_S = 0.2
-WATCHDOG_PERIOD_S = 0.1
-DIAGNOSTICS_PERIOD_S = 1.0
+# The watchdog, status and diagnostics share one steady-clock timer (one executor wake-up where three
+# timers would each wake it): the watchdog every tick, status every STATUS_TICKS, diagnostics every 10.
+HOUSEKEEPING_PERIOD_S = 0.1
+STATUS_TICKS = 2
+DIAGNOSTICS_TICKS = 10
 MISSED_RATE_WARNING_PERIOD_S = 5.0
 FINISHED_STATUS_KEEP_S = 5.0
 #: requests a burst may queue on the action's goal, cancel and result services before the middleware drops
@@ -123,21 +125,19 @@ class MoveBaseNode(Node):
         self.period = 1.0 / self.cfg.controller_frequency
         self.cycle_stats = ControlLoopStats(self.period)
         self._last_missed_warning = -math.inf
-        steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(self.period, self._control_cycle)
-        # Status and the watchdog run on the steady clock: they must keep going when /clock stops.
-        self.create_timer(STATUS_PERIOD_S, self._publish_status, clock=steady)
         self._last_cycle_wall = time.monotonic()
         self._watchdog_tripped = False
         self._waiting_since: float | None = None   # node time since when the goal lacks its pose or sensors
-        if self.cfg.watchdog_timeout > 0:
-            self.create_timer(WATCHDOG_PERIOD_S, self._watchdog, clock=steady)
         self._jump_handle = self.get_clock().create_jump_callback(
             JumpThreshold(min_forward=None, min_backward=Duration(nanoseconds=-1), on_clock_change=False),
             post_callback=self._on_time_jump)
         self.diagnostics_pub = create_publisher(self, DiagnosticArray, "/diagnostics", 10)
         self._diagnostics_snapshot = self.cycle_stats.snapshot()
-        self.create_timer(DIAGNOSTICS_PERIOD_S, self._publish_diagnostics, clock=steady)
+        # On the steady clock: the watchdog, status and diagnostics must keep going when /clock stops.
+        self._housekeeping_ticks = 0
+        self.create_timer(HOUSEKEEPING_PERIOD_S, self._housekeeping, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        drop_event_handlers_of_best_effort_subscriptions(self)
         self.get_logger().info(f"move_base ready: {self.cfg.base_global_planner} + {self.cfg.base_local_planner}, "
                                f"controller {self.cfg.controller_frequency:g} Hz, "
                                f"{len(self.core.recoveries)} recovery behaviours "
@@ -295,6 +295,15 @@ class MoveBaseNode(Node):
     # -- the control cycle --------------------------------------------------------------------------
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds / 1e9
+
+    def _housekeeping(self) -> None:
+        self._housekeeping_ticks += 1
+        if self.cfg.watchdog_timeout > 0:
+            self._watchdog()
+        if self._housekeeping_ticks % STATUS_TICKS == 0:
+            self._publish_status()
+        if self._housekeeping_ticks % DIAGNOSTICS_TICKS == 0:
+            self._publish_diagnostics()
 
     def _watchdog(self) -> None:
         """Stop the robot when the control loop has not run for watchdog_timeout of wall time while a goal is

@@ -11,6 +11,8 @@ import rclpy
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
+from simplebot_navigation.ros.executor import LeanExecutor
+
 
 def run_node(label: str, build: Callable[[], Node], args=None,
              bad_input: tuple[type[BaseException], ...] = (ValueError,)) -> int:
@@ -25,10 +27,13 @@ def run_node(label: str, build: Callable[[], Node], args=None,
     # Start-up objects (yourdfpy's trimesh/scipy/networkx among them) live as long as the process.
     # Frozen, they drop out of Python's full collections, which otherwise stall every node for ~80 ms.
     gc.freeze()
+    executor = LeanExecutor()
+    executor.add_node(node)
     try:
         with stopped_by_ctrl_c():
-            rclpy.spin(node)
+            executor.spin()
     finally:
+        executor.shutdown()
         node.destroy_node()
         rclpy.try_shutdown()
     return 0
