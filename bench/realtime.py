@@ -25,7 +25,6 @@ the end of each run (/proc/loadavg).
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import signal
 import subprocess
@@ -54,7 +53,9 @@ from rclpy.parameter import Parameter  # noqa: E402
 
 from move_base_msgs.action import MoveBase  # noqa: E402
 from simplebot_description import robot_description  # noqa: E402
+from simplebot_navigation.geometry import pose_in_frame  # noqa: E402
 from simplebot_navigation.launch.loader import load_launch  # noqa: E402
+from simplebot_navigation.ros.conversions import quaternion_msg, yaw_of  # noqa: E402
 from simplebot_navigation.scenarios.runner import parse_goals, time_budget  # noqa: E402
 from simplebot_navigation.sim.world import Pose2D, World, load_world  # noqa: E402
 
@@ -152,7 +153,7 @@ class BenchClient(Node):
 
     def _on_truth(self, msg: Odometry) -> None:
         p, q = msg.pose.pose.position, msg.pose.pose.orientation
-        self.pose = Pose2D(p.x, p.y, 2.0 * math.atan2(q.z, q.w))
+        self.pose = Pose2D(p.x, p.y, yaw_of(q))
 
     def sim_time(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
@@ -220,15 +221,12 @@ class Run:
 
     def send(self, goal: Pose2D, start: Pose2D, budget_s: float) -> int:
         """Send a goal (world frame), wait for its result (cancel after budget_s); its final status."""
-        c, s = math.cos(start.yaw), math.sin(start.yaw)
-        dx, dy = goal.x - start.x, goal.y - start.y
-        yaw = math.remainder(goal.yaw - start.yaw, 2 * math.pi)
+        x, y, yaw = pose_in_frame((start.x, start.y, start.yaw), (goal.x, goal.y, goal.yaw))
         msg = MoveBase.Goal()
         msg.target_pose.header.frame_id = "odom"
         msg.target_pose.header.stamp = self.client.get_clock().now().to_msg()
-        position, orientation = msg.target_pose.pose.position, msg.target_pose.pose.orientation
-        position.x, position.y = c * dx + s * dy, -s * dx + c * dy
-        orientation.z, orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
+        msg.target_pose.pose.position.x, msg.target_pose.pose.position.y = x, y
+        msg.target_pose.pose.orientation = quaternion_msg(yaw)
         sent = self.client.action.send_goal_async(msg)
         if not self.spin_until(sent.done, 10.0) or not sent.result().accepted:
             return GoalStatus.STATUS_UNKNOWN

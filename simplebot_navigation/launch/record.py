@@ -28,6 +28,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.utilities import remove_ros_args
 
 from simplebot_navigation.launch.loader import LaunchError, NodeSpec
+from simplebot_navigation.ros.conversions import yaw_of
 
 PRIMITIVES = {"bool", "byte", "char", "float32", "float64", "int8", "uint8", "int16", "uint16", "int32", "uint32",
               "int64", "uint64", "string", "wstring"}
@@ -213,10 +214,6 @@ class Recorder(Node):
 
 
 # -- plotting ---------------------------------------------------------------------------------------
-def _yaw(q) -> float:
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-
-
 def plot(mcap_path: str, png_path: str) -> dict:
     """Render the recorded run: global costmap, odometry (and ground truth), every plan, the goals."""
     import matplotlib
@@ -251,7 +248,7 @@ def plot(mcap_path: str, png_path: str) -> dict:
             tracks[topic].append((p.x, p.y))
             stamps.append(msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9)
         elif topic in GOAL_TOPICS:
-            goal = (msg.pose.position.x, msg.pose.position.y, _yaw(msg.pose.orientation))
+            goal = (msg.pose.position.x, msg.pose.position.y, yaw_of(msg.pose.orientation))
             if not goals or goals[-1] != goal:
                 goals.append(goal)
         else:

@@ -23,7 +23,8 @@ from sensor_msgs.msg import LaserScan, PointCloud2, PointField
 
 from simplebot_navigation.costmap.obstacle_layer import ObservationSource
 from simplebot_navigation.costmap.static_layer import StaticLayer
-from simplebot_navigation.ros.conversions import quaternion_to_yaw
+from simplebot_navigation.geometry import quaternion_to_rotation_matrix
+from simplebot_navigation.ros.conversions import yaw_of
 from simplebot_navigation.ros.costmap_log import speaking_for
 from simplebot_navigation.ros.tf import TransformException, strip_frame
 
@@ -37,13 +38,6 @@ MESSAGE_FILTER_RETRY_S = 0.02
 
 def stamp_seconds(t: Time) -> float:
     return t.nanoseconds * 1e-9
-
-
-def _rotation_matrix(q) -> np.ndarray:
-    x, y, z, w = q.x, q.y, q.z, q.w
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
 
 
 _CLOUD_TYPES = {PointField.FLOAT32: "f4", PointField.FLOAT64: "f8"}
@@ -254,7 +248,8 @@ class CostmapInput:
         stamp = stamp_seconds(Time.from_msg(msg.header.stamp))
         t = tf.transform.translation
         origin = np.array([t.x, t.y, t.z])
-        rotation = _rotation_matrix(tf.transform.rotation)
+        q = tf.transform.rotation
+        rotation = quaternion_to_rotation_matrix(q.x, q.y, q.z, q.w)
         with speaking_for(owner):
             if isinstance(msg, LaserScan):
                 with owner.lock:
@@ -277,7 +272,7 @@ class CostmapInput:
         if layer.first_map_only and layer.map_received:
             return
         info = msg.info
-        if abs(quaternion_to_yaw(info.origin.orientation)) > 1e-6:
+        if abs(yaw_of(info.origin.orientation)) > 1e-6:
             owner.logger.warning(f"{owner.name}: map on {layer.map_topic} has a rotated origin, which costmaps "
                                  "ignore (as costmap_2d does)", once=True)
         data = np.asarray(msg.data, dtype=np.int8).reshape(info.height, info.width)

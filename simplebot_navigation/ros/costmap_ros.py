@@ -22,7 +22,7 @@ from rclpy.time import Time
 
 from simplebot_navigation.costmap.costmap import Costmap
 from simplebot_navigation.costmap.costmap_2d import Costmap2D
-from simplebot_navigation.ros.conversions import quaternion_to_yaw
+from simplebot_navigation.ros.conversions import yaw_of
 from simplebot_navigation.ros.costmap_input import CostmapInput, stamp_seconds
 from simplebot_navigation.ros.costmap_log import Throttle, prepare_process, speaking_for
 from simplebot_navigation.ros.costmap_publisher import CostmapPublisher
@@ -223,7 +223,7 @@ class Costmap2DROS:
             return None, (f"Costmap2DROS transform timeout. Current time: {now:.4f}, global_pose stamp: "
                           f"{stamp_seconds(stamp):.4f}, tolerance: {self.transform_tolerance:.4f}")
         t = tf.transform.translation
-        return RobotPose(t.x, t.y, quaternion_to_yaw(tf.transform.rotation), stamp), ""
+        return RobotPose(t.x, t.y, yaw_of(tf.transform.rotation), stamp), ""
 
     def get_robot_pose(self) -> RobotPose | None:
         """Robot pose in global_frame from the latest TF, or None (reason in last_pose_error, logged
@@ -291,7 +291,7 @@ class Costmap2DROS:
                     self.logger.error(f"{self.name}: static layer {layer.name}: {err}")
                 continue
             t = tf.transform.translation
-            layer.global_to_map = (t.x, t.y, quaternion_to_yaw(tf.transform.rotation))
+            layer.global_to_map = (t.x, t.y, yaw_of(tf.transform.rotation))
 
     def _warn_stale(self) -> None:
         if self.cm.is_current():

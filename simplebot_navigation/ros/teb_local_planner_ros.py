@@ -20,6 +20,7 @@ from rclpy.time import Time
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
+from simplebot_navigation.geometry import transform_points
 from simplebot_navigation.move_base.state_machine import ControlResult
 from simplebot_navigation.ros.conversions import path_msg, pose_array_msg, transform_to_xyyaw
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
@@ -29,16 +30,6 @@ from simplebot_navigation.teb import TebConfig, TebLocalPlanner, warm_up
 
 PLUGIN_TYPES = {"teb_local_planner/TebLocalPlannerROS": "TebLocalPlannerROS"}
 ODOM_STALE_S = 1.0
-
-
-def _transform_poses(poses: np.ndarray, tf_xyyaw) -> np.ndarray:
-    x, y, yaw = tf_xyyaw
-    c, s = math.cos(yaw), math.sin(yaw)
-    out = np.empty_like(poses)
-    out[:, 0] = x + c * poses[:, 0] - s * poses[:, 1]
-    out[:, 1] = y + s * poses[:, 0] + c * poses[:, 1]
-    out[:, 2] = poses[:, 2] + yaw
-    return out
 
 
 class TebLocalPlannerROS:
@@ -97,7 +88,7 @@ class TebLocalPlannerROS:
             except TransformException as err:
                 self.logger.error(f"Could not transform the global plan to the frame of the controller: {err}")
                 return False
-            plan = _transform_poses(plan, transform_to_xyyaw(tf))
+            plan = transform_points(transform_to_xyyaw(tf), plan, dtype=plan.dtype)
         self.planner.set_plan(plan)
         return True
 

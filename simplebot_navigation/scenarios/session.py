@@ -39,10 +39,12 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from move_base_msgs.action import MoveBase
 from simplebot_description import RobotDescription, robot_description
+from simplebot_navigation.geometry import pose_in_frame
 from simplebot_navigation.launch.loader import load_launch
 from simplebot_navigation.launch.nodes import resolve_executable
 from simplebot_navigation.launch.runner import ros_args, write_params_file
 from simplebot_navigation.move_base.cycle_stats import CycleSnapshot
+from simplebot_navigation.ros.conversions import quaternion_msg, yaw_of
 from simplebot_navigation.ros.lockstep import LockstepDriver
 from simplebot_navigation.ros.simulator_node import SimulatorNode
 from simplebot_navigation.sim.world import Pose2D, World, load_world
@@ -88,7 +90,7 @@ class ScenarioClient(Node):
     def _on_truth(self, msg: Odometry) -> None:
         p, q = msg.pose.pose.position, msg.pose.pose.orientation
         stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
-        self.truth.append((stamp, p.x, p.y, 2.0 * math.atan2(q.z, q.w)))
+        self.truth.append((stamp, p.x, p.y, yaw_of(q)))
 
     def _on_collisions(self, msg: DiagnosticStatus) -> None:
         self.collisions = int(next(kv.value for kv in msg.values if kv.key == "count"))
@@ -172,8 +174,7 @@ class _Session(abc.ABC):
     def to_odom(self, x: float, y: float, yaw: float) -> tuple[float, float, float]:
         """World pose -> the odom frame, which is the start pose (wheel odometry starts at zero)."""
         s = self.world.start
-        dx, dy, c, si = x - s.x, y - s.y, math.cos(s.yaw), math.sin(s.yaw)
-        return c * dx + si * dy, -si * dx + c * dy, math.remainder(yaw - s.yaw, 2 * math.pi)
+        return pose_in_frame((s.x, s.y, s.yaw), (x, y, yaw))
 
     def goal_message(self, goal: Pose2D) -> MoveBase.Goal:
         x, y, yaw = self.to_odom(goal.x, goal.y, goal.yaw)
@@ -182,7 +183,7 @@ class _Session(abc.ABC):
         pose.header.frame_id = "odom"
         pose.header.stamp = self.client.get_clock().now().to_msg()
         pose.pose.position.x, pose.pose.position.y = x, y
-        pose.pose.orientation.z, pose.pose.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
+        pose.pose.orientation = quaternion_msg(yaw)
         return msg
 
     def send_goal(self, goal: Pose2D) -> GoalRun:

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from simplebot_navigation.teb.band import normalize_theta
+from simplebot_navigation.geometry import normalize_theta
 from simplebot_navigation.teb.kernels import MIN_TIME_DIFF
 
 

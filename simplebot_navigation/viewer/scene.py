@@ -22,6 +22,8 @@ from typing import Callable
 
 import numpy as np
 
+from simplebot_navigation.geometry import transform_points
+
 Pose2D = tuple[float, float, float]
 #: lookup(frame_id, stamp_ns) -> pose of frame_id in the fixed frame, or None when unknown; stamp 0 = latest
 Lookup = Callable[[str, int], "Pose2D | None"]
@@ -80,15 +82,8 @@ def downsample_grid(cells: np.ndarray, max_side: int) -> tuple[np.ndarray, int]:
 
 
 def to_frame(pose: Pose2D, points: np.ndarray) -> np.ndarray:
-    """(N, 2) points or (N, 3) poses given in a frame whose pose in the fixed frame is pose."""
-    x, y, yaw = pose
-    c, s = math.cos(yaw), math.sin(yaw)
-    out = np.empty_like(points, dtype=np.float32)
-    out[:, 0] = x + c * points[:, 0] - s * points[:, 1]
-    out[:, 1] = y + s * points[:, 0] + c * points[:, 1]
-    if points.shape[1] == 3:
-        out[:, 2] = points[:, 2] + yaw
-    return out
+    """(N, 2) points or (N, 3) poses given in a frame whose pose in the fixed frame is pose, as float32."""
+    return transform_points(pose, points, dtype=np.float32)
 
 
 class Scene:

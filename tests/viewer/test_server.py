@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from rclpy.parameter import Parameter
 
-from simplebot_navigation.ros.conversions import quaternion_to_yaw
+from simplebot_navigation.ros.conversions import yaw_of
 from simplebot_navigation.viewer.node import ViewerNode, body_outlines
 from simplebot_navigation.viewer.scene import UNKNOWN_CELL, Scene, downsample_grid
 from simplebot_description import robot_description
@@ -123,7 +123,7 @@ def test_goal_post_is_checked_and_published(scenario):
     scenario.wait_for(lambda: len(scenario.move_base.goals) > before, what="the goal")
     goal = scenario.move_base.goals[-1]
     assert (goal.header.frame_id, goal.pose.position.x, goal.pose.position.y) == ("odom", -1.25, 0.5)
-    assert quaternion_to_yaw(goal.pose.orientation) == pytest.approx(-2.0, abs=1e-12)
+    assert yaw_of(goal.pose.orientation) == pytest.approx(-2.0, abs=1e-12)
     assert not math.isnan(goal.pose.orientation.w)
 
 
