@@ -9,9 +9,7 @@ from __future__ import annotations
 import math
 import sys
 import time
-import uuid
 
-import numpy as np
 from actionlib_msgs.msg import GoalID, GoalStatus as ActionlibStatus, GoalStatusArray
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped, Twist
@@ -26,16 +24,14 @@ from std_srvs.srv import Empty
 from move_base_msgs.action import MoveBase
 from simplebot_navigation.move_base.config import MoveBaseConfig
 from simplebot_navigation.move_base.cycle_stats import ControlLoopStats
-from simplebot_navigation.move_base.recovery import ClearCostmapRecovery, RotateRecovery
 from simplebot_navigation.move_base.state_machine import MoveBaseCore, State
 from simplebot_navigation.ros.conversions import path_msg, pose_to_xyyaw, xyyaw_to_pose
 from simplebot_navigation.ros.costmap_ros import Costmap2DROS
-from simplebot_navigation.ros.global_planner_ros import GlobalPlannerROS
+from simplebot_navigation.ros.move_base_goal import MoveBaseGoal, validate_goal
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
+from simplebot_navigation.ros.plugins import GLOBAL_PLANNERS, LOCAL_PLANNERS, RECOVERY_BEHAVIORS, LocalPlannerAdapter
 from simplebot_navigation.ros.publishers import create_publisher
-from simplebot_navigation.ros.teb_local_planner_ros import TebLocalPlannerROS
 from simplebot_navigation.ros.tf import Buffer, TransformException, TransformListener, strip_frame
-from simplebot_navigation.teb.feasibility import footprint_costs
 from simplebot_navigation.ros.node_main import run_node
 
 STATUS_PERIOD_S = 0.2
@@ -43,39 +39,6 @@ WATCHDOG_PERIOD_S = 0.1
 DIAGNOSTICS_PERIOD_S = 1.0
 MISSED_RATE_WARNING_PERIOD_S = 5.0
 FINISHED_STATUS_KEEP_S = 5.0
-
-
-class _Goal:
-    """One goal, from the action server or from /move_base_simple/goal."""
-
-    def __init__(self, pose: PoseStamped, handle=None):
-        self.pose = pose
-        self.handle = handle
-        self.id = str(uuid.UUID(bytes=bytes(handle.goal_id.uuid))) if handle is not None else uuid.uuid4().hex
-        self.stamp = pose.header.stamp
-        self.done: Future | None = None
-        self.status = ActionlibStatus.PENDING
-        self.text = ""
-        self.finished_wall = None
-
-
-def validate_goal(pose: PoseStamped) -> str | None:
-    """Why a goal cannot be used (move_base's isQuaternionValid plus finite position), or None."""
-    p, q = pose.pose.position, pose.pose.orientation
-    values = (p.x, p.y, p.z, q.x, q.y, q.z, q.w)
-    if not all(math.isfinite(v) for v in values):
-        return f"goal has a NaN or inf: position ({p.x}, {p.y}, {p.z}), orientation ({q.x}, {q.y}, {q.z}, {q.w})"
-    norm2 = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w
-    if norm2 < 1e-6:
-        return "goal has an invalid quaternion (length close to zero)"
-    n = math.sqrt(norm2)
-    x, y = q.x / n, q.y / n
-    z_axis_z = 1.0 - 2.0 * (x * x + y * y)
-    if abs(z_axis_z - 1.0) > 1e-3:
-        return "goal orientation is not upright: the quaternion must only rotate about z"
-    if not pose.header.frame_id:
-        return "goal has an empty frame_id"
-    return None
 
 
 class MoveBaseNode(Node):
@@ -91,10 +54,11 @@ class MoveBaseNode(Node):
         self.tf_listener = TransformListener(self.tf, self)
         self.global_costmap = Costmap2DROS(self, "global_costmap", self.tf)
         self.local_costmap = Costmap2DROS(self, "local_costmap", self.tf)
-        self.planner = GlobalPlannerROS(self, self.cfg.base_global_planner, self.global_costmap)
-        self.controller = TebLocalPlannerROS(self, self.cfg.base_local_planner, self.local_costmap, self.tf,
-                                             self.cfg.controller_frequency)
-        self.core = MoveBaseCore(self.cfg, self._build_recoveries(), self._plan_to, _ControllerAdapter(self),
+        self.planner = GLOBAL_PLANNERS.resolve(self.cfg.base_global_planner)(
+            self, self.cfg.base_global_planner, self.global_costmap)
+        self.controller = LOCAL_PLANNERS.resolve(self.cfg.base_local_planner)(
+            self, self.cfg.base_local_planner, self.local_costmap, self.tf, self.cfg.controller_frequency)
+        self.core = MoveBaseCore(self.cfg, self._build_recoveries(), self._plan_to, LocalPlannerAdapter(self),
                                  self.planner.blocked_poses)
 
         self.cmd_vel_pub = create_publisher(self, Twist, "cmd_vel", 1)
@@ -110,8 +74,8 @@ class MoveBaseNode(Node):
         self.create_service(GetPlan, "~/make_plan", self._on_make_plan)
         self.create_service(Empty, "~/clear_costmaps", self._on_clear_costmaps)
 
-        self.goal: _Goal | None = None
-        self.finished: list[_Goal] = []
+        self.goal: MoveBaseGoal | None = None
+        self.finished: list[MoveBaseGoal] = []
         self.period = 1.0 / self.cfg.controller_frequency
         self.cycle_stats = ControlLoopStats(self.period)
         self._last_missed_warning = -math.inf
@@ -151,43 +115,16 @@ class MoveBaseNode(Node):
         declare_defaults(self, own)
 
     def _build_recoveries(self) -> list:
+        """One instance per behaviour name (a name listed twice runs the same instance twice)."""
         tree = given_parameter_tree(self)
-        costmaps = {"global": self.global_costmap, "local": self.local_costmap}
         behaviors, instances = [], {}
         for entry in self.cfg.recovery_behaviors:
             name = entry["name"]
-            if name in instances:
-                behaviors.append(instances[name])
-                continue
-            params = tree.get(name, {}) if isinstance(tree.get(name), dict) else {}
-            if entry["type"] == "rotate_recovery/RotateRecovery":
-                borrowed = tree.get("TrajectoryPlannerROS", {})
-                params = {**{k: borrowed[k] for k in ("acc_lim_theta", "max_vel_theta", "min_in_place_vel_theta",
-                                                      "yaw_goal_tolerance") if k in borrowed}, **params}
-                recovery = RotateRecovery(name, params, self._footprint_free)
-            else:
-                default_distance = (self.cfg.conservative_reset_dist if name == "conservative_reset"
-                                    else 4.0 * self.local_costmap.circumscribed_radius)
-                recovery = ClearCostmapRecovery(name, params, costmaps, self._clear_costmap, default_distance)
-                for warning in recovery.warnings:
-                    self.get_logger().warn(warning)
-            instances[name] = recovery
-            behaviors.append(recovery)
+            if name not in instances:
+                params = tree.get(name) if isinstance(tree.get(name), dict) else {}
+                instances[name] = RECOVERY_BEHAVIORS.resolve(entry["type"])(self, name, params)
+            behaviors.append(instances[name])
         return behaviors
-
-    def _footprint_free(self, poses: np.ndarray) -> bool:
-        with self.local_costmap.lock:
-            return bool((footprint_costs(self.local_costmap.costmap, self.local_costmap.footprint, poses) >= 0).all())
-
-    def _clear_costmap(self, costmap_ros, x, y, reset_distance, layer_names, invert, force_updating) -> list[str]:
-        pose = costmap_ros.get_robot_pose()
-        if pose is not None:
-            x, y = pose[0], pose[1]
-        with costmap_ros.lock:
-            cleared = costmap_ros.clear_layers_outside(x, y, reset_distance, layer_names, invert)
-        if force_updating:
-            costmap_ros.update_map_now()
-        return [f"{costmap_ros.name}/{name}" for name in cleared]
 
     # -- planning ---------------------------------------------------------------------------------
     def _robot_pose_global(self):
@@ -204,10 +141,10 @@ class MoveBaseNode(Node):
 
     # -- goals --------------------------------------------------------------------------------------
     def _on_simple_goal(self, msg: PoseStamped) -> None:
-        self._accept_goal(_Goal(msg))
+        self._accept_goal(MoveBaseGoal(msg))
 
     async def _execute(self, handle):
-        goal = _Goal(handle.request.target_pose, handle)
+        goal = MoveBaseGoal(handle.request.target_pose, handle)
         goal.done = Future()
         self._accept_goal(goal)
         status = await goal.done
@@ -219,7 +156,7 @@ class MoveBaseNode(Node):
             handle.abort()
         return MoveBase.Result()
 
-    def _accept_goal(self, goal: _Goal) -> None:
+    def _accept_goal(self, goal: MoveBaseGoal) -> None:
         if self.goal is not None:
             self._finish(self.goal, ActionlibStatus.PREEMPTED, "preempted by a new goal")
         goal.status = ActionlibStatus.ACTIVE
@@ -271,7 +208,7 @@ class MoveBaseNode(Node):
             self._publish_zero()
             self._finish(self.goal, ActionlibStatus.PREEMPTED, "canceled")
 
-    def _finish(self, goal: _Goal, status: int, text: str) -> None:
+    def _finish(self, goal: MoveBaseGoal, status: int, text: str) -> None:
         goal.status, goal.text = status, text
         goal.finished_wall = time.monotonic()
         if goal is self.goal:
@@ -443,25 +380,6 @@ class MoveBaseNode(Node):
                 costmap.reset_layers()
         self.get_logger().info("costmaps cleared")
         return response
-
-
-class _ControllerAdapter:
-    """The controller interface MoveBaseCore expects, over TebLocalPlannerROS."""
-
-    def __init__(self, node: MoveBaseNode):
-        self.node = node
-
-    def set_plan(self, plan) -> bool:
-        return self.node.controller.set_plan(plan, self.node.global_costmap.global_frame)
-
-    def compute(self):
-        return self.node.controller.compute()
-
-    def is_goal_reached(self) -> bool:
-        return self.node.controller.is_goal_reached()
-
-    def reset(self) -> None:
-        self.node.controller.reset()
 
 
 def main(args=None) -> int:
