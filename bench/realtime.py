@@ -57,7 +57,8 @@ from simplebot_navigation.geometry import pose_in_frame  # noqa: E402
 from simplebot_navigation.launch.loader import load_launch  # noqa: E402
 from simplebot_navigation.ros.conversions import quaternion_msg, yaw_of  # noqa: E402
 from simplebot_navigation.scenarios.runner import parse_goals, time_budget  # noqa: E402
-from simplebot_navigation.sim.world import Pose2D, World, load_world  # noqa: E402
+from simplebot_navigation.sim.world import Pose2D, World  # noqa: E402
+from simplebot_navigation.sim.world_loader import load_world  # noqa: E402
 
 WORLD = "lab"
 LOOP_STATUS = "move_base: control loop"

@@ -42,7 +42,7 @@ from simplebot_navigation.ros.node_main import run_node
 from simplebot_navigation.ros.params import declare_checked
 from simplebot_navigation.ros.tf import StaticTransformBroadcaster, TransformBroadcaster
 from simplebot_navigation.sim.simulator import SimplebotSim
-from simplebot_navigation.sim.world import load_world
+from simplebot_navigation.sim.world_loader import load_world
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 # Wall-clock ticks come once per physics step but no faster than this: a tick costs about as much

@@ -47,7 +47,8 @@ from simplebot_navigation.move_base.cycle_stats import CycleSnapshot
 from simplebot_navigation.ros.conversions import quaternion_msg, yaw_of
 from simplebot_navigation.ros.lockstep import LockstepDriver
 from simplebot_navigation.ros.simulator_node import SimulatorNode
-from simplebot_navigation.sim.world import Pose2D, World, load_world
+from simplebot_navigation.sim.world import Pose2D, World
+from simplebot_navigation.sim.world_loader import load_world
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 WARM_UP_S = 2.0
