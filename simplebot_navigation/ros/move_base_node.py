@@ -24,10 +24,12 @@ from std_srvs.srv import Empty
 from move_base_msgs.action import MoveBase
 from simplebot_navigation.move_base.config import MoveBaseConfig
 from simplebot_navigation.move_base.cycle_stats import ControlLoopStats
+from simplebot_navigation.move_base.events import MoveBaseEvents
 from simplebot_navigation.move_base.state_machine import MoveBaseCore, State
 from simplebot_navigation.ros.conversions import path_msg, pose_to_xyyaw, xyyaw_to_pose
 from simplebot_navigation.ros.costmap_ros import Costmap2DROS
 from simplebot_navigation.ros.move_base_goal import MoveBaseGoal, validate_goal
+from simplebot_navigation.ros.move_base_stats import OUTCOMES, navigation_status
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
 from simplebot_navigation.ros.plugins import GLOBAL_PLANNERS, LOCAL_PLANNERS, RECOVERY_BEHAVIORS, LocalPlannerAdapter
 from simplebot_navigation.ros.publishers import create_publisher
@@ -102,12 +104,17 @@ class MoveBaseNode(Node):
         return self.core.state.value
 
     @property
+    def events(self) -> MoveBaseEvents:
+        """Counters and recent history of goals, plans, recoveries and outcomes."""
+        return self.core.events
+
+    @property
     def replans(self) -> int:
-        return self.core.replans
+        return self.core.events.replans
 
     @property
     def recoveries(self) -> int:
-        return self.core.recoveries_run
+        return sum(self.core.events.recoveries.values())
 
     # -- set-up ---------------------------------------------------------------------------------
     def _declare_own_defaults(self) -> None:
@@ -161,6 +168,7 @@ class MoveBaseNode(Node):
             self._finish(self.goal, ActionlibStatus.PREEMPTED, "preempted by a new goal")
         goal.status = ActionlibStatus.ACTIVE
         self.goal = goal
+        self.core.events.goal(self._now(), goal.id)
         self._last_cycle_wall = time.monotonic()  # the watchdog judges the loop from this goal on
         self._waiting_since = None
         reason = validate_goal(goal.pose)
@@ -211,6 +219,7 @@ class MoveBaseNode(Node):
     def _finish(self, goal: MoveBaseGoal, status: int, text: str) -> None:
         goal.status, goal.text = status, text
         goal.finished_wall = time.monotonic()
+        self.core.events.outcome(self._now(), OUTCOMES.get(status, f"status {status}"), text)
         if goal is self.goal:
             self.goal = None
         self.finished.append(goal)
@@ -347,7 +356,7 @@ class MoveBaseNode(Node):
                   "cycles_total": str(snapshot.cycles), "missed_total": str(snapshot.missed),
                   "cycle_times_ms": " ".join(f"{t * 1e3:.2f}" for t in recent)}
         status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
-        msg = DiagnosticArray(status=[status])
+        msg = DiagnosticArray(status=[status, navigation_status(self.core.events.snapshot(), self.get_name())])
         msg.header.stamp = self.get_clock().now().to_msg()
         self.diagnostics_pub.publish(msg)
 

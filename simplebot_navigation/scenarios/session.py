@@ -44,6 +44,7 @@ from simplebot_navigation.launch.loader import load_launch
 from simplebot_navigation.launch.nodes import resolve_executable
 from simplebot_navigation.launch.runner import ros_args, write_params_file
 from simplebot_navigation.move_base.cycle_stats import CycleSnapshot
+from simplebot_navigation.move_base.events import MoveBaseStats
 from simplebot_navigation.ros.conversions import quaternion_msg, yaw_of
 from simplebot_navigation.ros.lockstep import LockstepDriver
 from simplebot_navigation.ros.simulator_node import SimulatorNode
@@ -107,11 +108,10 @@ class ScenarioClient(Node):
 
 
 @dataclass
-class MoveBaseStats:
-    """Counters only an in-process move_base can give: replans, recoveries, control cycle wall times."""
+class SessionStats:
+    """What only an in-process move_base can give: its event counters and control cycle wall times."""
 
-    replans: int
-    recoveries: int
+    navigation: MoveBaseStats
     cycles: CycleSnapshot
 
 
@@ -141,7 +141,7 @@ class _Session(abc.ABC):
     def close(self) -> None:
         """Stop every node and process of the session."""
 
-    def stats(self) -> MoveBaseStats | None:
+    def stats(self) -> SessionStats | None:
         return None
 
     def run_until(self, sim_time_s: float | None = None, stop: Callable[[], bool] | None = None,
@@ -294,9 +294,8 @@ class NavigationSession(_Session):
         return (self.client.action.server_is_ready() and mb.global_costmap.is_current()
                 and mb.local_costmap.is_current())
 
-    def stats(self) -> MoveBaseStats:
-        mb = self.move_base
-        return MoveBaseStats(mb.replans, mb.recoveries, mb.cycle_stats.snapshot())
+    def stats(self) -> SessionStats:
+        return SessionStats(self.move_base.events.snapshot(), self.move_base.cycle_stats.snapshot())
 
     def controller_param(self, name: str, default: float) -> float:
         planner = self.move_base.get_parameter("base_local_planner").value.split("/")[-1]

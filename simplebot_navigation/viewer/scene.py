@@ -32,8 +32,6 @@ Lookup = Callable[[str, int], "Pose2D | None"]
 UNKNOWN_CELL = 255
 TRAIL_STEP_M = 0.02
 LOG_LINES = 8
-#: how move_base announces a recovery behaviour on /rosout (ROS 1 logs "Executing behavior ..." alike)
-RECOVERY_LOG = "executing recovery behavior"
 
 
 @dataclass
@@ -211,9 +209,14 @@ class Scene:
     def add_log(self, level: str, name: str, text: str) -> None:
         with self.changed:
             self.log.append({"level": level, "node": name, "text": text})
-            if text.startswith(RECOVERY_LOG):
-                self.recoveries = {"count": self.recoveries["count"] + 1, "last": text[len(RECOVERY_LOG):].strip()}
             self._touch()
+
+    def set_recoveries(self, count: int, last: str | None) -> None:
+        """move_base's recovery count since it started, and the latest one."""
+        with self.changed:
+            if self.recoveries != {"count": count, "last": last}:
+                self.recoveries = {"count": count, "last": last}
+                self._touch()
 
     # -- reader (HTTP threads) -----------------------------------------------------------------
     def wait_newer(self, version: int, timeout_s: float) -> int:
