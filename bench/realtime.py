@@ -1,6 +1,6 @@
 """Real-time load: the lab tour through the launcher's processes at real time, with and without stress.
 
-    .venv/bin/python bench/realtime.py [--goals nw_office,library] [--stress 2] [--baseline /work/baseline]
+    .venv/bin/python bench/realtime.py [--goals nw_office,library] [--stress 2] [--baseline ../other-checkout]
 
 Each run starts ``python -m simplebot_navigation.launch navigation world:=lab rtf:=1`` (every node its
 own process, as a user runs it), sends the tour's goals one after the other through the move_base
@@ -16,7 +16,7 @@ action and measures, only while a goal is active ("while driving"):
               enter: what any version can be compared by. "late" is the share of intervals longer
               than 1.5 controller periods.
 
-Runs: this tree at the machine's load, then (with --baseline, a checkout with its own .venv) the
+Runs: this tree at the machine's load, then (with --baseline, a checkout with its own .venv, or --baseline-python) the
 baseline; then both again with --stress busy-loop processes beside them (--stress 0: no stress
 runs). Each version runs in its own ROS domain. The table ends with the 1-minute load average at
 the end of each run (/proc/loadavg).
@@ -329,7 +329,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--goals", help="goal names of the lab world, comma-separated (default: the whole tour)")
     parser.add_argument("--stress", type=int, default=2, help="busy-loop processes of the stress runs (0: none)")
-    parser.add_argument("--baseline", type=Path, help="a checkout with its own .venv to compare against")
+    parser.add_argument("--baseline", type=Path, help="a checkout to compare against")
+    parser.add_argument("--baseline-python", type=Path,
+                        help="interpreter of the baseline (default: the baseline checkout's .venv/bin/python)")
     parser.add_argument("--python", default=sys.executable, help="interpreter of this tree (default: this one)")
     parser.add_argument("--domain", type=int, default=int(os.environ.get("ROS_DOMAIN_ID", "42")),
                         help="ROS domain of this tree's runs (default: $ROS_DOMAIN_ID or 42)")
@@ -345,7 +347,7 @@ def main() -> None:
         parser.error(str(err))
     versions = [Version(f"current {describe(ROOT)}", args.python, ROOT, args.domain)]
     if args.baseline is not None:
-        python = args.baseline / ".venv" / "bin" / "python"
+        python = args.baseline_python or args.baseline / ".venv" / "bin" / "python"
         if not python.exists():
             parser.error(f"--baseline {args.baseline}: no {python}")
         versions.append(Version(f"baseline {describe(args.baseline)}", str(python), args.baseline.resolve(),

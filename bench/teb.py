@@ -1,6 +1,6 @@
 """TEB control-cycle time for the lab robot, homotopy class planning off and on, side by side.
 
-    /work/devenv/bin/python bench/teb.py [--cycles N] [--scene corridor|barrier|door|all] [--profile]
+    python bench/teb.py [--cycles N] [--scene corridor|barrier|door|all] [--profile]
 
 The lab robot (0.9 x 0.6 m box, padding 0.03, diff-drive) with the lab's teb_local_planner.yaml
 (two_circles model, offsets and radii 0.2) and TEB defaults otherwise. The local costmap is the

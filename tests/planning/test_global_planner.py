@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from planner_grids import costs_along, free_map, inflate
+from .planner_grids import costs_along, free_map, inflate
 from simplebot_navigation.costmap.cost_values import LETHAL_OBSTACLE, NO_INFORMATION
 from simplebot_navigation.planning import (POT_HIGH, GlobalPlanner, GlobalPlannerConfig,
                                            PlanFailure, make_global_planner,
