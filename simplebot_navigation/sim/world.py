@@ -27,6 +27,8 @@ from typing import Any, Iterator, Mapping
 import numpy as np
 import yaml
 
+from simplebot_navigation.geometry import transform_points
+
 DEFAULT_HEIGHT = 1.0
 DEFAULT_THICKNESS = 0.1
 
@@ -46,6 +48,12 @@ class Box:
     yaw: float = 0.0
     height: float = DEFAULT_HEIGHT
     name: str | None = None
+
+    def corners(self) -> list[tuple[float, float]]:
+        """Its outline in the world frame, counter-clockwise from the (+x, +y) corner."""
+        hx, hy = self.size[0] / 2, self.size[1] / 2
+        local = np.array([(hx, hy), (-hx, hy), (-hx, -hy), (hx, -hy)])
+        return [tuple(p) for p in transform_points((*self.center, self.yaw), local).tolist()]
 
 
 @dataclass(frozen=True)
