@@ -45,6 +45,7 @@ from simplebot_navigation.launch.nodes import resolve_executable
 from simplebot_navigation.launch.runner import ros_args, write_params_file
 from simplebot_navigation.move_base.cycle_stats import CycleSnapshot
 from simplebot_navigation.move_base.events import MoveBaseStats
+from simplebot_navigation.move_base.plugins import TEB_LOCAL_PLANNER, plugin_namespace
 from simplebot_navigation.ros.conversions import quaternion_msg, yaw_of
 from simplebot_navigation.ros.lockstep import LockstepDriver
 from simplebot_navigation.ros.simulator_node import SimulatorNode
@@ -298,7 +299,7 @@ class NavigationSession(_Session):
         return SessionStats(self.move_base.events.snapshot(), self.move_base.cycle_stats.snapshot())
 
     def controller_param(self, name: str, default: float) -> float:
-        planner = self.move_base.get_parameter("base_local_planner").value.split("/")[-1]
+        planner = plugin_namespace(self.move_base.get_parameter("base_local_planner").value)
         full = f"{planner}.{name}"
         return float(self.move_base.get_parameter(full).value) if self.move_base.has_parameter(full) else default
 
@@ -376,7 +377,7 @@ class ProcessSession(_Session):
 
     def controller_param(self, name: str, default: float) -> float:
         move_base = next(n for n in self.launch.nodes if n.name == "move_base")
-        planner = str(move_base.parameters.get("base_local_planner", "TebLocalPlannerROS")).split("/")[-1]
+        planner = plugin_namespace(str(move_base.parameters.get("base_local_planner", TEB_LOCAL_PLANNER)))
         return float(move_base.parameters.get(f"{planner}.{name}", default))
 
     def close(self) -> None:
