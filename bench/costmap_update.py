@@ -1,10 +1,10 @@
 """Costmap update time for the lab's costmaps, package vs a per-cell pure-Python reference, same run.
 
-    /work/devenv/bin/python bench/costmap_update.py [--steps N]
+    python bench/costmap_update.py [--steps N]
 
 Each step the robot creeps forward (3 cm, a little turn), both 683-beam lab scans arrive, and
 update_map runs (local: 5 x 5 m at 0.05, rolling; global: 30 x 30 m at 0.2). The reference
-(tests/costmap/reference.py) is fed the same observations; the grids are compared cell for cell.
+(simplebot_navigation/testing/costmap_reference.py) is fed the same observations; the grids are compared cell for cell.
 Times are per update_map; scan projection is timed separately (it runs in the scan callbacks).
 """
 
@@ -21,9 +21,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from simplebot_navigation.costmap.costmap import Costmap  # noqa: E402
-from tests.costmap import scenario  # noqa: E402
-from tests.costmap.lab_params import global_costmap_params, local_costmap_params  # noqa: E402
-from tests.costmap.reference import ReferenceCostmap  # noqa: E402
+from simplebot_navigation.testing import costmap_scene as scenario  # noqa: E402
+from simplebot_navigation.testing.costmap_reference import ReferenceCostmap  # noqa: E402
+from simplebot_navigation.testing.lab_params import global_costmap_params, local_costmap_params  # noqa: E402
 
 WARMUP = 2
 

@@ -1,7 +1,7 @@
 """How narrow a door can each body drive through? One door per run, head-on, repeated with lidar noise.
 
-    /work/devenv/bin/python bench/door_sweep.py                       # box and round, 7 ratios, 5 repeats
-    /work/devenv/bin/python bench/door_sweep.py --bodies round --ratios 1.1,1.2 --repeat 3
+    python bench/door_sweep.py                       # box and round, 7 ratios, 5 repeats
+    python bench/door_sweep.py --bodies round --ratios 1.1,1.2 --repeat 3
 
 For every body and door ratio (door width / robot width 0.6 m) the `doors` world generator builds a
 single-door world (hall, door, bay); the robot starts 1.5 m in front of the door and the goal is

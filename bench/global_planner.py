@@ -1,6 +1,6 @@
 """Global planner plan time against pyastar2d (C++ A*) and a plain heapq Dijkstra, side by side.
 
-    /work/devenv/bin/python bench/global_planner.py [--quick]
+    python bench/global_planner.py [--quick]
 
 Maps (obstacles inflated with the project's InflationLayer):
   lab    150 x 150 at 0.2 m (the lab's 30 x 30 m global costmap): walls with doors, boxes;

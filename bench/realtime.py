@@ -1,6 +1,6 @@
 """Real-time load: the lab tour through the launcher's processes at real time, with and without stress.
 
-    .venv/bin/python bench/realtime.py [--goals nw_office,library] [--stress 2] [--baseline /work/baseline]
+    .venv/bin/python bench/realtime.py [--goals nw_office,library] [--stress 2] [--baseline ../other-checkout]
 
 Each run starts ``python -m simplebot_navigation.launch navigation world:=lab rtf:=1`` (every node its
 own process, as a user runs it), sends the tour's goals one after the other through the move_base
@@ -16,7 +16,7 @@ action and measures, only while a goal is active ("while driving"):
               enter: what any version can be compared by. "late" is the share of intervals longer
               than 1.5 controller periods.
 
-Runs: this tree at the machine's load, then (with --baseline, a checkout with its own .venv) the
+Runs: this tree at the machine's load, then (with --baseline, a checkout with its own .venv, or --baseline-python) the
 baseline; then both again with --stress busy-loop processes beside them (--stress 0: no stress
 runs). Each version runs in its own ROS domain. The table ends with the 1-minute load average at
 the end of each run (/proc/loadavg).
@@ -25,7 +25,6 @@ the end of each run (/proc/loadavg).
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import signal
 import subprocess
@@ -54,9 +53,12 @@ from rclpy.parameter import Parameter  # noqa: E402
 
 from move_base_msgs.action import MoveBase  # noqa: E402
 from simplebot_description import robot_description  # noqa: E402
+from simplebot_navigation.geometry import pose_in_frame  # noqa: E402
 from simplebot_navigation.launch.loader import load_launch  # noqa: E402
+from simplebot_navigation.ros.conversions import quaternion_msg, yaw_of  # noqa: E402
 from simplebot_navigation.scenarios.runner import parse_goals, time_budget  # noqa: E402
-from simplebot_navigation.sim.world import Pose2D, World, load_world  # noqa: E402
+from simplebot_navigation.sim.world import Pose2D, World  # noqa: E402
+from simplebot_navigation.sim.world_loader import load_world  # noqa: E402
 
 WORLD = "lab"
 LOOP_STATUS = "move_base: control loop"
@@ -152,7 +154,7 @@ class BenchClient(Node):
 
     def _on_truth(self, msg: Odometry) -> None:
         p, q = msg.pose.pose.position, msg.pose.pose.orientation
-        self.pose = Pose2D(p.x, p.y, 2.0 * math.atan2(q.z, q.w))
+        self.pose = Pose2D(p.x, p.y, yaw_of(q))
 
     def sim_time(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
@@ -220,15 +222,12 @@ class Run:
 
     def send(self, goal: Pose2D, start: Pose2D, budget_s: float) -> int:
         """Send a goal (world frame), wait for its result (cancel after budget_s); its final status."""
-        c, s = math.cos(start.yaw), math.sin(start.yaw)
-        dx, dy = goal.x - start.x, goal.y - start.y
-        yaw = math.remainder(goal.yaw - start.yaw, 2 * math.pi)
+        x, y, yaw = pose_in_frame((start.x, start.y, start.yaw), (goal.x, goal.y, goal.yaw))
         msg = MoveBase.Goal()
         msg.target_pose.header.frame_id = "odom"
         msg.target_pose.header.stamp = self.client.get_clock().now().to_msg()
-        position, orientation = msg.target_pose.pose.position, msg.target_pose.pose.orientation
-        position.x, position.y = c * dx + s * dy, -s * dx + c * dy
-        orientation.z, orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
+        msg.target_pose.pose.position.x, msg.target_pose.pose.position.y = x, y
+        msg.target_pose.pose.orientation = quaternion_msg(yaw)
         sent = self.client.action.send_goal_async(msg)
         if not self.spin_until(sent.done, 10.0) or not sent.result().accepted:
             return GoalStatus.STATUS_UNKNOWN
@@ -330,7 +329,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--goals", help="goal names of the lab world, comma-separated (default: the whole tour)")
     parser.add_argument("--stress", type=int, default=2, help="busy-loop processes of the stress runs (0: none)")
-    parser.add_argument("--baseline", type=Path, help="a checkout with its own .venv to compare against")
+    parser.add_argument("--baseline", type=Path, help="a checkout to compare against")
+    parser.add_argument("--baseline-python", type=Path,
+                        help="interpreter of the baseline (default: the baseline checkout's .venv/bin/python)")
     parser.add_argument("--python", default=sys.executable, help="interpreter of this tree (default: this one)")
     parser.add_argument("--domain", type=int, default=int(os.environ.get("ROS_DOMAIN_ID", "42")),
                         help="ROS domain of this tree's runs (default: $ROS_DOMAIN_ID or 42)")
@@ -346,7 +347,7 @@ def main() -> None:
         parser.error(str(err))
     versions = [Version(f"current {describe(ROOT)}", args.python, ROOT, args.domain)]
     if args.baseline is not None:
-        python = args.baseline / ".venv" / "bin" / "python"
+        python = args.baseline_python or args.baseline / ".venv" / "bin" / "python"
         if not python.exists():
             parser.error(f"--baseline {args.baseline}: no {python}")
         versions.append(Version(f"baseline {describe(args.baseline)}", str(python), args.baseline.resolve(),

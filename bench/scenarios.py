@@ -1,8 +1,8 @@
 """Navigation scenarios: success, time to goal, path, collisions, clearance, replans, recoveries, cycle p95.
 
-    /work/devenv/bin/python bench/scenarios.py --world lab --json lab.json --plot lab.png
-    /work/devenv/bin/python bench/scenarios.py --world doors --robot round --goals door_1.5x --repeat 5
-    /work/devenv/bin/python bench/scenarios.py --world clutter --repeat 10     (seeds 0..9, one world each)
+    python bench/scenarios.py --world lab --json lab.json --plot lab.png
+    python bench/scenarios.py --world doors --robot round --goals door_1.5x --repeat 5
+    python bench/scenarios.py --world clutter --repeat 10     (seeds 0..9, one world each)
 
 The same command as ``python -m simplebot_navigation.scenarios`` (see its --help): simulator and
 move_base in one process, lockstep unless --rtf is given, so the numbers do not depend on how busy

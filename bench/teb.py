@@ -1,6 +1,6 @@
 """TEB control-cycle time for the lab robot, homotopy class planning off and on, side by side.
 
-    /work/devenv/bin/python bench/teb.py [--cycles N] [--scene corridor|barrier|door|all] [--profile]
+    python bench/teb.py [--cycles N] [--scene corridor|barrier|door|all] [--profile]
 
 The lab robot (0.9 x 0.6 m box, padding 0.03, diff-drive) with the lab's teb_local_planner.yaml
 (two_circles model, offsets and radii 0.2) and TEB defaults otherwise. The local costmap is the
@@ -48,7 +48,7 @@ sys.path.insert(0, str(ROOT))
 
 from simplebot_navigation.costmap.cost_values import LETHAL_OBSTACLE  # noqa: E402
 from simplebot_navigation.costmap.costmap_2d import Costmap2D  # noqa: E402
-from simplebot_navigation.teb import kernels, warm_up  # noqa: E402
+from simplebot_navigation.teb import edge_kernels, warm_up  # noqa: E402
 from simplebot_navigation.teb.config import TebConfig  # noqa: E402
 from simplebot_navigation.teb.planner import TebLocalPlanner  # noqa: E402
 from simplebot_navigation.teb.reference import ReferenceEvaluation  # noqa: E402
@@ -205,7 +205,7 @@ def compare_evaluations(scene: str, planner: TebLocalPlanner, samples, repeats: 
         t_c, t_r = [], []
         for _ in range(repeats):
             t0 = time.perf_counter()
-            kernels.normal_equations(*args)
+            edge_kernels.normal_equations(*args)
             t1 = time.perf_counter()
             ref.normal_equations(ref.evaluate(band.poses, band.time_diffs, edges, True), layout)
             t2 = time.perf_counter()

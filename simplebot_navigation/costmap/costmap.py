@@ -20,10 +20,11 @@ from .costmap_2d import Costmap2D
 from .footprint import pad_footprint, transform_footprint
 from .layer import CostmapLayer
 from .layered_costmap import LayeredCostmap
-from .obstacle_layer import (Observation, ObservationSource, ObstacleLayer, laser_scan_to_observation,
-                             point_cloud_to_observation)
+from .obstacle_layer import (Observation, ObservationBuffer, ObservationSource, ObstacleLayer,
+                             laser_scan_to_observation, point_cloud_to_observation)
 from .params import CostmapConfig, resolve_costmap_params
 from .plugins import create_layer
+from .static_layer import StaticLayer
 
 
 class Costmap:
@@ -44,13 +45,12 @@ class Costmap:
     # -- observations -------------------------------------------------------------
     def observation_sources(self) -> list[tuple[str, ObservationSource]]:
         """(layer name, source) for every observation source, in configuration order."""
-        return [(layer.name, buffer.source) for layer in self.layered.plugins if isinstance(layer, ObstacleLayer)
-                for buffer in layer.buffers.values()]
+        return [(layer.name, buffer.source) for layer in self._obstacle_layers() for buffer in layer.buffers.values()]
 
     def _find_source(self, source: str) -> tuple[ObstacleLayer, ObservationSource]:
         """A source by name, or by '<layer>/<source>' when several obstacle layers share a name."""
         layer_name, _, source_name = source.rpartition("/")
-        matches = [(layer, buffer.source) for layer in self.layered.plugins if isinstance(layer, ObstacleLayer)
+        matches = [(layer, buffer.source) for layer in self._obstacle_layers()
                    for name, buffer in layer.buffers.items()
                    if name == source_name and layer_name in ("", layer.name)]
         if len(matches) != 1:
@@ -59,17 +59,45 @@ class Costmap:
             raise KeyError(f"costmap {self.name!r}: observation source {source!r} {reason}; sources are {known}")
         return matches[0]
 
+    def observation_buffer(self, source: str) -> ObservationBuffer:
+        """The buffer of one source, for reporting how long it has been silent."""
+        layer, src = self._find_source(source)
+        return layer.buffers[src.name]
+
+    def restart_staleness_clocks(self, now: float) -> None:
+        """Every source counts as just heard from: waiting for TF or the clock is not its fault."""
+        for layer in self._obstacle_layers():
+            for buffer in layer.buffers.values():
+                buffer.reset_last_updated(now)
+
+    def static_layers(self) -> list[StaticLayer]:
+        """The layers that read a map topic, for the shell to subscribe."""
+        return [layer for layer in self.layered.plugins if isinstance(layer, StaticLayer)]
+
+    def _obstacle_layers(self) -> list[ObstacleLayer]:
+        return [layer for layer in self.layered.plugins if isinstance(layer, ObstacleLayer)]
+
     def add_observation(self, source: str, observation: Observation) -> None:
         layer, src = self._find_source(source)
         layer.add_observation(src.name, observation)
 
     def add_laser_scan(self, source: str, ranges, angle_min: float, angle_increment: float, range_min: float,
-                       range_max: float, sensor_pose, stamp: float) -> None:
-        """A LaserScan whose sensor pose (x, y, z, yaw) is in the costmap's global frame."""
+                       range_max: float, sensor_pose, stamp: float, sensor_rotation=None) -> None:
+        """A LaserScan whose sensor pose (x, y, z, yaw) is in the costmap's global frame. A sensor that
+        is tilted or upside down gives its 3x3 sensor_rotation instead; sensor_pose is then its (x, y, z)."""
         layer, src = self._find_source(source)
-        observation = laser_scan_to_observation(ranges, angle_min, angle_increment, range_min, range_max,
-                                                sensor_pose, stamp, src.obstacle_range, src.raytrace_range,
-                                                src.inf_is_valid)
+        if sensor_rotation is None:
+            observation = laser_scan_to_observation(ranges, angle_min, angle_increment, range_min, range_max,
+                                                    sensor_pose, stamp, src.obstacle_range, src.raytrace_range,
+                                                    src.inf_is_valid)
+        else:
+            local = laser_scan_to_observation(ranges, angle_min, angle_increment, range_min, range_max,
+                                              (0.0, 0.0, 0.0, 0.0), stamp, src.obstacle_range, src.raytrace_range,
+                                              src.inf_is_valid)
+            origin = np.asarray(sensor_pose[:3], dtype=float)
+            rotation = np.asarray(sensor_rotation, dtype=float)
+            observation = Observation(origin, local.points @ rotation.T + origin, local.obstacle_range,
+                                      local.raytrace_range, local.stamp, local.clear_points @ rotation.T + origin)
         layer.add_observation(src.name, observation)
 
     def add_point_cloud(self, source: str, points_xyz, sensor_origin, stamp: float) -> None:
@@ -81,6 +109,15 @@ class Costmap:
     # -- updates ------------------------------------------------------------------
     def update_map(self, robot_x: float, robot_y: float, robot_yaw: float) -> None:
         self.layered.update_map(robot_x, robot_y, robot_yaw)
+
+    @property
+    def initialized(self) -> bool:
+        """True once an update has written the master grid."""
+        return self.layered.initialized
+
+    @property
+    def rolling_window(self) -> bool:
+        return self.layered.rolling_window
 
     @property
     def master(self) -> Costmap2D:
@@ -115,7 +152,7 @@ class Costmap:
         forget everything outside the reset_distance square around the robot (inside with
         invert_area), and schedule the whole layer for the next update. Returns the layers cleared."""
         if layer_names is None:
-            layers = [layer for layer in self.layered.plugins if isinstance(layer, ObstacleLayer)]
+            layers = self._obstacle_layers()
         else:
             layers = [layer for layer in self.layered.plugins
                       if layer.name in layer_names and isinstance(layer, CostmapLayer)]

@@ -10,6 +10,8 @@ import math
 
 import numpy as np
 
+from simplebot_navigation.geometry import transform_points
+
 
 def parse_footprint(value, name: str = "footprint") -> np.ndarray:
     """Footprint from a string "[[x, y], ...]" or a list of [x, y] pairs; at least three points.
@@ -81,6 +83,4 @@ def footprint_radii(footprint: np.ndarray) -> tuple[float, float]:
 
 def transform_footprint(footprint: np.ndarray, x: float, y: float, yaw: float) -> np.ndarray:
     """Footprint placed at the pose (x, y, yaw) in the global frame."""
-    fp = np.asarray(footprint, dtype=float).reshape(-1, 2)
-    c, s = math.cos(yaw), math.sin(yaw)
-    return np.stack([x + fp[:, 0] * c - fp[:, 1] * s, y + fp[:, 0] * s + fp[:, 1] * c], axis=1)
+    return transform_points((x, y, yaw), np.asarray(footprint, dtype=float).reshape(-1, 2))

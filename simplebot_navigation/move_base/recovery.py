@@ -13,7 +13,7 @@ from typing import Callable, Protocol
 
 import numpy as np
 
-from simplebot_navigation.teb.band import normalize_theta
+from simplebot_navigation.geometry import normalize_theta
 
 
 @dataclass

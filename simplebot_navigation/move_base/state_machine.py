@@ -34,6 +34,7 @@ from typing import Callable, Protocol
 import numpy as np
 
 from simplebot_navigation.move_base.config import MoveBaseConfig
+from simplebot_navigation.move_base.events import MoveBaseEvents
 from simplebot_navigation.move_base.recovery import Recovery
 
 
@@ -108,8 +109,7 @@ class MoveBaseCore:
         self.state = State.IDLE
         self.trigger = Trigger.PLANNING_R
         self.recovery_index = 0
-        self.replans = 0
-        self.recoveries_run = 0
+        self.events = MoveBaseEvents()
         self.last_plan_failure = ""
         self._active_recovery: Recovery | None = None
         self._retries = 0
@@ -123,6 +123,10 @@ class MoveBaseCore:
         self._progress_distance = math.inf   # distance to the goal at the last progress ...
         self._progress_time = 0.0            # ... and when that was
         self._visited: set[tuple[int, int]] = set()
+
+    @property
+    def replans(self) -> int:
+        return self.events.replans
 
     # -- goals ------------------------------------------------------------------------------------
     def set_goal(self, goal: tuple[float, float, float], now: float) -> None:
@@ -235,7 +239,7 @@ class MoveBaseCore:
                                      else np.zeros(len(plan), dtype=bool))
             if self.trigger == Trigger.PLANNING_R and self._progress_since_recoveries():
                 self.recovery_index = 0
-            self.replans += 1
+            self.events.plan(now, f"{len(plan)} poses")
             if self.state == State.PLANNING:
                 self.state = State.CONTROLLING
             return f"new plan with {len(plan)} poses"
@@ -290,9 +294,10 @@ class MoveBaseCore:
                 self._progress_mark = self._closest
             self._active_recovery = self.recoveries[self.recovery_index]
             self._active_recovery.start(now, pose)
-            self.recoveries_run += 1
-            started = f"executing recovery behavior {self._active_recovery.name} " \
-                      f"({self.recovery_index + 1}/{len(self.recoveries)}) after {self.trigger.value}"
+            which = (f"{self._active_recovery.name} ({self.recovery_index + 1}/{len(self.recoveries)}) "
+                     f"after {self.trigger.value}")
+            self.events.recovery(now, self._active_recovery.name, which)
+            started = f"executing recovery behavior {which}"
         else:
             started = ""
         step = self._active_recovery.tick(now, pose)

@@ -3,7 +3,7 @@
 from .config import GLOBAL_PLANNER, NAVFN, GlobalPlannerConfig, OrientationMode
 from .global_planner import (GlobalPlanner, PlanFailure, PlanResult, make_global_planner,
                              potential_to_occupancy, warm_up)
-from .kernels import POT_HIGH
+from .expansion_kernels import POT_HIGH
 
 __all__ = ["GLOBAL_PLANNER", "NAVFN", "POT_HIGH", "GlobalPlanner", "GlobalPlannerConfig",
            "OrientationMode", "PlanFailure", "PlanResult", "make_global_planner",

@@ -18,7 +18,7 @@ Deliberate differences from ROS 1:
 - Buckets never drop cells (ROS's 10 000-entry ring buffers silently do on large maps).
 - The precise start seeds a symmetric 3 x 3 block of nodes with true distances (see _seeds).
 - Path extraction gets past a zero gradient (ROS 1 fails there) and the grid path ends next
-  to the start instead of oscillating around it (see kernels).
+  to the start instead of oscillating around it (see path_kernels).
 - ForwardThenInterpolate blends from the last straight section's heading (see orientation).
 - navfn mode keeps navfn's cost mapping, border blocking, tolerance search and un-oriented
   poses, but places path points on cell centres (navfn converts with ``origin + m * res``,
@@ -35,9 +35,9 @@ import numpy as np
 
 from ..costmap.cost_values import FREE_SPACE, LETHAL_OBSTACLE, NO_INFORMATION
 from ..costmap.costmap_2d import Costmap2D
-from . import kernels
+from . import expansion_kernels, path_kernels
 from .config import GLOBAL_PLANNER, NAVFN, GlobalPlannerConfig
-from .kernels import POT_HIGH
+from .expansion_kernels import POT_HIGH
 from .orientation import orient_path
 
 # navfn's constants (navfn.h).
@@ -207,7 +207,7 @@ class GlobalPlanner:
         nx, ny = costmap.size_x, costmap.size_y
         width = nx + 2
         cost = np.empty((ny + 2, width), np.float32)
-        kernels.fill_padded_costs(costmap.costmap, self._costs, cfg.navfn, cost)
+        expansion_kernels.fill_padded_costs(costmap.costmap, self._costs, cfg.navfn, cost)
         cost = cost.ravel()
 
         if goal_cell is not None and tol == 0.0 and math.isinf(cost[self._index(goal_cell, width)]):
@@ -234,12 +234,12 @@ class GlobalPlanner:
         target_cell = costmap.world_to_map(tx, ty)
         if self._precise:
             tu, tv = self._lattice(costmap, tx, ty)
-            kernels.clear_endpoint(costmap.costmap, pot, width, target_cell[0], target_cell[1],
+            expansion_kernels.clear_endpoint(costmap.costmap, pot, width, target_cell[0], target_cell[1],
                                    _END_WINDOW, float(self._neutral), cfg.use_quadratic)
         else:
             tu, tv = float(target_cell[0]), float(target_cell[1])
 
-        extract = kernels.grid_path if cfg.use_grid_path else kernels.gradient_path
+        extract = path_kernels.grid_path if cfg.use_grid_path else path_kernels.gradient_path
         points, count, status = extract(pot, width, su, sv, tu, tv, 4 * nx * ny)
         if status != 0:
             return self._fail(PlanFailure.PATH_EXTRACTION,
@@ -272,11 +272,11 @@ class GlobalPlanner:
         cfg = self.config
         if cfg.navfn or cfg.use_dijkstra:
             seed_idx, seed_val, push_idx = self._seeds(su, sv, start_cell, cost, width)
-            return kernels.dijkstra_expand(cost, pot, width, seed_idx, seed_val, push_idx,
+            return expansion_kernels.dijkstra_expand(cost, pot, width, seed_idx, seed_val, push_idx,
                                            goal_index, self._threshold0, 2.0 * self._neutral,
                                            cfg.use_quadratic)
         start_index = self._index(start_cell, width)
-        return kernels.astar_expand(cost, pot, width, start_index, goal_index,
+        return expansion_kernels.astar_expand(cost, pot, width, start_index, goal_index,
                                     np.float32(self._neutral), cfg.use_quadratic)
 
     def _seeds(self, su, sv, start_cell, cost, width):

@@ -2,38 +2,39 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from builtin_interfaces.msg import Time as TimeMsg
 from geometry_msgs.msg import Point32, PolygonStamped, Pose, PoseArray, PoseStamped, Quaternion, TransformStamped
 from nav_msgs.msg import OccupancyGrid, Path
 
 from simplebot_navigation.costmap.cost_values import OCCUPANCY_GRID_TABLE
+from simplebot_navigation.geometry import quaternion_to_yaw, yaw_to_quaternion
 
 
-def yaw_to_quaternion(yaw: float) -> Quaternion:
-    return Quaternion(x=0.0, y=0.0, z=math.sin(yaw / 2.0), w=math.cos(yaw / 2.0))
+def quaternion_msg(yaw: float) -> Quaternion:
+    x, y, z, w = yaw_to_quaternion(yaw)
+    return Quaternion(x=x, y=y, z=z, w=w)
 
 
-def quaternion_to_yaw(q) -> float:
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+def yaw_of(q) -> float:
+    """Heading of a geometry_msgs/Quaternion."""
+    return quaternion_to_yaw(q.x, q.y, q.z, q.w)
 
 
 def pose_to_xyyaw(pose: Pose) -> tuple[float, float, float]:
-    return pose.position.x, pose.position.y, quaternion_to_yaw(pose.orientation)
+    return pose.position.x, pose.position.y, yaw_of(pose.orientation)
 
 
 def xyyaw_to_pose(x: float, y: float, yaw: float) -> Pose:
     pose = Pose()
     pose.position.x, pose.position.y = float(x), float(y)
-    pose.orientation = yaw_to_quaternion(float(yaw))
+    pose.orientation = quaternion_msg(float(yaw))
     return pose
 
 
 def transform_to_xyyaw(tf: TransformStamped) -> tuple[float, float, float]:
     t = tf.transform.translation
-    return t.x, t.y, quaternion_to_yaw(tf.transform.rotation)
+    return t.x, t.y, yaw_of(tf.transform.rotation)
 
 
 def path_msg(poses: np.ndarray, frame_id: str, stamp: TimeMsg) -> Path:

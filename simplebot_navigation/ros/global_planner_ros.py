@@ -24,28 +24,17 @@ from nav_msgs.srv import GetPlan
 from rclpy.node import Node
 
 from simplebot_navigation.costmap.costmap_2d import Costmap2D
-from simplebot_navigation.planning import (GLOBAL_PLANNER, NAVFN, GlobalPlannerConfig, PlanFailure,
-                                           PlanResult, make_global_planner, potential_to_occupancy,
-                                           warm_up)
+from simplebot_navigation.move_base.plugins import plugin_namespace
+from simplebot_navigation.planning import (GlobalPlannerConfig, PlanFailure, PlanResult, make_global_planner,
+                                           potential_to_occupancy, warm_up)
 from simplebot_navigation.ros.conversions import occupancy_grid_msg, path_msg, pose_to_xyyaw
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
 from simplebot_navigation.ros.publishers import create_publisher
 from simplebot_navigation.ros.tf import strip_frame
 
-#: base_global_planner value -> the planner's name (its parameter namespace and topic prefix)
-PLANNER_NAMES = {GLOBAL_PLANNER: "GlobalPlanner", NAVFN: "NavfnROS"}
 #: ROS 1 warns about a start or goal off the costmap at most once a second
 OFF_MAP_WARNING_PERIOD_S = 1.0
 _OFF_MAP = (PlanFailure.START_OFF_MAP, PlanFailure.GOAL_OFF_MAP)
-
-
-def planner_name(plugin_type: str) -> str:
-    """'global_planner/GlobalPlanner' -> 'GlobalPlanner'; ValueError for a type we do not have."""
-    try:
-        return PLANNER_NAMES[plugin_type]
-    except KeyError:
-        raise ValueError(f"unknown base_global_planner {plugin_type!r}; "
-                         f"supported: {', '.join(PLANNER_NAMES)}") from None
 
 
 def resolved_parameters(config: GlobalPlannerConfig) -> dict:
@@ -90,7 +79,7 @@ class GlobalPlannerROS:
     """``GlobalPlannerROS(node, 'global_planner/GlobalPlanner', global_costmap_ros)``."""
 
     def __init__(self, node: Node, plugin_type: str, costmap_ros, callback_group=None):
-        self.name = planner_name(plugin_type)
+        self.name = plugin_namespace(plugin_type)    # parameter namespace and topic prefix
         self.node = node
         self.costmap_ros = costmap_ros
         self.logger = node.get_logger()

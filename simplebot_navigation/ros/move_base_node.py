@@ -9,17 +9,14 @@ from __future__ import annotations
 import math
 import sys
 import time
-import uuid
 
-import numpy as np
 from actionlib_msgs.msg import GoalID, GoalStatus as ActionlibStatus, GoalStatusArray
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped, Twist
 from nav_msgs.srv import GetPlan
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
-from rclpy.clock import Clock, ClockType, JumpThreshold, TimeJump
-from rclpy.duration import Duration
+from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
@@ -28,16 +25,17 @@ from std_srvs.srv import Empty
 from move_base_msgs.action import MoveBase
 from simplebot_navigation.move_base.config import MoveBaseConfig
 from simplebot_navigation.move_base.cycle_stats import ControlLoopStats
-from simplebot_navigation.move_base.recovery import ClearCostmapRecovery, RotateRecovery
+from simplebot_navigation.move_base.events import MoveBaseEvents
 from simplebot_navigation.move_base.state_machine import MoveBaseCore, State
 from simplebot_navigation.ros.conversions import path_msg, pose_to_xyyaw, xyyaw_to_pose
 from simplebot_navigation.ros.costmap_ros import Costmap2DROS
-from simplebot_navigation.ros.global_planner_ros import GlobalPlannerROS
+from simplebot_navigation.ros.move_base_goal import MoveBaseGoal, validate_goal
+from simplebot_navigation.ros.move_base_stats import OUTCOMES, navigation_status
+from simplebot_navigation.ros.move_base_supervision import MoveBaseSupervision
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
+from simplebot_navigation.ros.plugins import GLOBAL_PLANNERS, LOCAL_PLANNERS, RECOVERY_BEHAVIORS, LocalPlannerAdapter
 from simplebot_navigation.ros.publishers import create_publisher, drop_event_handlers_of_best_effort_subscriptions
-from simplebot_navigation.ros.teb_local_planner_ros import TebLocalPlannerROS
 from simplebot_navigation.ros.tf import Buffer, TransformException, TransformListener, strip_frame
-from simplebot_navigation.teb.feasibility import footprint_costs
 from simplebot_navigation.ros.node_main import run_node
 
 # The watchdog, status and diagnostics share one steady-clock timer (one executor wake-up where three
@@ -53,40 +51,7 @@ ACTION_SERVICE_QOS = QoSProfile(depth=50, history=HistoryPolicy.KEEP_LAST, relia
                                 durability=DurabilityPolicy.VOLATILE)
 
 
-class _Goal:
-    """One goal, from the action server or from /move_base_simple/goal."""
-
-    def __init__(self, pose: PoseStamped, handle=None):
-        self.pose = pose
-        self.handle = handle
-        self.id = str(uuid.UUID(bytes=bytes(handle.goal_id.uuid))) if handle is not None else uuid.uuid4().hex
-        self.stamp = pose.header.stamp
-        self.done: Future | None = None
-        self.status = ActionlibStatus.PENDING
-        self.text = ""
-        self.finished_wall = None
-
-
-def validate_goal(pose: PoseStamped) -> str | None:
-    """Why a goal cannot be used (move_base's isQuaternionValid plus finite position), or None."""
-    p, q = pose.pose.position, pose.pose.orientation
-    values = (p.x, p.y, p.z, q.x, q.y, q.z, q.w)
-    if not all(math.isfinite(v) for v in values):
-        return f"goal has a NaN or inf: position ({p.x}, {p.y}, {p.z}), orientation ({q.x}, {q.y}, {q.z}, {q.w})"
-    norm2 = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w
-    if norm2 < 1e-6:
-        return "goal has an invalid quaternion (length close to zero)"
-    n = math.sqrt(norm2)
-    x, y = q.x / n, q.y / n
-    z_axis_z = 1.0 - 2.0 * (x * x + y * y)
-    if abs(z_axis_z - 1.0) > 1e-3:
-        return "goal orientation is not upright: the quaternion must only rotate about z"
-    if not pose.header.frame_id:
-        return "goal has an empty frame_id"
-    return None
-
-
-class MoveBaseNode(Node):
+class MoveBaseNode(MoveBaseSupervision, Node):
     def __init__(self, **kwargs):
         started = time.perf_counter()
         kwargs.setdefault("automatically_declare_parameters_from_overrides", True)
@@ -99,10 +64,11 @@ class MoveBaseNode(Node):
         self.tf_listener = TransformListener(self.tf, self)
         self.global_costmap = Costmap2DROS(self, "global_costmap", self.tf)
         self.local_costmap = Costmap2DROS(self, "local_costmap", self.tf)
-        self.planner = GlobalPlannerROS(self, self.cfg.base_global_planner, self.global_costmap)
-        self.controller = TebLocalPlannerROS(self, self.cfg.base_local_planner, self.local_costmap, self.tf,
-                                             self.cfg.controller_frequency)
-        self.core = MoveBaseCore(self.cfg, self._build_recoveries(), self._plan_to, _ControllerAdapter(self),
+        self.planner = GLOBAL_PLANNERS.resolve(self.cfg.base_global_planner)(
+            self, self.cfg.base_global_planner, self.global_costmap)
+        self.controller = LOCAL_PLANNERS.resolve(self.cfg.base_local_planner)(
+            self, self.cfg.base_local_planner, self.local_costmap, self.tf, self.cfg.controller_frequency)
+        self.core = MoveBaseCore(self.cfg, self._build_recoveries(), self._plan_to, LocalPlannerAdapter(self),
                                  self.planner.blocked_poses)
 
         self.cmd_vel_pub = create_publisher(self, Twist, "cmd_vel", 1)
@@ -120,8 +86,8 @@ class MoveBaseNode(Node):
         self.create_service(GetPlan, "~/make_plan", self._on_make_plan)
         self.create_service(Empty, "~/clear_costmaps", self._on_clear_costmaps)
 
-        self.goal: _Goal | None = None
-        self.finished: list[_Goal] = []
+        self.goal: MoveBaseGoal | None = None
+        self.finished: list[MoveBaseGoal] = []
         self.period = 1.0 / self.cfg.controller_frequency
         self.cycle_stats = ControlLoopStats(self.period)
         self._last_missed_warning = -math.inf
@@ -129,9 +95,7 @@ class MoveBaseNode(Node):
         self._last_cycle_wall = time.monotonic()
         self._watchdog_tripped = False
         self._waiting_since: float | None = None   # node time since when the goal lacks its pose or sensors
-        self._jump_handle = self.get_clock().create_jump_callback(
-            JumpThreshold(min_forward=None, min_backward=Duration(nanoseconds=-1), on_clock_change=False),
-            post_callback=self._on_time_jump)
+        self._jump_handle = self._watch_for_time_jumps()
         self.diagnostics_pub = create_publisher(self, DiagnosticArray, "/diagnostics", 10)
         self._diagnostics_snapshot = self.cycle_stats.snapshot()
         # On the steady clock: the watchdog, status and diagnostics must keep going when /clock stops.
@@ -149,12 +113,17 @@ class MoveBaseNode(Node):
         return self.core.state.value
 
     @property
+    def events(self) -> MoveBaseEvents:
+        """Counters and recent history of goals, plans, recoveries and outcomes."""
+        return self.core.events
+
+    @property
     def replans(self) -> int:
-        return self.core.replans
+        return self.core.events.replans
 
     @property
     def recoveries(self) -> int:
-        return self.core.recoveries_run
+        return sum(self.core.events.recoveries.values())
 
     # -- set-up ---------------------------------------------------------------------------------
     def _declare_own_defaults(self) -> None:
@@ -162,43 +131,16 @@ class MoveBaseNode(Node):
         declare_defaults(self, own)
 
     def _build_recoveries(self) -> list:
+        """One instance per behaviour name (a name listed twice runs the same instance twice)."""
         tree = given_parameter_tree(self)
-        costmaps = {"global": self.global_costmap, "local": self.local_costmap}
         behaviors, instances = [], {}
         for entry in self.cfg.recovery_behaviors:
             name = entry["name"]
-            if name in instances:
-                behaviors.append(instances[name])
-                continue
-            params = tree.get(name, {}) if isinstance(tree.get(name), dict) else {}
-            if entry["type"] == "rotate_recovery/RotateRecovery":
-                borrowed = tree.get("TrajectoryPlannerROS", {})
-                params = {**{k: borrowed[k] for k in ("acc_lim_theta", "max_vel_theta", "min_in_place_vel_theta",
-                                                      "yaw_goal_tolerance") if k in borrowed}, **params}
-                recovery = RotateRecovery(name, params, self._footprint_free)
-            else:
-                default_distance = (self.cfg.conservative_reset_dist if name == "conservative_reset"
-                                    else 4.0 * self.local_costmap.circumscribed_radius)
-                recovery = ClearCostmapRecovery(name, params, costmaps, self._clear_costmap, default_distance)
-                for warning in recovery.warnings:
-                    self.get_logger().warn(warning)
-            instances[name] = recovery
-            behaviors.append(recovery)
+            if name not in instances:
+                params = tree.get(name) if isinstance(tree.get(name), dict) else {}
+                instances[name] = RECOVERY_BEHAVIORS.resolve(entry["type"])(self, name, params)
+            behaviors.append(instances[name])
         return behaviors
-
-    def _footprint_free(self, poses: np.ndarray) -> bool:
-        with self.local_costmap.lock:
-            return bool((footprint_costs(self.local_costmap.costmap, self.local_costmap.footprint, poses) >= 0).all())
-
-    def _clear_costmap(self, costmap_ros, x, y, reset_distance, layer_names, invert, force_updating) -> list[str]:
-        pose = costmap_ros.get_robot_pose()
-        if pose is not None:
-            x, y = pose[0], pose[1]
-        with costmap_ros.lock:
-            cleared = costmap_ros.clear_layers_outside(x, y, reset_distance, layer_names, invert)
-        if force_updating:
-            costmap_ros.update_map_now()
-        return [f"{costmap_ros.name}/{name}" for name in cleared]
 
     # -- planning ---------------------------------------------------------------------------------
     def _robot_pose_global(self):
@@ -215,10 +157,10 @@ class MoveBaseNode(Node):
 
     # -- goals --------------------------------------------------------------------------------------
     def _on_simple_goal(self, msg: PoseStamped) -> None:
-        self._accept_goal(_Goal(msg))
+        self._accept_goal(MoveBaseGoal(msg))
 
     async def _execute(self, handle):
-        goal = _Goal(handle.request.target_pose, handle)
+        goal = MoveBaseGoal(handle.request.target_pose, handle)
         goal.done = Future()
         self._accept_goal(goal)
         status = await goal.done
@@ -230,11 +172,12 @@ class MoveBaseNode(Node):
             handle.abort()
         return MoveBase.Result()
 
-    def _accept_goal(self, goal: _Goal) -> None:
+    def _accept_goal(self, goal: MoveBaseGoal) -> None:
         if self.goal is not None:
             self._finish(self.goal, ActionlibStatus.PREEMPTED, "preempted by a new goal")
         goal.status = ActionlibStatus.ACTIVE
         self.goal = goal
+        self.core.events.goal(self._now(), goal.id)
         self._last_cycle_wall = time.monotonic()  # the watchdog judges the loop from this goal on
         self._waiting_since = None
         reason = validate_goal(goal.pose)
@@ -282,9 +225,10 @@ class MoveBaseNode(Node):
             self._publish_zero()
             self._finish(self.goal, ActionlibStatus.PREEMPTED, "canceled")
 
-    def _finish(self, goal: _Goal, status: int, text: str) -> None:
+    def _finish(self, goal: MoveBaseGoal, status: int, text: str) -> None:
         goal.status, goal.text = status, text
         goal.finished_wall = time.monotonic()
+        self.core.events.outcome(self._now(), OUTCOMES.get(status, f"status {status}"), text)
         if goal is self.goal:
             self.goal = None
         self.finished.append(goal)
@@ -304,52 +248,6 @@ class MoveBaseNode(Node):
             self._publish_status()
         if self._housekeeping_ticks % DIAGNOSTICS_TICKS == 0:
             self._publish_diagnostics()
-
-    def _watchdog(self) -> None:
-        """Stop the robot when the control loop has not run for watchdog_timeout of wall time while a goal is
-        active: the loop runs on /clock, so a dead simulator (or time source) would leave the last command standing."""
-        silent = time.monotonic() - self._last_cycle_wall
-        if self.goal is None or silent < self.cfg.watchdog_timeout:
-            return
-        self._publish_zero()
-        if not self._watchdog_tripped:
-            self._watchdog_tripped = True
-            self.get_logger().error(f"no control cycle for {silent:.2f} s of wall time (is /clock running? "
-                                    f"node time {self._now():.2f} s): robot stopped")
-        if 0 < self.cfg.max_wait < silent:
-            self._abort_waiting(f"no control cycle for {silent:.0f} s of wall time (is /clock running?)")
-
-    def _on_time_jump(self, jump: TimeJump) -> None:
-        """A restarted simulator or a looped bag: what was seen belongs to another timeline. Costmaps and the
-        controller start again (TF clears itself), and a goal in progress is aborted, since its robot pose,
-        plan and timers are gone. New goals work as soon as data flows again."""
-        back = -jump.delta.nanoseconds * 1e-9
-        for costmap in (self.global_costmap, self.local_costmap):
-            costmap.forget_history()
-        self.controller.reset()
-        self._waiting_since = None
-        self.get_logger().warn(f"time jumped back by {back:.2f} s (simulator restarted?): costmaps cleared")
-        if self.goal is not None:
-            reason = f"time jumped back by {back:.2f} s (simulator restarted?)"
-            self.get_logger().error(f"Aborting the goal: {reason}")
-            self.core.reset()
-            self._publish_zero()
-            self._finish(self.goal, ActionlibStatus.ABORTED, reason)
-
-    def _wait_for_data(self, reason: str) -> None:
-        """A goal may wait max_wait seconds of node time for its pose and sensors, then it is aborted."""
-        now = self._now()
-        if self._waiting_since is None:
-            self._waiting_since = now
-        elif 0 < self.cfg.max_wait < now - self._waiting_since:
-            self._abort_waiting(f"{reason} for {now - self._waiting_since:.0f} s")
-
-    def _abort_waiting(self, reason: str) -> None:
-        message = f"Aborting the goal: {reason} (max_wait {self.cfg.max_wait:g} s)"
-        self.get_logger().error(message)
-        self.core.reset()
-        self._publish_zero()
-        self._finish(self.goal, ActionlibStatus.ABORTED, message)
 
     def _control_cycle(self) -> None:
         self._last_cycle_wall = time.monotonic()
@@ -427,27 +325,14 @@ class MoveBaseNode(Node):
         self.status_pub.publish(msg)
 
     def _publish_diagnostics(self) -> None:
-        """Control-loop timing once a second (steady clock, so it reports even when /clock stops):
-        the cycles since the previous report, and totals since start."""
+        """Control-loop timing and navigation counters once a second (steady clock, so it reports even when
+        /clock stops)."""
         snapshot = self.cycle_stats.snapshot()
-        window = snapshot.since(self._diagnostics_snapshot)
-        self._diagnostics_snapshot = snapshot
-        recent = self.cycle_stats.take_recent()
-
-        def ms(seconds):
-            return "-" if seconds is None else f"{seconds * 1e3:.1f}"
-
-        p50, p95, longest = window.percentile_s(50), window.percentile_s(95), window.longest_s
-        status = DiagnosticStatus(name="move_base: control loop", hardware_id=self.get_name())
-        status.level = DiagnosticStatus.WARN if window.missed else DiagnosticStatus.OK
-        status.message = (f"{window.cycles} cycles, p95 {ms(p95)} ms, {window.missed} missed the "
-                          f"{self.period * 1e3:.0f} ms period" if window.cycles else "idle")
-        values = {"frequency_hz": f"{self.cfg.controller_frequency:g}", "cycles": str(window.cycles),
-                  "missed": str(window.missed), "p50_ms": ms(p50), "p95_ms": ms(p95), "max_ms": ms(longest),
-                  "cycles_total": str(snapshot.cycles), "missed_total": str(snapshot.missed),
-                  "cycle_times_ms": " ".join(f"{t * 1e3:.2f}" for t in recent)}
-        status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
-        msg = DiagnosticArray(status=[status])
+        window, self._diagnostics_snapshot = snapshot.since(self._diagnostics_snapshot), snapshot
+        msg = DiagnosticArray(status=[
+            control_loop_status(window, snapshot, self.cycle_stats.take_recent(), self.cfg.controller_frequency,
+                                self.get_name()),
+            navigation_status(self.core.events.snapshot(), self.get_name())])
         msg.header.stamp = self.get_clock().now().to_msg()
         self.diagnostics_pub.publish(msg)
 
@@ -480,25 +365,6 @@ class MoveBaseNode(Node):
                 costmap.reset_layers()
         self.get_logger().info("costmaps cleared")
         return response
-
-
-class _ControllerAdapter:
-    """The controller interface MoveBaseCore expects, over TebLocalPlannerROS."""
-
-    def __init__(self, node: MoveBaseNode):
-        self.node = node
-
-    def set_plan(self, plan) -> bool:
-        return self.node.controller.set_plan(plan, self.node.global_costmap.global_frame)
-
-    def compute(self):
-        return self.node.controller.compute()
-
-    def is_goal_reached(self) -> bool:
-        return self.node.controller.is_goal_reached()
-
-    def reset(self) -> None:
-        self.node.controller.reset()
 
 
 def main(args=None) -> int:

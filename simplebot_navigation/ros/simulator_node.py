@@ -36,12 +36,14 @@ from sensor_msgs.msg import LaserScan
 from std_msgs.msg import String
 
 from simplebot_description import robot_description
+from simplebot_navigation.geometry import (axis_angle_to_quaternion, compose, rpy_to_quaternion,
+                                           yaw_to_quaternion)
 from simplebot_navigation.ros.node_main import run_node
 from simplebot_navigation.ros.params import declare_checked
 from simplebot_navigation.ros.simulator_faults import SimulatorFaults
-from simplebot_navigation.ros.tf import StaticTransformBroadcaster, TransformBroadcaster, compose
+from simplebot_navigation.ros.tf import StaticTransformBroadcaster, TransformBroadcaster
 from simplebot_navigation.sim.simulator import SimplebotSim
-from simplebot_navigation.sim.world import load_world
+from simplebot_navigation.sim.world_loader import load_world
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 # Wall-clock ticks come once per physics step but no faster than this: a tick costs about as much
@@ -221,20 +223,18 @@ class SimulatorNode(Node):
             msg.header.stamp = stamp
             pose, twist = msg.pose.pose, msg.twist.twist
             pose.position.x, pose.position.y = source.x, source.y
-            pose.orientation.z, pose.orientation.w = math.sin(source.yaw / 2), math.cos(source.yaw / 2)
+            _, _, pose.orientation.z, pose.orientation.w = yaw_to_quaternion(source.yaw)
             twist.linear.x, twist.linear.y, twist.angular.z = source.vx, source.vy, source.wz
             pub.publish(msg)
         self._odom_tf.header.stamp = stamp
-        _set_transform(self._odom_tf, (odom.x, odom.y, 0.0, 0.0, 0.0, math.sin(odom.yaw / 2), math.cos(odom.yaw / 2)))
+        _set_transform(self._odom_tf, (odom.x, odom.y, 0.0, *yaw_to_quaternion(odom.yaw)))
         transforms = [] if odometry_dropout else [self._odom_tf]
         joints = self.sim.joint_states()
         for name, angle in zip(joints.names, joints.positions):
             _, _, origin, axis = self._wheel_joints[name]
-            s = math.sin(angle / 2)
             tf = self._wheel_tfs[name]
             tf.header.stamp = stamp
-            _set_transform(tf, compose(origin, (0.0, 0.0, 0.0, axis[0] * s, axis[1] * s, axis[2] * s,
-                                                math.cos(angle / 2))))
+            _set_transform(tf, compose(origin, (0.0, 0.0, 0.0, *axis_angle_to_quaternion(axis, angle))))
             transforms.append(tf)
         due = self.faults.transforms_due(self.sim.sim_time, transforms)
         if due:
@@ -295,13 +295,6 @@ class SimulatorNode(Node):
         if sim is not None:
             sim.close()
         super().destroy_node()
-
-
-def rpy_to_quaternion(rpy) -> tuple[float, float, float, float]:
-    roll, pitch, yaw = rpy
-    cr, sr, cp, sp, cy, sy = (f(a / 2) for a in (roll, pitch, yaw) for f in (math.cos, math.sin))
-    return (sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy,
-            cr * cp * cy + sr * sp * sy)
 
 
 def _build_own_process_simulator() -> SimulatorNode:

@@ -20,6 +20,8 @@ from rclpy.time import Time
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
+from simplebot_navigation.geometry import transform_points
+from simplebot_navigation.move_base.plugins import plugin_namespace
 from simplebot_navigation.move_base.state_machine import ControlResult
 from simplebot_navigation.ros.conversions import path_msg, pose_array_msg, transform_to_xyyaw
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
@@ -27,26 +29,12 @@ from simplebot_navigation.ros.publishers import create_publisher
 from simplebot_navigation.ros.tf import Buffer, TransformException
 from simplebot_navigation.teb import TebConfig, TebLocalPlanner, warm_up
 
-PLUGIN_TYPES = {"teb_local_planner/TebLocalPlannerROS": "TebLocalPlannerROS"}
 ODOM_STALE_S = 1.0
-
-
-def _transform_poses(poses: np.ndarray, tf_xyyaw) -> np.ndarray:
-    x, y, yaw = tf_xyyaw
-    c, s = math.cos(yaw), math.sin(yaw)
-    out = np.empty_like(poses)
-    out[:, 0] = x + c * poses[:, 0] - s * poses[:, 1]
-    out[:, 1] = y + s * poses[:, 0] + c * poses[:, 1]
-    out[:, 2] = poses[:, 2] + yaw
-    return out
 
 
 class TebLocalPlannerROS:
     def __init__(self, node: Node, plugin_type: str, costmap_ros, tf_buffer: Buffer, controller_frequency: float):
-        if plugin_type not in PLUGIN_TYPES:
-            raise ValueError(f"base_local_planner {plugin_type!r} is not available; "
-                             f"known: {', '.join(PLUGIN_TYPES)}")
-        self.name = PLUGIN_TYPES[plugin_type]
+        self.name = plugin_namespace(plugin_type)
         self.node = node
         self.costmap_ros = costmap_ros
         self.tf = tf_buffer
@@ -97,7 +85,7 @@ class TebLocalPlannerROS:
             except TransformException as err:
                 self.logger.error(f"Could not transform the global plan to the frame of the controller: {err}")
                 return False
-            plan = _transform_poses(plan, transform_to_xyyaw(tf))
+            plan = transform_points(transform_to_xyyaw(tf), plan, dtype=plan.dtype)
         self.planner.set_plan(plan)
         return True
 

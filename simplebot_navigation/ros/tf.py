@@ -21,6 +21,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rclpy.time import Time
 from tf2_msgs.msg import TFMessage
 
+from simplebot_navigation.geometry import compose, interpolate, inverse
 from simplebot_navigation.ros.publishers import create_publisher
 
 
@@ -55,53 +56,6 @@ TF_STATIC_LISTENER_QOS = QoSProfile(depth=100, history=HistoryPolicy.KEEP_LAST,
 
 def strip_frame(frame_id: str) -> str:
     return frame_id[1:] if frame_id.startswith("/") else frame_id
-
-
-# -- rigid transforms as (x, y, z, qx, qy, qz, qw) tuples --------------------------------------
-def _qmul(a, b):
-    ax, ay, az, aw = a
-    bx, by, bz, bw = b
-    return (aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw,
-            aw * bw - ax * bx - ay * by - az * bz)
-
-
-def _qrotate(q, v):
-    x, y, z, _ = _qmul(_qmul(q, (v[0], v[1], v[2], 0.0)), (-q[0], -q[1], -q[2], q[3]))
-    return (x, y, z)
-
-
-def compose(a, b):
-    """a * b: b expressed in a's parent frame."""
-    t = _qrotate(a[3:], b[:3])
-    q = _qmul(a[3:], b[3:])
-    return (a[0] + t[0], a[1] + t[1], a[2] + t[2], *q)
-
-
-def inverse(a):
-    qi = (-a[3], -a[4], -a[5], a[6])
-    t = _qrotate(qi, a[:3])
-    return (-t[0], -t[1], -t[2], *qi)
-
-
-def _slerp(q0, q1, ratio):
-    dot = sum(x * y for x, y in zip(q0, q1))
-    if dot < 0.0:
-        q1, dot = tuple(-x for x in q1), -dot
-    if dot > 0.9995:
-        q = tuple(x + ratio * (y - x) for x, y in zip(q0, q1))
-    else:
-        theta = math.acos(min(1.0, dot))
-        s0 = math.sin((1 - ratio) * theta) / math.sin(theta)
-        s1 = math.sin(ratio * theta) / math.sin(theta)
-        q = tuple(s0 * x + s1 * y for x, y in zip(q0, q1))
-    norm = math.sqrt(sum(x * x for x in q))
-    return tuple(x / norm for x in q)
-
-
-def _interpolate(a, b, ratio):
-    return (*(a[i] + ratio * (b[i] - a[i]) for i in range(3)), *_slerp(a[3:], b[3:], ratio))
 
 
 def _to_tuple(tf: TransformStamped):
@@ -250,7 +204,7 @@ class Buffer:
         if stamps[i] == t:
             return edge.values[i]
         t0, t1 = stamps[i - 1], stamps[i]
-        return _interpolate(edge.values[i - 1], edge.values[i], (t - t0) / (t1 - t0))
+        return interpolate(edge.values[i - 1], edge.values[i], (t - t0) / (t1 - t0))
 
     def _lookup_now(self, target: str, source: str, t: int):
         """(transform target<-source, stamp used) or raise; caller holds the lock."""

@@ -16,7 +16,7 @@ import sys
 from simplebot_description import builtin_worlds, robot_description
 from simplebot_navigation.launch.loader import LaunchError
 from simplebot_navigation.launch.nodes import ExecutableNotFound
-from simplebot_navigation.sim.world import load_world
+from simplebot_navigation.sim.world_loader import load_world
 
 from .report import plot, table, write_json
 from .runner import ScenarioOptions, parse_goals, run_scenarios

@@ -93,11 +93,7 @@ def plot(path: str, world: World, results: list[GoalResult], title: str) -> None
         if isinstance(shape, Cylinder):
             ax.add_patch(Circle(shape.center, shape.radius, color="0.45"))
             continue
-        c, s = math.cos(shape.yaw), math.sin(shape.yaw)
-        hx, hy = shape.size[0] / 2, shape.size[1] / 2
-        corners = [(shape.center[0] + c * dx - s * dy, shape.center[1] + s * dx + c * dy)
-                   for dx, dy in ((hx, hy), (-hx, hy), (-hx, -hy), (hx, -hy))]
-        ax.add_patch(Polygon(corners, closed=True, color="0.45"))
+        ax.add_patch(Polygon(shape.corners(), closed=True, color="0.45"))
     start = world.start
     ax.plot(start.x, start.y, marker=(3, 0, math.degrees(start.yaw) - 90), color="black", markersize=12,
             linestyle="none", label="start")

@@ -40,14 +40,19 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from move_base_msgs.action import MoveBase
 from simplebot_description import RobotDescription, robot_description
+from simplebot_navigation.geometry import pose_in_frame
 from simplebot_navigation.launch.loader import load_launch
 from simplebot_navigation.launch.nodes import resolve_executable
 from simplebot_navigation.launch.runner import ros_args, write_params_file
 from simplebot_navigation.move_base.cycle_stats import CycleSnapshot
+from simplebot_navigation.move_base.events import MoveBaseStats
+from simplebot_navigation.move_base.plugins import TEB_LOCAL_PLANNER, plugin_namespace
+from simplebot_navigation.ros.conversions import quaternion_msg, yaw_of
 from simplebot_navigation.ros.lockstep import LockstepDriver
 from simplebot_navigation.ros.move_base_node import ACTION_SERVICE_QOS
 from simplebot_navigation.ros.simulator_node import SimulatorNode
-from simplebot_navigation.sim.world import Pose2D, World, load_world
+from simplebot_navigation.sim.world import Pose2D, World
+from simplebot_navigation.sim.world_loader import load_world
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 WARM_UP_S = 2.0
@@ -92,7 +97,7 @@ class ScenarioClient(Node):
     def _on_truth(self, msg: Odometry) -> None:
         p, q = msg.pose.pose.position, msg.pose.pose.orientation
         stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
-        self.truth.append((stamp, p.x, p.y, 2.0 * math.atan2(q.z, q.w)))
+        self.truth.append((stamp, p.x, p.y, yaw_of(q)))
 
     def _on_collisions(self, msg: DiagnosticStatus) -> None:
         self.collisions = int(next(kv.value for kv in msg.values if kv.key == "count"))
@@ -108,11 +113,10 @@ class ScenarioClient(Node):
 
 
 @dataclass
-class MoveBaseStats:
-    """Counters only an in-process move_base can give: replans, recoveries, control cycle wall times."""
+class SessionStats:
+    """What only an in-process move_base can give: its event counters and control cycle wall times."""
 
-    replans: int
-    recoveries: int
+    navigation: MoveBaseStats
     cycles: CycleSnapshot
 
 
@@ -142,7 +146,7 @@ class _Session(abc.ABC):
     def close(self) -> None:
         """Stop every node and process of the session."""
 
-    def stats(self) -> MoveBaseStats | None:
+    def stats(self) -> SessionStats | None:
         return None
 
     def run_until(self, sim_time_s: float | None = None, stop: Callable[[], bool] | None = None,
@@ -176,8 +180,7 @@ class _Session(abc.ABC):
     def to_odom(self, x: float, y: float, yaw: float) -> tuple[float, float, float]:
         """World pose -> the odom frame, which is the start pose (wheel odometry starts at zero)."""
         s = self.world.start
-        dx, dy, c, si = x - s.x, y - s.y, math.cos(s.yaw), math.sin(s.yaw)
-        return c * dx + si * dy, -si * dx + c * dy, math.remainder(yaw - s.yaw, 2 * math.pi)
+        return pose_in_frame((s.x, s.y, s.yaw), (x, y, yaw))
 
     def goal_message(self, goal: Pose2D) -> MoveBase.Goal:
         x, y, yaw = self.to_odom(goal.x, goal.y, goal.yaw)
@@ -186,7 +189,7 @@ class _Session(abc.ABC):
         pose.header.frame_id = "odom"
         pose.header.stamp = self.client.get_clock().now().to_msg()
         pose.pose.position.x, pose.pose.position.y = x, y
-        pose.pose.orientation.z, pose.pose.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
+        pose.pose.orientation = quaternion_msg(yaw)
         return msg
 
     def send_goal(self, goal: Pose2D) -> GoalRun:
@@ -297,12 +300,11 @@ class NavigationSession(_Session):
         return (self.client.action.server_is_ready() and mb.global_costmap.is_current()
                 and mb.local_costmap.is_current())
 
-    def stats(self) -> MoveBaseStats:
-        mb = self.move_base
-        return MoveBaseStats(mb.replans, mb.recoveries, mb.cycle_stats.snapshot())
+    def stats(self) -> SessionStats:
+        return SessionStats(self.move_base.events.snapshot(), self.move_base.cycle_stats.snapshot())
 
     def controller_param(self, name: str, default: float) -> float:
-        planner = self.move_base.get_parameter("base_local_planner").value.split("/")[-1]
+        planner = plugin_namespace(self.move_base.get_parameter("base_local_planner").value)
         full = f"{planner}.{name}"
         return float(self.move_base.get_parameter(full).value) if self.move_base.has_parameter(full) else default
 
@@ -391,7 +393,7 @@ class ProcessSession(_Session):
 
     def controller_param(self, name: str, default: float) -> float:
         move_base = next(n for n in self.launch.nodes if n.name == "move_base")
-        planner = str(move_base.parameters.get("base_local_planner", "TebLocalPlannerROS")).split("/")[-1]
+        planner = plugin_namespace(str(move_base.parameters.get("base_local_planner", TEB_LOCAL_PLANNER)))
         return float(move_base.parameters.get(f"{planner}.{name}", default))
 
     def close(self) -> None:

@@ -338,10 +338,7 @@ def _obstacle_mesh(world: World) -> tuple[list, list]:
     for _, shape in world.obstacles():
         cx, cy = shape.center
         if isinstance(shape, Box):
-            c, s = math.cos(shape.yaw), math.sin(shape.yaw)
-            hx, hy = shape.size[0] / 2, shape.size[1] / 2
-            outline = [(cx + c * dx - s * dy, cy + s * dx + c * dy)
-                       for dx, dy in ((hx, hy), (-hx, hy), (-hx, -hy), (hx, -hy))]
+            outline = shape.corners()
         else:
             # Vertices pushed out so the polygon's mean radius equals the cylinder's (error < 0.07 %).
             n = _CYLINDER_SIDES

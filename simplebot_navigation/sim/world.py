@@ -13,7 +13,7 @@ A wall is the box of its thickness around the segment from -> to and ends exactl
 so the gap between two collinear walls is the clear width of the door between them. Every entry may
 carry a ``name`` (a label); any other unknown key in an entry is an error, because a misspelt
 ``thicknes`` would otherwise silently fall back to the default. ``--world path/to/map.yaml`` (a
-map_server map) is accepted too, see map_import.
+map_server map) is accepted too, see world_loader and map_import.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from typing import Any, Iterator, Mapping
 import numpy as np
 import yaml
 
-from simplebot_description import builtin_worlds, world_path
+from simplebot_navigation.geometry import transform_points
 
 DEFAULT_HEIGHT = 1.0
 DEFAULT_THICKNESS = 0.1
@@ -48,6 +48,12 @@ class Box:
     yaw: float = 0.0
     height: float = DEFAULT_HEIGHT
     name: str | None = None
+
+    def corners(self) -> list[tuple[float, float]]:
+        """Its outline in the world frame, counter-clockwise from the (+x, +y) corner."""
+        hx, hy = self.size[0] / 2, self.size[1] / 2
+        local = np.array([(hx, hy), (-hx, hy), (-hx, -hy), (hx, -hy)])
+        return [tuple(p) for p in transform_points((*self.center, self.yaw), local).tolist()]
 
 
 @dataclass(frozen=True)
@@ -165,37 +171,6 @@ def _shape_distance(shape: Box | Cylinder, pts: np.ndarray) -> np.ndarray:
     local = np.abs(np.column_stack((c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1])))
     outside = np.maximum(local - np.asarray(shape.size) / 2, 0.0)
     return np.hypot(outside[:, 0], outside[:, 1])
-
-
-def load_world(name_or_path: str | Path, robot_radius: float = 0.0) -> World:
-    """Load a built-in world by name, a world YAML file, or a map_server map.yaml.
-
-    ``robot_radius`` is the clearance the start and the goals need from every obstacle (pass the
-    robot's inscribed radius, or 0 to check only that they are not inside an obstacle).
-    Raises ValueError naming the file and the entry for anything malformed.
-    """
-    if isinstance(robot_radius, bool) or not isinstance(robot_radius, (int, float)) \
-            or not math.isfinite(robot_radius) or robot_radius < 0:
-        raise ValueError(f"robot_radius must be a finite number >= 0; got {robot_radius!r}")
-    path = Path(name_or_path)
-    if str(name_or_path) in builtin_worlds():
-        path = world_path(str(name_or_path))
-    elif not path.is_file():
-        raise ValueError(
-            f"unknown world {str(name_or_path)!r}: no such file, and not a built-in world "
-            f"({', '.join(builtin_worlds())})")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as exc:
-        raise ValueError(f"{path.name}: not valid YAML: {exc}") from exc
-    if isinstance(data, dict) and "image" in data:
-        from .map_import import world_from_map
-
-        world = world_from_map(data, path)
-    else:
-        world = world_from_dict(data, source=path.name, default_name=path.stem)
-    check_clearance(world, robot_radius)
-    return world
 
 
 def world_from_dict(data: Any, source: str = "<generated>", default_name: str = "world") -> World:

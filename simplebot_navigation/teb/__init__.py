@@ -1,5 +1,5 @@
 """Timed elastic band local planner (teb_local_planner): numpy, with the optimiser's hot path
-compiled by numba (teb/kernels.py; warm_up() compiles or loads it ahead of the first goal)."""
+compiled by numba (teb/*_kernels.py; warm_up() compiles or loads it ahead of the first goal)."""
 
 from simplebot_navigation.teb.config import TebConfig
 from simplebot_navigation.teb.footprint import FootprintModel

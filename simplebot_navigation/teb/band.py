@@ -9,9 +9,7 @@ import math
 
 import numpy as np
 
-
-def normalize_theta(a):
-    return (np.asarray(a) + math.pi) % (2 * math.pi) - math.pi
+from simplebot_navigation.geometry import normalize_theta
 
 
 def estimate_delta_t(p0, p1, max_vel_x: float, max_vel_theta: float) -> float:

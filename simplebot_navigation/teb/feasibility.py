@@ -14,7 +14,7 @@ import numpy as np
 
 from simplebot_navigation.costmap.cost_values import (INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE,
                                                       NO_INFORMATION)
-from simplebot_navigation.teb.band import normalize_theta
+from simplebot_navigation.geometry import normalize_theta
 
 
 def line_cells(x0, y0, x1, y1):

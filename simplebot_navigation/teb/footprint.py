@@ -98,7 +98,7 @@ class FootprintModel:
     # -- geometry -----------------------------------------------------------------------
     @cached_property
     def kernel_model(self) -> tuple:
-        """The model as teb/kernels.py takes it: (circles, segments, vertices, closed)."""
+        """The model as teb/footprint_kernels.py takes it: (circles, segments, vertices, closed)."""
         vertices = np.zeros((0, 2)) if self.vertices is None else self.vertices
         return (np.ascontiguousarray(self.circles), np.ascontiguousarray(self.segments),
                 np.ascontiguousarray(vertices, dtype=float), bool(self.closed_polygon))

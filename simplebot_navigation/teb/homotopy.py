@@ -27,7 +27,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import ndimage
 
-from simplebot_navigation.teb.band import TimedElasticBand, normalize_theta
+from simplebot_navigation.geometry import normalize_theta
+from simplebot_navigation.teb.band import TimedElasticBand
 from simplebot_navigation.teb.optimizer import TebOptimizer
 
 

@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from simplebot_navigation.costmap.cost_values import LETHAL_OBSTACLE
-from simplebot_navigation.teb import kernels
+from simplebot_navigation.teb import footprint_kernels
 
 
 def costmap_point_obstacles(costmap, robot_pose, behind_robot_dist: float) -> np.ndarray:
@@ -49,9 +49,9 @@ def associate_obstacles(model, poses: np.ndarray, obstacles: np.ndarray, min_obs
     from both sides on the centre line between the closest obstacles left and right of it: in a
     door narrower than the distances ask for, no pose can keep min_obstacle_dist, and the
     optimiser then asks for the centre line instead of pushing the poses out of the door (which
-    stalls the band, and the robot, in front of it). Compiled (teb/kernels.py): every pose meets
+    stalls the band, and the robot, in front of it). Compiled (teb/footprint_kernels.py): every pose meets
     every nearby costmap cell, once per outer iteration and band."""
-    return kernels.associate_obstacles(np.ascontiguousarray(poses, dtype=float),
+    return footprint_kernels.associate_obstacles(np.ascontiguousarray(poses, dtype=float),
                                        np.ascontiguousarray(obstacles, dtype=float), model.kernel_model,
                                        min_obstacle_dist, force_inclusion_factor, cutoff_factor,
                                        model.bounding_radius, model.inscribed_radius, FORCE_INCLUSION_SECTORS,

@@ -2,7 +2,7 @@
 
 Per outer iteration the band is resized, obstacles and via-points are associated with its poses
 (the g2o graph of one buildGraph call), and the Levenberg-Marquardt inner loop runs as one
-compiled call (teb/kernels.py): every edge family is evaluated per edge, J^T J is accumulated
+compiled call (teb/solver_kernels.py): every edge family is evaluated per edge, J^T J is accumulated
 into banded storage and solved by banded Cholesky with g2o's damping rule. teb/reference.py is
 the numpy oracle of the same evaluation.
 """
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simplebot_navigation.teb import kernels
+from simplebot_navigation.teb import edge_kernels, solver_kernels
 from simplebot_navigation.teb.band import TimedElasticBand
 from simplebot_navigation.teb.obstacles import associate_obstacles
 
@@ -109,11 +109,11 @@ class TebOptimizer:
         return self.cfg.inflation_dist > self.cfg.min_obstacle_dist and self.cfg.weight_inflation > 0
 
     def parameters(self, edges: EdgeSet) -> np.ndarray:
-        return kernels.edge_parameters(self.cfg, edges.obstacle_weight, self.start_velocity, self.free_goal_vel,
+        return edge_kernels.edge_parameters(self.cfg, edges.obstacle_weight, self.start_velocity, self.free_goal_vel,
                                        self.with_inflation)
 
     def residual_count(self, edges: EdgeSet, params: np.ndarray) -> int:
-        return kernels.residual_count(edges.n, len(edges.obst_pose), len(edges.via_pose), params)
+        return edge_kernels.residual_count(edges.n, len(edges.obst_pose), len(edges.via_pose), params)
 
     def levenberg_marquardt(self, band: TimedElasticBand, edges: EdgeSet, iterations: int) -> None:
         if edges.n < 1:
@@ -121,7 +121,7 @@ class TebOptimizer:
         params = self.parameters(edges)
         poses = np.array(band.poses, dtype=float)
         dts = np.array(band.time_diffs, dtype=float)
-        kernels.levenberg_marquardt(poses, dts, params, edges.arrays, self.model.kernel_model,
+        solver_kernels.levenberg_marquardt(poses, dts, params, edges.arrays, self.model.kernel_model,
                                     self.residual_count(edges, params), iterations)
         band.poses, band.time_diffs = poses, dts
 
@@ -130,12 +130,12 @@ class TebOptimizer:
         homotopy selection; the total time replaces the time-optimal edges if asked."""
         cfg = self.cfg
         params = self.parameters(edges)
-        chi2 = kernels.family_chi2(band.poses, band.time_diffs, params, edges.arrays, self.model.kernel_model,
+        chi2 = edge_kernels.family_chi2(band.poses, band.time_diffs, params, edges.arrays, self.model.kernel_model,
                                    self.residual_count(edges, params))
-        chi2[kernels.F_OBSTACLE] *= cfg.selection_obst_cost_scale
-        chi2[kernels.F_VIA] *= cfg.selection_viapoint_cost_scale
+        chi2[edge_kernels.F_OBSTACLE] *= cfg.selection_obst_cost_scale
+        chi2[edge_kernels.F_VIA] *= cfg.selection_viapoint_cost_scale
         if cfg.selection_alternative_time_cost:
-            chi2[kernels.F_TIME] = band.sum_of_time_diffs
+            chi2[edge_kernels.F_TIME] = band.sum_of_time_diffs
         return float(chi2.sum())
 
 

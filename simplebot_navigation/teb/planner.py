@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simplebot_navigation.teb.band import normalize_theta
+from simplebot_navigation.geometry import normalize_theta
 from simplebot_navigation.teb.config import TebConfig
 from simplebot_navigation.teb.feasibility import footprint_inscribed_radius, is_trajectory_feasible
 from simplebot_navigation.teb.footprint import FootprintModel

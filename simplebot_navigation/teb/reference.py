@@ -1,9 +1,9 @@
 """Vectorised numpy evaluation of the TEB hyper-graph and obstacle association: the readable oracle
-the compiled kernels (teb/kernels.py) are tested against, and the baseline bench/teb.py times them
+the compiled kernels (teb/edge_kernels.py) are tested against, and the baseline bench/teb.py times them
 against. The planner itself does not use it.
 
 Every edge family is evaluated for all its instances at once. Variables are packed as in
-teb/kernels.py; the normal matrix J^T J is accumulated from the per-edge local Jacobians with one
+teb/edge_kernels.py; the normal matrix J^T J is accumulated from the per-edge local Jacobians with one
 bincount into LAPACK lower banded storage (ab[i - j, j] = H[i, j]).
 """
 
@@ -13,8 +13,8 @@ import math
 
 import numpy as np
 
-from simplebot_navigation.teb.band import normalize_theta
-from simplebot_navigation.teb.kernels import MIN_TIME_DIFF
+from simplebot_navigation.geometry import normalize_theta
+from simplebot_navigation.teb.edge_kernels import MIN_TIME_DIFF
 
 
 def bound_to_interval(value, lower, upper, eps):
@@ -104,7 +104,7 @@ class ReferenceEvaluation:
 
     def evaluate(self, poses: np.ndarray, dts: np.ndarray, edges, with_jacobian: bool) -> dict:
         """Weighted residuals per edge family, name -> (r, J_local or None), in the order of
-        kernels.FAMILIES; cost = sum of r.r. The local Jacobian columns are Layout.cols[name]; rows
+        edge_kernels.FAMILIES; cost = sum of r.r. The local Jacobian columns are Layout.cols[name]; rows
         of the two stacked kinds of a family follow each other (all v rows, then all omega rows)."""
         cfg = self.cfg
         eps = cfg.penalty_epsilon

@@ -19,6 +19,7 @@ import time
 import numpy as np
 import yourdfpy
 from actionlib_msgs.msg import GoalStatus, GoalStatusArray
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PolygonStamped, PoseArray, PoseStamped, Twist
 from map_msgs.msg import OccupancyGridUpdate
 from nav_msgs.msg import OccupancyGrid, Odometry, Path
@@ -32,6 +33,7 @@ from sensor_msgs.msg import LaserScan
 from std_msgs.msg import String
 
 from simplebot_navigation.ros.conversions import path_to_array, pose_to_xyyaw, transform_to_xyyaw, xyyaw_to_pose
+from simplebot_navigation.ros.move_base_stats import NAVIGATION_STATUS
 from simplebot_navigation.ros.node_main import run_node
 from simplebot_navigation.ros.params import declare_checked
 from simplebot_navigation.ros.tf import Buffer, TransformException, TransformListener, strip_frame
@@ -53,6 +55,7 @@ STATUS = "/move_base/status"
 ODOM = "/simplebot_controller/odom"
 CMD_VEL = "/simplebot_controller/cmd_vel"
 GOAL = "/move_base_simple/goal"
+DIAGNOSTICS = "/diagnostics"
 
 PARAMETERS = {"host": "127.0.0.1", "port": 8765, "fixed_frame": "odom", "base_frame": "base_link",
               "rate": 20.0, "costmap_rate": 5.0, "max_costmap_side": 400, "trail_points": 5000}
@@ -183,6 +186,7 @@ class ViewerNode(Node):
         live.append(sub(Odometry, ODOM, self._on_odom, 10))
         live.append(sub(Twist, CMD_VEL, lambda m: scene.set_command(m.linear.x, m.angular.z), 10))
         live.append(sub(Log, "/rosout", self._on_log, ROSOUT))
+        live.append(sub(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, 10))
 
     def _unsubscribe(self) -> None:
         self.listener.unregister()
@@ -241,6 +245,12 @@ class ViewerNode(Node):
             self.scene.set_body(body_outlines(msg.data, self.base_frame))
         except Exception as err:  # noqa: BLE001 - any unreadable URDF: say so, keep the footprint view
             self.get_logger().warn(f"/robot_description: cannot draw the robot body: {err}")
+
+    def _on_diagnostics(self, msg: DiagnosticArray) -> None:
+        for status in msg.status:
+            if status.name == NAVIGATION_STATUS:
+                values = {kv.key: kv.value for kv in status.values}
+                self.scene.set_recoveries(int(values.get("recoveries", 0)), values.get("last_recovery") or None)
 
     def _on_log(self, msg: Log) -> None:
         if msg.level >= 20 and msg.name != self.get_logger().name:

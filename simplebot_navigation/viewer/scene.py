@@ -22,6 +22,8 @@ from typing import Callable
 
 import numpy as np
 
+from simplebot_navigation.geometry import transform_points
+
 Pose2D = tuple[float, float, float]
 #: lookup(frame_id, stamp_ns) -> pose of frame_id in the fixed frame, or None when unknown; stamp 0 = latest
 Lookup = Callable[[str, int], "Pose2D | None"]
@@ -30,8 +32,6 @@ Lookup = Callable[[str, int], "Pose2D | None"]
 UNKNOWN_CELL = 255
 TRAIL_STEP_M = 0.02
 LOG_LINES = 8
-#: how move_base announces a recovery behaviour on /rosout (ROS 1 logs "Executing behavior ..." alike)
-RECOVERY_LOG = "executing recovery behavior"
 
 
 @dataclass
@@ -80,15 +80,8 @@ def downsample_grid(cells: np.ndarray, max_side: int) -> tuple[np.ndarray, int]:
 
 
 def to_frame(pose: Pose2D, points: np.ndarray) -> np.ndarray:
-    """(N, 2) points or (N, 3) poses given in a frame whose pose in the fixed frame is pose."""
-    x, y, yaw = pose
-    c, s = math.cos(yaw), math.sin(yaw)
-    out = np.empty_like(points, dtype=np.float32)
-    out[:, 0] = x + c * points[:, 0] - s * points[:, 1]
-    out[:, 1] = y + s * points[:, 0] + c * points[:, 1]
-    if points.shape[1] == 3:
-        out[:, 2] = points[:, 2] + yaw
-    return out
+    """(N, 2) points or (N, 3) poses given in a frame whose pose in the fixed frame is pose, as float32."""
+    return transform_points(pose, points, dtype=np.float32)
 
 
 class Scene:
@@ -216,9 +209,14 @@ class Scene:
     def add_log(self, level: str, name: str, text: str) -> None:
         with self.changed:
             self.log.append({"level": level, "node": name, "text": text})
-            if text.startswith(RECOVERY_LOG):
-                self.recoveries = {"count": self.recoveries["count"] + 1, "last": text[len(RECOVERY_LOG):].strip()}
             self._touch()
+
+    def set_recoveries(self, count: int, last: str | None) -> None:
+        """move_base's recovery count since it started, and the latest one."""
+        with self.changed:
+            if self.recoveries != {"count": count, "last": last}:
+                self.recoveries = {"count": count, "last": last}
+                self._touch()
 
     # -- reader (HTTP threads) -----------------------------------------------------------------
     def wait_newer(self, version: int, timeout_s: float) -> int:

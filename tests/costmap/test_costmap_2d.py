@@ -6,7 +6,7 @@ import pytest
 from simplebot_navigation.costmap.cost_values import LETHAL_OBSTACLE, NO_INFORMATION, OCCUPANCY_GRID_TABLE
 from simplebot_navigation.costmap.costmap_2d import Costmap2D
 
-from .reference import bresenham
+from simplebot_navigation.testing.costmap_reference import bresenham
 
 
 def test_translation_table_samples():

@@ -8,7 +8,7 @@ from simplebot_navigation.costmap.inflation_layer import InflationLayer, _brushf
 from simplebot_navigation.costmap.layer import CostmapLayer
 from simplebot_navigation.costmap.layered_costmap import LayeredCostmap
 
-from .reference import brushfire
+from simplebot_navigation.testing.costmap_reference import brushfire
 
 
 class GridLayer(CostmapLayer):

@@ -12,9 +12,9 @@ from simplebot_navigation.costmap.layered_costmap import LayeredCostmap
 from simplebot_navigation.costmap.obstacle_layer import (ObservationSource, ObstacleLayer,
                                                          laser_scan_to_observation, point_cloud_to_observation)
 
-from . import scenario
-from .lab_params import global_costmap_params, local_costmap_params
-from .reference import ReferenceCostmap
+from simplebot_navigation.testing import costmap_scene as scenario
+from simplebot_navigation.testing.costmap_reference import ReferenceCostmap
+from simplebot_navigation.testing.lab_params import global_costmap_params, local_costmap_params
 
 
 class Clock:

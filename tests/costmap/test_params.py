@@ -9,7 +9,7 @@ from simplebot_navigation.costmap.obstacle_layer import ObstacleLayer
 from simplebot_navigation.costmap.params import resolve_costmap_params
 from simplebot_navigation.costmap.plugins import layer_kind
 
-from .lab_params import global_costmap_params, local_costmap_params
+from simplebot_navigation.testing.lab_params import global_costmap_params, local_costmap_params
 
 
 def test_lab_global_costmap():

@@ -13,7 +13,8 @@ from simplebot_description import robot_description
 from simplebot_navigation.scenarios.report import plot, table, write_json
 from simplebot_navigation.scenarios.runner import (GoalResult, ScenarioOptions, min_clearance, parse_goals,
                                                    shortest_path_length, time_budget)
-from simplebot_navigation.sim.world import Pose2D, load_world, world_from_dict
+from simplebot_navigation.sim.world import Pose2D, world_from_dict
+from simplebot_navigation.sim.world_loader import load_world
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 LAB = load_world("lab")

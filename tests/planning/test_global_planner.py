@@ -5,12 +5,12 @@ import math
 import numpy as np
 import pytest
 
-from planner_grids import costs_along, free_map, inflate
+from .planner_grids import costs_along, free_map, inflate
 from simplebot_navigation.costmap.cost_values import LETHAL_OBSTACLE, NO_INFORMATION
 from simplebot_navigation.planning import (POT_HIGH, GlobalPlanner, GlobalPlannerConfig,
                                            PlanFailure, make_global_planner,
                                            potential_to_occupancy)
-from simplebot_navigation.planning import kernels
+from simplebot_navigation.planning import path_kernels
 from simplebot_navigation.planning.global_planner import (astar_costs, global_planner_costs,
                                                           navfn_costs)
 
@@ -414,9 +414,9 @@ def padded(pot: np.ndarray) -> np.ndarray:
 def test_gradient_path_steps_over_a_saddle_and_stops_in_a_pit():
     x, y = np.meshgrid(np.arange(11), np.arange(7))
     saddle = padded(50.0 * (5 - np.abs(x - 5)) + 30.0 * np.abs(y - 3))  # ridge along x = 5
-    points, count, status = kernels.gradient_path(saddle, 13, 1.0, 3.0, 5.0, 3.0, 1000)
+    points, count, status = path_kernels.gradient_path(saddle, 13, 1.0, 3.0, 5.0, 3.0, 1000)
     assert status == 0  # ROS 1 stops at the zero gradient of the goal node
     assert points[count - 1].tolist() == [1.0, 3.0]
     assert np.allclose(points[:count, 1], 3.0) and np.all(np.diff(points[:count, 0]) < 0)
     pit = padded(50.0 * np.abs(x - 5) + 30.0 * np.abs(y - 3))
-    assert kernels.gradient_path(pit, 13, 1.0, 3.0, 5.0, 3.0, 1000)[2] == 3
+    assert path_kernels.gradient_path(pit, 13, 1.0, 3.0, 5.0, 3.0, 1000)[2] == 3

@@ -22,8 +22,10 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profi
 from rclpy.time import Time
 from sensor_msgs.msg import LaserScan
 
+from simplebot_navigation.costmap.cost_values import OCCUPANCY_GRID_TABLE
 from simplebot_navigation.launch.loader import load_launch
 from simplebot_navigation.ros import costmap_ros
+from simplebot_navigation.ros.costmap_input import point_cloud_xyz
 from simplebot_navigation.ros.costmap_ros import Costmap2DROS
 from simplebot_navigation.ros.tf import Buffer, StaticTransformBroadcaster, TransformBroadcaster, TransformListener
 
@@ -247,7 +249,7 @@ def test_published_grid_shows_the_walls_with_the_inflation_profile(lab, name, si
     assert np.all(np.abs(ys) < 3.0 + resolution)
     # The published grid is the master grid through the table.
     with costmap.lock:
-        np.testing.assert_array_equal(mirror.grid, costmap_ros.OCCUPANCY_GRID_TABLE[costmap.costmap.costmap])
+        np.testing.assert_array_equal(mirror.grid, OCCUPANCY_GRID_TABLE[costmap.costmap.costmap])
 
 
 def test_tracked_unknown_space_is_published_as_minus_one(lab):
@@ -336,7 +338,7 @@ def test_costmap_updates_carry_the_changed_cells(lab):
     assert update.x <= x < update.x + update.width and update.y <= y < update.y + update.height
     assert update.width * update.height < 150 * 150
     with costmap.lock:
-        np.testing.assert_array_equal(mirror.grid, costmap_ros.OCCUPANCY_GRID_TABLE[costmap.costmap.costmap])
+        np.testing.assert_array_equal(mirror.grid, OCCUPANCY_GRID_TABLE[costmap.costmap.costmap])
     # A late subscriber first gets the latched (old) grid, then a current full one.
     late = GridMirror(fake.robot, "global_costmap")
     fake.spin_until(lambda: late.full_count >= 2, what="a full grid for the late subscriber")
@@ -414,7 +416,7 @@ def test_scan_waits_for_its_transform_and_is_dropped_after_the_tolerance(lab, ca
     far = fake.robot.get_clock().now() + rclpy.duration.Duration(seconds=30.0)
     pub.publish(fake.scan("front_laser_link", far.to_msg()))
     fake.spin_for(0.8)
-    assert not any(inp.queue for inp in costmap._inputs)
+    assert costmap.input.waiting() == 0
     err = capfd.readouterr().err
     assert "local_costmap: Message Filter dropping message on /front_laser/front_scan: frame 'front_laser_link'" in err
     assert "extrapolation into the future" in err
@@ -444,14 +446,14 @@ def test_reset_layers_clears_and_publishes_the_whole_grid(lab):
     fake.publish_scans = False
     fake.spin_for(0.15)
     costmap.reset_layers()
-    costmap.publish_costmap()
+    costmap.publisher.publish_costmap()
     fake.spin_until(lambda: not (mirror.grid == 100).any(), what="an update without the walls")
     update = mirror.updates[-1]
     assert (update.x, update.y, update.width, update.height) == (0, 0, 150, 150)
     assert not (mirror.grid > 0).any()
     # As in costmap_2d, the sources keep their last observation: the next update marks it again.
     assert costmap.update_map_now()
-    costmap.publish_costmap()
+    costmap.publisher.publish_costmap()
     fake.spin_until(lambda: walls_seen(mirror), what="the walls from the buffered scans")
 
 
@@ -566,12 +568,12 @@ def cloud_msg(points: np.ndarray, frame: str, dtype="<f4", padding: int = 4):
 @pytest.mark.parametrize("dtype", ["<f4", ">f8"])
 def test_point_cloud_fields_are_read_by_offset_type_and_endianness(dtype):
     points = np.array([[1.0, 2.0, 3.0], [-0.5, 0.25, np.nan]])
-    xyz = costmap_ros.point_cloud_xyz(cloud_msg(points, "cam", dtype))
+    xyz = point_cloud_xyz(cloud_msg(points, "cam", dtype))
     np.testing.assert_array_equal(xyz, points)
     msg = cloud_msg(points, "cam")
     msg.fields = msg.fields[:2]
     with pytest.raises(ValueError, match="PointCloud2 has no 'z' field"):
-        costmap_ros.point_cloud_xyz(msg)
+        point_cloud_xyz(msg)
 
 
 def test_costmap_package_warnings_reach_the_node_logger(lab, capfd):

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from simplebot_navigation.teb import kernels, warm_up
+from simplebot_navigation.teb import edge_kernels, footprint_kernels, solver_kernels, warm_up
 from simplebot_navigation.teb.config import TebConfig
 from simplebot_navigation.teb.footprint import FootprintModel
 from simplebot_navigation.teb.obstacles import FORCE_INCLUSION_SECTORS, GAP_FREE_FRACTION, associate_obstacles
@@ -73,7 +73,7 @@ def test_compiled_evaluation_and_normal_equations_match_the_reference(model, fre
         opt = TebOptimizer(cfg, model)
         opt.start_velocity, opt.free_goal_vel = start_velocity, free_goal_vel
         params = opt.parameters(edges)
-        r, h, g, chi2 = kernels.normal_equations(poses, dts, params, edges.arrays, model.kernel_model,
+        r, h, g, chi2 = edge_kernels.normal_equations(poses, dts, params, edges.arrays, model.kernel_model,
                                                  opt.residual_count(edges, params))
         np.testing.assert_allclose(r, r_ref, rtol=1e-9, atol=1e-9)
         scale = max(1.0, np.abs(h_ref).max())
@@ -81,8 +81,8 @@ def test_compiled_evaluation_and_normal_equations_match_the_reference(model, fre
         np.testing.assert_allclose(dense_lower(h, n_vars), dense_lower(h_ref, n_vars), rtol=1e-9, atol=1e-9 * scale)
         np.testing.assert_allclose(g, g_ref, rtol=1e-9, atol=1e-9 * scale)
         assert chi2 == pytest.approx(ref.chi2(families), rel=1e-9, abs=1e-9)
-        per_family = kernels.family_chi2(poses, dts, params, edges.arrays, model.kernel_model, len(r))
-        expected = [float(families[f][0] @ families[f][0]) if f in families else 0.0 for f in kernels.FAMILIES]
+        per_family = edge_kernels.family_chi2(poses, dts, params, edges.arrays, model.kernel_model, len(r))
+        expected = [float(families[f][0] @ families[f][0]) if f in families else 0.0 for f in edge_kernels.FAMILIES]
         np.testing.assert_allclose(per_family, expected, rtol=1e-9, atol=1e-9)
 
 
@@ -92,7 +92,7 @@ def test_footprint_distance_and_gradient_match_the_model(model):
     poses = np.column_stack([rng.uniform(-1, 1, (200, 2)), rng.uniform(-math.pi, math.pi, 200)])
     points = poses[:, :2] + rng.uniform(-0.8, 0.8, (200, 2))
     d_ref, grad_ref = model.distance_and_gradient(poses, points)
-    got = np.array([kernels.footprint_distance(*p, *q, model.kernel_model) for p, q in zip(poses, points)])
+    got = np.array([footprint_kernels.footprint_distance(*p, *q, model.kernel_model) for p, q in zip(poses, points)])
     np.testing.assert_allclose(got[:, 0], d_ref, atol=1e-12)
     np.testing.assert_allclose(got[:, 1:], grad_ref, atol=1e-12)
 
@@ -115,7 +115,7 @@ def test_compiled_association_matches_the_reference(model):
 
 def test_banded_cholesky_solves_a_banded_system():
     rng = np.random.default_rng(3)
-    size, bw = 40, kernels.BANDWIDTH
+    size, bw = 40, edge_kernels.BANDWIDTH
     full = np.zeros((size, size))
     for i in range(size):                                  # a banded J^T J, plus damping
         row = np.zeros(size)
@@ -125,12 +125,12 @@ def test_banded_cholesky_solves_a_banded_system():
     banded = np.array([np.concatenate([np.diag(full, -k), np.zeros(k)]) for k in range(bw + 1)])
     b = rng.standard_normal(size)
     x = np.empty(size)
-    assert kernels.banded_cholesky(banded)
-    kernels.banded_solve(banded, b, x)
+    assert solver_kernels.banded_cholesky(banded)
+    solver_kernels.banded_solve(banded, b, x)
     np.testing.assert_allclose(full @ x, b, atol=1e-9)
     indefinite = np.zeros((bw + 1, size))
     indefinite[0] = -1.0
-    assert not kernels.banded_cholesky(indefinite)
+    assert not solver_kernels.banded_cholesky(indefinite)
 
 
 def test_levenberg_marquardt_never_raises_the_cost():
@@ -144,15 +144,15 @@ def test_levenberg_marquardt_never_raises_the_cost():
         opt = TebOptimizer(cfg, model)
         params = opt.parameters(edges)
         count = opt.residual_count(edges, params)
-        before = kernels.family_chi2(poses, dts, params, edges.arrays, model.kernel_model, count).sum()
-        after = kernels.levenberg_marquardt(poses, dts, params, edges.arrays, model.kernel_model, count, 5)
+        before = edge_kernels.family_chi2(poses, dts, params, edges.arrays, model.kernel_model, count).sum()
+        after = solver_kernels.levenberg_marquardt(poses, dts, params, edges.arrays, model.kernel_model, count, 5)
         assert after <= before
-        assert after == pytest.approx(kernels.family_chi2(poses, dts, params, edges.arrays, model.kernel_model,
+        assert after == pytest.approx(edge_kernels.family_chi2(poses, dts, params, edges.arrays, model.kernel_model,
                                                           count).sum())
-        assert np.all(dts >= kernels.MIN_TIME_DIFF) and np.all(np.abs(poses[:, 2]) <= math.pi)
+        assert np.all(dts >= edge_kernels.MIN_TIME_DIFF) and np.all(np.abs(poses[:, 2]) <= math.pi)
 
 
 def test_warm_up_leaves_the_cycle_kernels_compiled():
     warm_up()
-    for kernel in (kernels.associate_obstacles, kernels.levenberg_marquardt, kernels.family_chi2):
+    for kernel in (footprint_kernels.associate_obstacles, solver_kernels.levenberg_marquardt, edge_kernels.family_chi2):
         assert kernel.signatures

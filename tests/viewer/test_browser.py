@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from simplebot_navigation.ros.conversions import quaternion_to_yaw
+from simplebot_navigation.ros.conversions import yaw_of
 from tests.viewer.conftest import BACK_WALL_X, FRONT_WALL_X, INSCRIBED_BLOCK, LETHAL_BLOCK, UNKNOWN_BLOCK
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
@@ -115,7 +115,7 @@ def test_2d_nav_goal_click_and_drag(page, scenario):
     pixel_m = 1.0 / SCALE
     assert goal.pose.position.x == pytest.approx(goal_x, abs=pixel_m)
     assert goal.pose.position.y == pytest.approx(goal_y, abs=pixel_m)
-    assert quaternion_to_yaw(goal.pose.orientation) == pytest.approx(heading, abs=2 * pixel_m)
+    assert yaw_of(goal.pose.orientation) == pytest.approx(heading, abs=2 * pixel_m)
     assert page.locator("#goal-tool.on").count() == 0  # one goal per click of the tool, as RViz
 
 

@@ -15,7 +15,9 @@ from rclpy.parameter import Parameter
 
 from simplebot_navigation.costmap.cost_values import OCCUPANCY_GRID_TABLE
 from simplebot_navigation.launch.loader import LaunchError
-from simplebot_navigation.launch.record import Recorder, message_definition, plot, recorder_spec
+from simplebot_navigation.launch.record import recorder_spec
+from simplebot_navigation.ros.recorder import Recorder, message_definition
+from simplebot_navigation.scenarios.recording_plot import plot_recording
 from simplebot_navigation.ros.simulator_node import SimulatorNode
 from tests.viewer.conftest import FakeMoveBase, costmap_array
 
@@ -129,12 +131,12 @@ def test_plot_of_a_recorded_run(recording, tmp_path):
 
 def test_plot_names_a_missing_file(tmp_path):
     with pytest.raises(FileNotFoundError, match="no such recording"):
-        plot(str(tmp_path / "none.mcap"), str(tmp_path / "out.png"))
+        plot_recording(str(tmp_path / "none.mcap"), str(tmp_path / "out.png"))
 
 
 def test_record_option_checks_the_target(tmp_path):
     spec = recorder_spec(str(tmp_path / "run.mcap"))
-    assert (spec.pkg, spec.type, spec.parameters) == ("python", "simplebot_navigation.launch.record:Recorder",
+    assert (spec.pkg, spec.type, spec.parameters) == ("python", "simplebot_navigation.ros.recorder:Recorder",
                                                       {"path": str(tmp_path / "run.mcap")})
     with pytest.raises(LaunchError, match="does not exist"):
         recorder_spec(str(tmp_path / "missing" / "run.mcap"))

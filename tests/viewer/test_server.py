@@ -8,9 +8,12 @@ import urllib.request
 
 import numpy as np
 import pytest
+from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.parameter import Parameter
 
-from simplebot_navigation.ros.conversions import quaternion_to_yaw
+from simplebot_navigation.move_base.events import MoveBaseEvents
+from simplebot_navigation.ros.conversions import yaw_of
+from simplebot_navigation.ros.move_base_stats import navigation_status
 from simplebot_navigation.viewer.node import ViewerNode, body_outlines
 from simplebot_navigation.viewer.scene import UNKNOWN_CELL, Scene, downsample_grid
 from simplebot_description import robot_description
@@ -123,7 +126,7 @@ def test_goal_post_is_checked_and_published(scenario):
     scenario.wait_for(lambda: len(scenario.move_base.goals) > before, what="the goal")
     goal = scenario.move_base.goals[-1]
     assert (goal.header.frame_id, goal.pose.position.x, goal.pose.position.y) == ("odom", -1.25, 0.5)
-    assert quaternion_to_yaw(goal.pose.orientation) == pytest.approx(-2.0, abs=1e-12)
+    assert yaw_of(goal.pose.orientation) == pytest.approx(-2.0, abs=1e-12)
     assert not math.isnan(goal.pose.orientation.w)
 
 
@@ -148,7 +151,7 @@ def test_topics_are_taken_only_while_a_page_is_open(scenario, monkeypatch):
     scenario.wait_for(lambda: viewer.watched and scans.get_subscription_count() == 1, what="the viewer to subscribe")
 
 
-def test_recoveries_counted_from_move_base_log(scenario):
+def test_recoveries_come_from_move_base_diagnostics(scenario):
     url = scenario.viewer.url
     get(url + "frame?after=-1")
     scenario.wait_for(lambda: scenario.viewer.watched, what="the viewer to subscribe")
@@ -164,7 +167,18 @@ def test_recoveries_counted_from_move_base_log(scenario):
 
     scenario.wait_for(warned, what="the viewer's /rosout subscription")
     logger.info("executing recovery behavior rotate_recovery (2/4) after CONTROLLING_R")
-    scenario.wait_for(lambda: scenario.viewer.scene.recoveries["count"] == 1, what="the recovery log line")
+    scenario.wait_for(lambda: scenario.viewer.scene.log[-1]["level"] == "INFO", what="the info line")
+    assert scenario.viewer.scene.recoveries["count"] == 0     # log text is not what counts
+    events = MoveBaseEvents()
+    events.recovery(1.0, "rotate_recovery", "rotate_recovery (2/4) after CONTROLLING_R")
+    diagnostics = scenario.move_base.create_publisher(DiagnosticArray, "/diagnostics", 10)
+
+    def counted():
+        diagnostics.publish(DiagnosticArray(status=[navigation_status(events.snapshot(), "move_base")]))
+        time.sleep(0.1)
+        return scenario.viewer.scene.recoveries["count"] == 1
+
+    scenario.wait_for(counted, what="the recovery count from /diagnostics")
     header, _ = decode(get(url + "frame?after=-1"))
     assert header["recoveries"] == {"count": 1, "last": "rotate_recovery (2/4) after CONTROLLING_R"}
     assert [line["level"] for line in header["log"][-2:]] == ["WARN", "INFO"]

@@ -1,5 +1,6 @@
-"""Compiled hot path of the TEB optimiser: edge errors and Jacobians, banded normal equations, the
-Levenberg-Marquardt inner loop, footprint distances and obstacle association.
+"""Compiled edges of the TEB optimiser: every edge family's errors and Jacobians, accumulated into
+banded normal equations (solver_kernels runs the Levenberg-Marquardt loop on them,
+footprint_kernels measures the footprint against obstacles).
 
 Why numba: a band has a few dozen poses and a few hundred edges, so a vectorised numpy evaluation
 spends its time in the fixed cost of some fifty small array calls per evaluation, not in
@@ -17,9 +18,8 @@ dT_{n-1}]: pose k -> columns 4k-3..4k-1, dT_i -> column 4i, the fixed poses 0 an
 widest edge (an acceleration over two segments) spans BANDWIDTH columns, so J^T J is stored as
 LAPACK-style lower bands, h[i - j, j] = H[i, j].
 
-A footprint model is the tuple (circles (C, 3) cx cy r, segments (S, 4) ax ay bx by, vertices
-(V, 2), closed polygon flag), in the robot frame; the edge set of one outer iteration is the
-tuple (obstacle pose indices, obstacle points, gap clearances, via pose indices, via points).
+The edge set of one outer iteration is the tuple (obstacle pose indices, obstacle points, gap
+clearances, via pose indices, via points); footprint models are described in footprint_kernels.
 """
 
 from __future__ import annotations
@@ -28,6 +28,8 @@ import math
 
 import numpy as np
 from numba import njit
+
+from simplebot_navigation.teb.footprint_kernels import footprint_distance_trig
 
 #: Columns between the first and last free variable of the widest edge (interior acceleration).
 BANDWIDTH = 10
@@ -73,71 +75,10 @@ def residual_count(n: int, n_obstacle: int, n_via: int, params: np.ndarray) -> i
             + n_obstacle * (2 if params[P_INFLATION] else 1) + 2 * n_via)
 
 
-# -- footprint models ------------------------------------------------------------------------------
-@njit(cache=True, nogil=True)
-def _inside_polygon(qx, qy, vertices):
-    """Even-odd rule."""
-    inside = False
-    nv = vertices.shape[0]
-    for i in range(nv):
-        j = i - 1 if i > 0 else nv - 1
-        xi, yi, xj, yj = vertices[i, 0], vertices[i, 1], vertices[j, 0], vertices[j, 1]
-        if (yi > qy) != (yj > qy):
-            if qx < (xj - xi) * (qy - yi) / (yj - yi) + xi:
-                inside = not inside
-    return inside
-
-
-@njit(cache=True, nogil=True)
-def footprint_distance(x, y, th, px, py, model):
-    """Distance from the model placed at pose (x, y, th) to the point (px, py), and its gradient
-    with respect to the pose."""
-    return _footprint_distance(x, y, math.cos(th), math.sin(th), px, py, model)
-
-
-@njit(cache=True, nogil=True)
-def _footprint_distance(x, y, c, s, px, py, model):
-    """footprint_distance with the heading's cosine and sine (shared by all points of a pose). For
-    segments the point goes to the robot frame, q = R(-th) (p - pose), and the pose gradient
-    follows from dd/dpose_xy = -R(th) dd/dq and dd/dth = dd/dq . (q_y, -q_x)."""
-    circles, segments, vertices, closed = model
-    best, gx, gy, gth = np.inf, 0.0, 0.0, 0.0
-    for k in range(circles.shape[0]):
-        # circles in the world frame: the common case needs no rotation of the point
-        cx, cy = circles[k, 0], circles[k, 1]
-        ex, ey = px - (x + c * cx - s * cy), py - (y + s * cx + c * cy)
-        norm = math.hypot(ex, ey)
-        d = norm - circles[k, 2]
-        if d < best:
-            best = d
-            inv = 1.0 / norm if norm > 1e-12 else 0.0
-            gx, gy, gth = -ex * inv, -ey * inv, (ex * (s * cx + c * cy) - ey * (c * cx - s * cy)) * inv
-    if segments.shape[0]:
-        dx, dy = px - x, py - y
-        qx, qy = c * dx + s * dy, -s * dx + c * dy
-        seg_d, gqx, gqy = np.inf, 0.0, 0.0
-        for k in range(segments.shape[0]):
-            ax, ay = segments[k, 0], segments[k, 1]
-            abx, aby = segments[k, 2] - ax, segments[k, 3] - ay
-            aqx, aqy = qx - ax, qy - ay
-            len2 = abx * abx + aby * aby
-            t = (aqx * abx + aqy * aby) / (len2 if len2 > 0 else 1.0)
-            t = min(max(t, 0.0), 1.0)
-            ex, ey = aqx - t * abx, aqy - t * aby
-            norm = math.sqrt(ex * ex + ey * ey)
-            if norm < seg_d:
-                seg_d = norm
-                gqx, gqy = (ex / norm, ey / norm) if norm > 1e-12 else (0.0, 0.0)
-        if closed and _inside_polygon(qx, qy, vertices):
-            seg_d, gqx, gqy = -seg_d, -gqx, -gqy
-        if seg_d < best:
-            best, gx, gy, gth = seg_d, -(c * gqx - s * gqy), -(s * gqx + c * gqy), gqx * qy - gqy * qx
-    return best, gx, gy, gth
-
-
 # -- edges -----------------------------------------------------------------------------------------
 @njit(cache=True, nogil=True)
-def _normalize_theta(a):
+def normalize_angle(a):
+    """geometry.normalize_theta for a scalar, compiled (kernels cannot call numpy-generic code)."""
     return (a + math.pi) % _TWO_PI - math.pi
 
 
@@ -192,7 +133,7 @@ def evaluate(poses, dts, params, edges, model, jacobian, r, chi2, h, g, work):
     """Weighted residuals of every edge into r (family after family, as FAMILIES lists them; the two
     kinds of a family one after the other: all v rows, then all omega rows, ...), their squares
     summed per family into chi2 (zeroed here), and with ``jacobian`` J^T J and J^T r added into the
-    zeroed h and g. Scratch (see _workspace): vw (2, n) and jvw (2, n, 7), each segment's
+    zeroed h and g. Scratch (see workspace): vw (2, n) and jvw (2, n, 7), each segment's
     (v, omega) and their Jacobians over (pose i, pose i+1, dT_i); trig (2, n+1), the cosine and
     sine of every heading; cols and jac (16,), one residual's Jacobian row."""
     vw, jvw, trig, cols, jac = work
@@ -211,7 +152,7 @@ def evaluate(poses, dts, params, edges, model, jacobian, r, chi2, h, g, work):
         sig = u / (1.0 + abs(u))
         inv_dt = 1.0 / dts[i]
         v = sig * dist * inv_dt
-        omega = _normalize_theta(poses[i + 1, 2] - poses[i, 2]) * inv_dt
+        omega = normalize_angle(poses[i + 1, 2] - poses[i, 2]) * inv_dt
         vw[0, i], vw[1, i] = v, omega
         if jacobian:
             # v = sigmoid(100 proj) |d| / dT: the sign of the motion along the heading, smoothed
@@ -331,7 +272,7 @@ def evaluate(poses, dts, params, edges, model, jacobian, r, chi2, h, g, work):
     inflation = params[P_INFLATION] != 0.0
     for k in range(m):
         pose = obst_pose[k]
-        d, gx, gy, gth = _footprint_distance(poses[pose, 0], poses[pose, 1], trig[0, pose], trig[1, pose],
+        d, gx, gy, gth = footprint_distance_trig(poses[pose, 0], poses[pose, 1], trig[0, pose], trig[1, pose],
                                              obst_point[k, 0], obst_point[k, 1], model)
         e = max(min(params[P_MIN_OBSTACLE], obst_gap[k] - eps) + eps - d, 0.0)
         de = -1.0 if e > 0.0 else 0.0
@@ -371,7 +312,7 @@ def evaluate(poses, dts, params, edges, model, jacobian, r, chi2, h, g, work):
 
 
 @njit(cache=True, nogil=True)
-def _workspace(n, n_res):
+def workspace(n, n_res):
     """Outputs (r, chi2, h, g) and scratch of evaluate for a band with n time differences."""
     n_vars = 4 * n - 3
     scratch = (np.empty((2, n)), np.empty((2, n, 7)), np.empty((2, n + 1)), np.empty(16, np.int64), np.empty(16))
@@ -381,7 +322,7 @@ def _workspace(n, n_res):
 @njit(cache=True, nogil=True)
 def normal_equations(poses, dts, params, edges, model, n_res):
     """Residuals, J^T J (lower bands), J^T r and chi2 of a band: what one inner iteration builds."""
-    r, chi2, h, g, work = _workspace(dts.shape[0], n_res)
+    r, chi2, h, g, work = workspace(dts.shape[0], n_res)
     total = evaluate(poses, dts, params, edges, model, True, r, chi2, h, g, work)
     return r, h, g, total
 
@@ -389,205 +330,7 @@ def normal_equations(poses, dts, params, edges, model, n_res):
 @njit(cache=True, nogil=True)
 def family_chi2(poses, dts, params, edges, model, n_res):
     """chi2 of each edge family, in the order of FAMILIES."""
-    r, chi2, h, g, work = _workspace(dts.shape[0], n_res)
+    r, chi2, h, g, work = workspace(dts.shape[0], n_res)
     evaluate(poses, dts, params, edges, model, False, r, chi2, h, g, work)
     return chi2
 
-
-# -- solver ----------------------------------------------------------------------------------------
-@njit(cache=True, nogil=True)
-def banded_cholesky(ab):
-    """In place: lower bands of a symmetric positive definite matrix -> those of its Cholesky
-    factor L. False when the matrix is not (numerically) positive definite."""
-    bw = ab.shape[0] - 1
-    size = ab.shape[1]
-    for j in range(size):
-        d = ab[0, j]
-        for k in range(max(0, j - bw), j):
-            d -= ab[j - k, k] * ab[j - k, k]
-        if not d > 0.0 or not math.isfinite(d):
-            return False
-        ljj = math.sqrt(d)
-        ab[0, j] = ljj
-        for i in range(j + 1, min(size, j + bw + 1)):
-            s = ab[i - j, j]
-            for k in range(max(0, i - bw), j):
-                s -= ab[i - k, k] * ab[j - k, k]
-            ab[i - j, j] = s / ljj
-    return True
-
-
-@njit(cache=True, nogil=True)
-def banded_solve(ab, b, x):
-    """x = (L L^T)^-1 b for the banded Cholesky factor L."""
-    bw = ab.shape[0] - 1
-    size = ab.shape[1]
-    for i in range(size):
-        s = b[i]
-        for k in range(max(0, i - bw), i):
-            s -= ab[i - k, k] * x[k]
-        x[i] = s / ab[0, i]
-    for i in range(size - 1, -1, -1):
-        s = x[i]
-        for k in range(i + 1, min(size, i + bw + 1)):
-            s -= ab[k - i, i] * x[k]
-        x[i] = s / ab[0, i]
-
-
-@njit(cache=True, nogil=True)
-def apply_step(poses, dts, step, new_poses, new_dts):
-    """Add a step of the packed variables; time differences stay above MIN_TIME_DIFF."""
-    n = dts.shape[0]
-    new_poses[:] = poses
-    for i in range(n):
-        new_dts[i] = max(dts[i] + step[4 * i], MIN_TIME_DIFF)
-    for k in range(1, n):
-        new_poses[k, 0] += step[4 * k - 3]
-        new_poses[k, 1] += step[4 * k - 2]
-        new_poses[k, 2] = _normalize_theta(poses[k, 2] + step[4 * k - 1])
-
-
-@njit(cache=True, nogil=True)
-def levenberg_marquardt(poses, dts, params, edges, model, n_res, iterations):
-    """g2o's Levenberg-Marquardt on the band, in place: lambda starts at 1e-5 * max diag(H), shrinks
-    on gain and doubles its growth factor on each rejected step (at most 10 trials per
-    iteration). Returns the final chi2."""
-    n = dts.shape[0]
-    if n < 1:
-        return 0.0
-    r, chi2, h, g, work = _workspace(n, n_res)
-    n_vars = 4 * n - 3
-    damped = np.empty_like(h)
-    step = np.empty(n_vars)
-    trial_poses, trial_dts = np.empty_like(poses), np.empty_like(dts)
-    chi = evaluate(poses, dts, params, edges, model, True, r, chi2, h, g, work)
-    lam = -1.0
-    nu = 2.0
-    for iteration in range(iterations):
-        if lam < 0.0:
-            lam = 1e-5 * h[0].max()
-        accepted = False
-        for _trial in range(10):
-            damped[:] = h
-            damped[0] += lam
-            if not banded_cholesky(damped):
-                lam *= nu
-                nu *= 2.0
-                continue
-            banded_solve(damped, g, step)
-            step *= -1.0
-            apply_step(poses, dts, step, trial_poses, trial_dts)
-            new_chi = evaluate(trial_poses, trial_dts, params, edges, model, False, r, chi2, h, g, work)
-            gain = 0.0
-            for j in range(n_vars):
-                gain += step[j] * (lam * step[j] - g[j])
-            rho = (chi - new_chi) / (gain + 1e-3)
-            if rho > 0 and math.isfinite(new_chi):
-                lam *= max(1.0 / 3.0, min(1.0 - (2.0 * rho - 1.0) ** 3, 2.0 / 3.0))
-                nu = 2.0
-                poses[:] = trial_poses
-                dts[:] = trial_dts
-                chi = new_chi
-                accepted = True
-                break
-            lam *= nu
-            nu *= 2.0
-        if not accepted or iteration == iterations - 1:
-            break
-        h[:] = 0.0
-        g[:] = 0.0
-        evaluate(poses, dts, params, edges, model, True, r, chi2, h, g, work)
-    return chi
-
-
-# -- obstacle association --------------------------------------------------------------------------
-@njit(cache=True, nogil=True)
-def associate_obstacles(poses, obstacles, model, min_obstacle_dist, force_inclusion_factor, cutoff_factor,
-                        bounding_radius, inscribed_radius, sectors, gap_free_fraction):
-    """Compiled obstacles.associate_obstacles: (pose indices, obstacle indices, gap clearances), pairs
-    ordered by selection (all left picks, all right picks, then force inclusions sector by sector)."""
-    n_int = poses.shape[0] - 2
-    m = obstacles.shape[0]
-    cutoff = min_obstacle_dist * cutoff_factor
-    force_dist = min_obstacle_dist * force_inclusion_factor
-    reach2 = (cutoff + bounding_radius) ** 2
-    keep = np.empty(m, np.int64)
-    n_keep = 0
-    for j in range(m):
-        for i in range(1, n_int + 1):
-            ex, ey = obstacles[j, 0] - poses[i, 0], obstacles[j, 1] - poses[i, 1]
-            if ex * ex + ey * ey <= reach2:
-                keep[n_keep] = j
-                n_keep += 1
-                break
-    picks = 2 + sectors
-    pick = np.full((picks, max(n_int, 0)), -1, np.int64)
-    pick_d = np.full((picks, max(n_int, 0)), np.inf)
-    gap = np.full(max(n_int, 0), np.inf)
-    for row in range(n_int):
-        x, y, th = poses[row + 1, 0], poses[row + 1, 1], poses[row + 1, 2]
-        c, s = math.cos(th), math.sin(th)
-        left, right, left_d, right_d = -1, -1, np.inf, np.inf
-        for kk in range(n_keep):
-            j = keep[kk]
-            ox, oy = obstacles[j, 0], obstacles[j, 1]
-            rx, ry = ox - x, oy - y
-            side = 0 if c * ry - s * rx > 0 else 1
-            # No model point is farther from the pose than the bounding radius: skip the footprint
-            # distance of a point that can beat neither the closest on its side, nor the pick of
-            # its side, nor that of its sector.
-            lower = math.sqrt(rx * rx + ry * ry) - bounding_radius - 1e-9
-            sector = -1
-            if lower < force_dist:
-                sector = 2 + int(math.floor((math.atan2(ry, rx) + math.pi) * (sectors / _TWO_PI))) % sectors
-            if (lower >= (left_d if side == 0 else right_d) and (lower > cutoff or lower >= pick_d[side, row])
-                    and (sector < 0 or lower >= pick_d[sector, row])):
-                continue
-            d = _footprint_distance(x, y, c, s, ox, oy, model)[0]
-            if side == 0 and d < left_d:
-                left, left_d = j, d
-            elif side == 1 and d < right_d:
-                right, right_d = j, d
-            if d < force_dist:
-                slot = sector
-            elif d <= cutoff:
-                slot = side
-            else:
-                continue
-            if d < pick_d[slot, row]:
-                pick[slot, row], pick_d[slot, row] = j, d
-        if left >= 0 and right >= 0:
-            gap[row] = _gap_clearance(c, s, obstacles, keep[:n_keep], left, right, model,
-                                      inscribed_radius, gap_free_fraction)
-    count = 0
-    for slot in range(picks):
-        for row in range(n_int):
-            count += pick[slot, row] >= 0
-    pose_idx, obst_idx, gaps = np.empty(count, np.int64), np.empty(count, np.int64), np.empty(count)
-    k = 0
-    for slot in range(picks):
-        for row in range(n_int):
-            if pick[slot, row] >= 0:
-                pose_idx[k], obst_idx[k], gaps[k] = row + 1, pick[slot, row], gap[row]
-                k += 1
-    return pose_idx, obst_idx, gaps
-
-
-@njit(cache=True, nogil=True)
-def _gap_clearance(c, s, obstacles, keep, left, right, model, inscribed_radius, gap_free_fraction):
-    """The model's distance to the closest obstacles left and right when placed on their midpoint
-    with the pose's heading (cosine c, sine s), if nothing lies nearer to the midpoint than
-    gap_free_fraction of their half distance and they are farther apart than the model is wide;
-    else inf."""
-    ax, ay, bx, by = obstacles[left, 0], obstacles[left, 1], obstacles[right, 0], obstacles[right, 1]
-    mx, my = 0.5 * (ax + bx), 0.5 * (ay + by)
-    half = 0.5 * math.hypot(bx - ax, by - ay)
-    to_mid2 = np.inf
-    for j in keep:
-        ex, ey = obstacles[j, 0] - mx, obstacles[j, 1] - my
-        to_mid2 = min(to_mid2, ex * ex + ey * ey)
-    clearance = min(_footprint_distance(mx, my, c, s, ax, ay, model)[0],
-                    _footprint_distance(mx, my, c, s, bx, by, model)[0])
-    if math.sqrt(to_mid2) >= gap_free_fraction * half and half > inscribed_radius and clearance > 0:
-        return clearance
-    return np.inf

@@ -3,8 +3,9 @@
 from pathlib import Path
 
 from simplebot_navigation.launch.rosparam import ParamServer
+from simplebot_navigation.paths import package_share
 
-CONFIG = Path(__file__).resolve().parents[2] / "config"
+CONFIG = Path(package_share("simplebot_navigation")) / "config"
 
 
 def move_base_tree() -> dict:

@@ -1,0 +1,43 @@
+"""load_world: a world by built-in name or file, in the world format (world.py) or as a map_server
+map (map_import.py). It sits above both so that neither has to import the other."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import yaml
+
+from simplebot_description import builtin_worlds, world_path
+
+from .map_import import world_from_map
+from .world import World, check_clearance, world_from_dict
+
+
+def load_world(name_or_path: str | Path, robot_radius: float = 0.0) -> World:
+    """Load a built-in world by name, a world YAML file, or a map_server map.yaml.
+
+    ``robot_radius`` is the clearance the start and the goals need from every obstacle (pass the
+    robot's inscribed radius, or 0 to check only that they are not inside an obstacle).
+    Raises ValueError naming the file and the entry for anything malformed.
+    """
+    if isinstance(robot_radius, bool) or not isinstance(robot_radius, (int, float)) \
+            or not math.isfinite(robot_radius) or robot_radius < 0:
+        raise ValueError(f"robot_radius must be a finite number >= 0; got {robot_radius!r}")
+    path = Path(name_or_path)
+    if str(name_or_path) in builtin_worlds():
+        path = world_path(str(name_or_path))
+    elif not path.is_file():
+        raise ValueError(
+            f"unknown world {str(name_or_path)!r}: no such file, and not a built-in world "
+            f"({', '.join(builtin_worlds())})")
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as exc:
+        raise ValueError(f"{path.name}: not valid YAML: {exc}") from exc
+    if isinstance(data, dict) and "image" in data:
+        world = world_from_map(data, path)
+    else:
+        world = world_from_dict(data, source=path.name, default_name=path.stem)
+    check_clearance(world, robot_radius)
+    return world

@@ -1,0 +1,128 @@
+"""The package's layering, read from the source with ast: who may import whom, no cycles, small files.
+
+Layers, lowest first; a module may import its own layer and the layers below, never one above:
+  geometry, paths                                   shared math and file locations
+  costmap, planning, teb, sim, move_base            the navigation core: plain Python, no ROS
+  ros                                               the nodes and their ROS shells
+  launch, scenarios, viewer, testing                what a user runs (and what tests and benches share)
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PACKAGE = "simplebot_navigation"
+ROOT = Path(__file__).resolve().parents[1] / PACKAGE
+LAYERS = [
+    {"geometry", "paths", ""},
+    {"costmap", "planning", "teb", "sim", "move_base"},
+    {"ros"},
+    {"launch", "scenarios", "viewer", "testing"},
+]
+CORE = LAYERS[1] | {"geometry"}
+MAX_LINES = 400
+#: upward imports that another branch removes; an entry here is a debt, not a rule
+KNOWN_UPWARD = {("simplebot_navigation.ros.params", "simplebot_navigation.launch.rosparam")}
+
+
+def module_name(path: Path) -> str:
+    parts = list(path.relative_to(ROOT.parent).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def source_files() -> list[Path]:
+    return sorted(ROOT.rglob("*.py"))
+
+
+MODULES = {module_name(p) for p in source_files()}
+
+
+def imports_of(path: Path) -> set[str]:
+    """Every module a file imports, at any depth (function-level imports count too), absolute.
+    `from pkg import module` counts as importing pkg.module, `from pkg import name` as pkg."""
+    name = module_name(path)
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            found.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                anchor = package.split(".")[:len(package.split(".")) - node.level + 1]
+                base = ".".join(anchor + ([base] if base else []))
+            for alias in node.names:
+                found.add(f"{base}.{alias.name}" if f"{base}.{alias.name}" in MODULES else base)
+    return found
+
+
+def internal_graph() -> dict[str, set[str]]:
+    """Module -> the package's modules it imports."""
+    return {module_name(path): {m for m in imports_of(path) if m in MODULES and m != module_name(path)}
+            for path in source_files()}
+
+
+def layer_of(module: str) -> int:
+    sub = module.split(".")[1] if "." in module else ""
+    for level, members in enumerate(LAYERS):
+        if sub in members:
+            return level
+    raise AssertionError(f"{module} is in no layer: add its package to LAYERS in {Path(__file__).name}")
+
+
+def test_every_package_has_a_layer():
+    for name in internal_graph():
+        layer_of(name)
+
+
+def test_core_imports_neither_ros_nor_the_layers_above():
+    offenders = []
+    for path in source_files():
+        name = module_name(path)
+        if name.split(".")[1:2] and name.split(".")[1] in CORE:
+            for target in imports_of(path):
+                top = target.split(".")[0]
+                if top == "rclpy" or target.startswith((f"{PACKAGE}.ros", f"{PACKAGE}.launch")):
+                    offenders.append(f"{name} imports {target}")
+    assert not offenders, "\n".join(offenders)
+
+
+def test_no_module_imports_a_higher_layer():
+    offenders = [f"{name} (layer {layer_of(name)}) imports {target} (layer {layer_of(target)})"
+                 for name, targets in internal_graph().items() for target in sorted(targets)
+                 if layer_of(target) > layer_of(name) and (name, target) not in KNOWN_UPWARD]
+    assert not offenders, "\n".join(offenders)
+
+
+def test_no_import_cycles():
+    graph = internal_graph()
+    state: dict[str, int] = {}      # 1: on the current path, 2: done
+    path: list[str] = []
+    cycles = []
+
+    def visit(module: str) -> None:
+        state[module] = 1
+        path.append(module)
+        for target in sorted(graph[module]):
+            if state.get(target) == 1:
+                cycles.append(" -> ".join(path[path.index(target):] + [target]))
+            elif target not in state:
+                visit(target)
+        path.pop()
+        state[module] = 2
+
+    for module in sorted(graph):
+        if module not in state:
+            visit(module)
+    assert not cycles, "\n".join(cycles)
+
+
+@pytest.mark.parametrize("path", source_files(), ids=lambda p: str(p.relative_to(ROOT)))
+def test_no_file_over_the_line_limit(path):
+    lines = len(path.read_text().splitlines())
+    assert lines <= MAX_LINES, f"{path.relative_to(ROOT.parent)} has {lines} lines; split it by responsibility"
