@@ -25,7 +25,8 @@ from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
 
 from simplebot_navigation.scenarios.runner import run_goal, time_budget
-from simplebot_navigation.scenarios.session import NavigationSession, ProcessSession
+from simplebot_navigation.scenarios.process_session import ProcessSession
+from simplebot_navigation.scenarios.session import NavigationSession
 
 SAMPLE_PERIOD_S = 60.0
 SETTLED_MINUTE = 10

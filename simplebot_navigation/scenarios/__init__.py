@@ -6,7 +6,8 @@
 """
 
 from .runner import GoalResult, ScenarioOptions, parse_goals, run_goal, run_scenarios, time_budget
-from .session import GoalRun, NavigationSession, ProcessSession
+from .process_session import ProcessSession
+from .session import GoalRun, NavigationSession
 
 __all__ = ["GoalResult", "GoalRun", "NavigationSession", "ProcessSession", "ScenarioOptions", "parse_goals", "run_goal",
            "run_scenarios", "time_budget"]

@@ -17,7 +17,8 @@ from simplebot_description import RobotDescription
 from simplebot_navigation.sim.world import Pose2D, World, write_world
 from simplebot_navigation.sim.world_gen import clutter_world
 
-from .session import NavigationSession, ProcessSession
+from .process_session import ProcessSession
+from .session import NavigationSession
 
 BUDGET_SLACK = 2.0        # budget = BUDGET_FIXED_S + BUDGET_SLACK * shortest path / max_vel_x
 BUDGET_FIXED_S = 20.0

@@ -5,7 +5,7 @@ the same parameter files and ``--ros-args`` as ``python -m simplebot_navigation.
 --single-process``; only the simulator's seed and lidar noise are added. With ``rtf == 0`` a
 LockstepDriver steps them (same seed, same run); with ``rtf > 0`` the simulator runs against the
 wall clock and one executor spins everything, so a machine too slow for that factor shows it.
-ProcessSession runs the launcher itself, each node in its own process, at ``rtf > 0``.
+ProcessSession (process_session.py) runs the launcher itself, each node in its own process, at ``rtf > 0``.
 """
 
 from __future__ import annotations
@@ -14,12 +14,6 @@ import abc
 import dataclasses
 import importlib
 import math
-import os
-import re
-import shutil
-import signal
-import subprocess
-import sys
 import tempfile
 import time
 import uuid
@@ -317,96 +311,5 @@ class NavigationSession(_Session):
             if node is not None:
                 node.destroy_node()
         self.nodes, self.client = [], None
-        if self.context.ok():
-            rclpy.shutdown(context=self.context)
-
-
-WRAPPER_LAUNCH = """\
-# Written by the scenario runner: the navigation launch file plus the simulator's seed and noise.
-from simplebot_navigation.launch.description import Include, Param
-
-LAUNCH = [
-    Include(file={launch!r}, args={args!r}),
-    Param("/simulator/seed", {seed!r}),
-    Param("/simulator/range_noise_std", {noise!r}),
-]
-"""
-
-
-class ProcessSession(_Session):
-    """The launcher's processes (``python -m simplebot_navigation.launch``), a client node here.
-
-    Ground truth, collisions and status come over topics; move_base's counters (replans,
-    recoveries, cycle times) are not visible from outside and stay empty. The launcher's output
-    goes to ``log_file``.
-    """
-
-    def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, rtf: float = 1.0,
-                 seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation", tight: bool = False,
-                 respawn: bool = False):
-        if not (math.isfinite(rtf) and rtf > 0):
-            raise ValueError(f"separate processes need rtf > 0 (lockstep is single-process), got {rtf!r}")
-        self.description = robot_description(robot, radius)
-        self.world = load_world(world, robot_radius=self.description.inscribed_radius)
-        args = launch_args(world, robot, radius, rtf, tight, respawn)
-        self.launch = load_launch(launch_file, args)
-        self.run_dir = run_dir = tempfile.mkdtemp(prefix="simplebot_scenario_")
-        wrapper = os.path.join(run_dir, "scenario_launch.py")
-        with open(wrapper, "w", encoding="utf-8") as handle:
-            handle.write(WRAPPER_LAUNCH.format(launch=self.launch.file, args=args, seed=seed,
-                                               noise=float(range_noise)))
-        self.log_file = os.path.join(run_dir, "launch.log")
-        with open(self.log_file, "w", encoding="utf-8") as log:
-            self.process = subprocess.Popen([sys.executable, "-u", "-m", "simplebot_navigation.launch", wrapper],
-                                            stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                                            start_new_session=True)
-        self.context = rclpy.Context()
-        rclpy.init(context=self.context)
-        self.client = ScenarioClient(self.context)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.client)
-
-    @property
-    def time(self) -> float:
-        return self.client.get_clock().now().nanoseconds * 1e-9
-
-    def pose(self) -> Pose2D:
-        if not self.client.truth:
-            return self.world.start
-        _, x, y, yaw = self.client.truth[-1]
-        return Pose2D(x, y, yaw)
-
-    def ready(self) -> bool:
-        if self.process.poll() is not None:
-            raise RuntimeError(f"the launcher ended with exit code {self.process.returncode}; see {self.log_file}")
-        return self.client.action.server_is_ready() and bool(self.client.truth)
-
-    def node_pid(self, name: str) -> int | None:
-        """Process id of a node's latest start, from the launcher's "started /name (...) pid N" line."""
-        with open(self.log_file, encoding="utf-8") as log:
-            found = re.findall(rf"started /{re.escape(name)} \(.*?\) pid (\d+)", log.read())
-        return int(found[-1]) if found else None
-
-    def log_text(self) -> str:
-        with open(self.log_file, encoding="utf-8") as log:
-            return log.read()
-
-    def controller_param(self, name: str, default: float) -> float:
-        move_base = next(n for n in self.launch.nodes if n.name == "move_base")
-        planner = plugin_namespace(str(move_base.parameters.get("base_local_planner", TEB_LOCAL_PLANNER)))
-        return float(move_base.parameters.get(f"{planner}.{name}", default))
-
-    def close(self) -> None:
-        if self.process.poll() is None:
-            os.killpg(self.process.pid, signal.SIGINT)
-            try:
-                self.process.wait(timeout=15)
-            except subprocess.TimeoutExpired:
-                os.killpg(self.process.pid, signal.SIGKILL)
-                self.process.wait()
-        if self.process.returncode == 0:      # otherwise its log stays for the error message to point at
-            shutil.rmtree(self.run_dir, ignore_errors=True)
-        self.executor.shutdown()
-        self.client.destroy_node()
         if self.context.ok():
             rclpy.shutdown(context=self.context)

@@ -16,7 +16,7 @@ from rclpy.parameter_client import AsyncParameterClient
 from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import LaserScan
 
-from simplebot_navigation.scenarios.session import ProcessSession
+from simplebot_navigation.scenarios.process_session import ProcessSession
 from simplebot_navigation.sim.world import Pose2D
 
 pytestmark = pytest.mark.timeout(300)

@@ -9,7 +9,7 @@ import time
 import pytest
 from geometry_msgs.msg import Twist
 
-from simplebot_navigation.scenarios.session import ProcessSession
+from simplebot_navigation.scenarios.process_session import ProcessSession
 from simplebot_navigation.sim.world import Pose2D
 
 
