@@ -11,7 +11,7 @@ import sys
 import time
 
 from actionlib_msgs.msg import GoalID, GoalStatus as ActionlibStatus, GoalStatusArray
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped, Twist
 from nav_msgs.srv import GetPlan
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
@@ -26,11 +26,11 @@ from move_base_msgs.action import MoveBase
 from simplebot_navigation.move_base.config import MoveBaseConfig
 from simplebot_navigation.move_base.cycle_stats import ControlLoopStats
 from simplebot_navigation.move_base.events import MoveBaseEvents
-from simplebot_navigation.move_base.state_machine import MoveBaseCore, State
+from simplebot_navigation.move_base.state_machine import MoveBaseCore
 from simplebot_navigation.ros.conversions import path_msg, pose_to_xyyaw, xyyaw_to_pose
 from simplebot_navigation.ros.costmap_ros import Costmap2DROS
 from simplebot_navigation.ros.move_base_goal import MoveBaseGoal, validate_goal
-from simplebot_navigation.ros.move_base_stats import OUTCOMES, navigation_status
+from simplebot_navigation.ros.move_base_stats import OUTCOMES, control_loop_status, navigation_status
 from simplebot_navigation.ros.move_base_supervision import MoveBaseSupervision
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
 from simplebot_navigation.ros.plugins import GLOBAL_PLANNERS, LOCAL_PLANNERS, RECOVERY_BEHAVIORS, LocalPlannerAdapter

@@ -20,6 +20,7 @@ from rclpy.executors import SingleThreadedExecutor
 
 from simplebot_description import robot_description
 from simplebot_navigation.launch.loader import load_launch
+from simplebot_navigation.move_base.plugins import TEB_LOCAL_PLANNER, plugin_namespace
 from simplebot_navigation.sim.world import Pose2D
 from simplebot_navigation.sim.world_loader import load_world
 

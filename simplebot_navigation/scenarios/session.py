@@ -40,7 +40,7 @@ from simplebot_navigation.launch.nodes import resolve_executable
 from simplebot_navigation.launch.runner import ros_args, write_params_file
 from simplebot_navigation.move_base.cycle_stats import CycleSnapshot
 from simplebot_navigation.move_base.events import MoveBaseStats
-from simplebot_navigation.move_base.plugins import TEB_LOCAL_PLANNER, plugin_namespace
+from simplebot_navigation.move_base.plugins import plugin_namespace
 from simplebot_navigation.ros.conversions import quaternion_msg, yaw_of
 from simplebot_navigation.ros.lockstep import LockstepDriver
 from simplebot_navigation.ros.move_base_node import ACTION_SERVICE_QOS
