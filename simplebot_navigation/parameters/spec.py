@@ -38,7 +38,7 @@ class Status(enum.Enum):
 @dataclass(frozen=True)
 class Param:
     """One parameter: what it is, what it may be, and whether setting it does anything here."""
-    kind: type                    # bool, int, float, str, list or dict
+    kind: type | tuple            # bool, int, float, str, list or dict (or a tuple of them)
     default: Any
     unit: str                     # "m", "m/s", "s", "Hz", "" for flags and names, ...
     doc: str
@@ -104,7 +104,9 @@ _KIND_WORDS = {bool: "true or false", int: "an integer", float: "a number", str:
 
 def _convert(spec: Param, value: Any, where: str) -> Any:
     def bad(extra: str = "") -> ParameterError:
-        return ParameterError(f"{where}: expected {_KIND_WORDS[spec.kind]}{extra}, got {value!r}")
+        kinds = spec.kind if isinstance(spec.kind, tuple) else (spec.kind,)
+        words = " or ".join(_KIND_WORDS[kind] for kind in kinds)
+        return ParameterError(f"{where}: expected {words}{extra}, got {value!r}")
 
     if spec.kind is bool:
         if not isinstance(value, bool):
@@ -125,7 +127,7 @@ def _convert(spec: Param, value: Any, where: str) -> Any:
         return int(value)
     if not isinstance(value, spec.kind):
         raise bad()
-    return copy.deepcopy(value) if spec.kind in (list, dict) else value
+    return copy.deepcopy(value)
 
 
 def param(default: Any, unit: str, doc: str, *, ge: float | None = None, gt: float | None = None,
@@ -138,10 +140,10 @@ def param(default: Any, unit: str, doc: str, *, ge: float | None = None, gt: flo
         status, reason = Status.NOT_IMPLEMENTED, not_implemented
     elif not_for_this_robot:
         status, reason = Status.NOT_FOR_THIS_ROBOT, not_for_this_robot
-    kind = kind or type(default)
+    kind = kind or type(default)     # a tuple of types where several forms are accepted
     spec = Param(kind, default, unit, doc, low=gt if gt is not None else ge, low_open=gt is not None, high=le,
                  choices=tuple(choices), status=status, reason=reason, dynamic=not restart, rounds=rounds)
-    if kind in (list, dict):
+    if isinstance(default, (list, dict)):
         return dataclasses.field(default_factory=lambda: copy.deepcopy(default), metadata={_META: spec})
     return dataclasses.field(default=default, metadata={_META: spec})
 
@@ -151,6 +153,10 @@ def fields_of(cls) -> dict[str, Param]:
     """The parameters of a configuration dataclass, by name, in declaration order."""
     return {f.name: dataclasses.replace(f.metadata[_META], name=f.name)
             for f in dataclasses.fields(cls) if _META in f.metadata}
+
+
+#: where the ROS 2 form of a {name, type} list keeps each entry's type (``<name>.plugin``)
+PLUGIN_TYPE_KEY = "plugin"
 
 
 def unknown_key_warning(where: str, key: Any, known) -> str:

@@ -169,8 +169,8 @@ class MoveBaseNode(Node):
                 default_distance = (self.cfg.conservative_reset_dist if name == "conservative_reset"
                                     else 4.0 * self.local_costmap.circumscribed_radius)
                 recovery = ClearCostmapRecovery(name, params, costmaps, self._clear_costmap, default_distance)
-                for warning in recovery.warnings:
-                    self.get_logger().warn(warning)
+            for warning in recovery.warnings:
+                self.get_logger().warn(warning)
             instances[name] = recovery
             behaviors.append(recovery)
         return behaviors
