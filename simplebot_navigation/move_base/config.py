@@ -46,8 +46,8 @@ class MoveBaseConfig:
     make_plan_add_unreachable_goal: bool = param(True, "", "make_plan appends the goal when only a nearby "
                                                  "pose is reachable", not_implemented="make_plan returns the "
                                                  "path to the reachable pose only")
-    recovery_behaviors: list = param([], "", "recovery behaviours in order, as a list of {name, type}",
-                                     restart=True)
+    recovery_behaviors: list = param(list(DEFAULT_RECOVERY_BEHAVIORS), "", "recovery behaviours in order, as a "
+                                     "list of {name, type} (unset: these, then rotate_recovery again)", restart=True)
     warnings: list[str] = field(default_factory=list)
 
     @classmethod
