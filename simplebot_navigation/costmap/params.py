@@ -53,7 +53,7 @@ class SearchedParams:
 #: keys the costmap reads from enclosing namespaces too (see SearchedParams, ObservationSourceParams)
 SEARCHED_KEYS = tuple(fields_of(SearchedParams)) + ("obstacle_range", "raytrace_range")
 
-_PLUGIN_LIST = Param(list, [], "", "layers in order, as a list of {name, type}", dynamic=False, name="plugins")
+PLUGIN_LIST = Param(list, [], "", "layers in order, as a list of {name, type}", dynamic=False, name="plugins")
 
 
 @dataclass
@@ -174,7 +174,7 @@ def resolve_costmap_params(params: dict, name: str = "costmap", parents=()) -> C
     else:
         namespaces = ["static_layer", "obstacle_layer", "inflation_layer"] + source_names
     parent_keys = {key for keys in _PARENT_KEYS.values() for key in keys}
-    values, warnings = load({**fields_of(CostmapConfig), "plugins": _PLUGIN_LIST}, tree, name,
+    values, warnings = load({**fields_of(CostmapConfig), "plugins": PLUGIN_LIST}, tree, name,
                             also_known=list(SEARCHED_KEYS) + sorted(parent_keys) + namespaces)
     values.pop("plugins", None)
     cfg = CostmapConfig(name=name, **values)

@@ -8,7 +8,7 @@ changes go through both (simplebot_navigation.parameters.overrides).
 
 from __future__ import annotations
 
-from simplebot_navigation.costmap.params import (LAYER_PARAMS, CostmapConfig, ObservationSourceParams,
+from simplebot_navigation.costmap.params import (LAYER_PARAMS, PLUGIN_LIST, CostmapConfig, ObservationSourceParams,
                                                  SearchedParams, resolve_costmap_params)
 from simplebot_navigation.costmap.plugins import layer_kind
 from simplebot_navigation.parameters import PLUGIN_TYPE_KEY, build, fields_of
@@ -36,7 +36,8 @@ def _prefixed(prefix: str, cls) -> ParameterTable:
 
 
 def _costmap_table(name: str, tree: dict) -> ParameterTable:
-    table = {**_prefixed(f"{name}.", CostmapConfig), **_prefixed(f"{name}.", SearchedParams)}
+    table = {**_prefixed(f"{name}.", CostmapConfig), **_prefixed(f"{name}.", SearchedParams),
+             f"{name}.plugins": PLUGIN_LIST}
     cm = tree.get(name) if isinstance(tree.get(name), dict) else {}
     plugins = cm.get("plugins")
     if isinstance(plugins, list):

@@ -15,6 +15,7 @@ from functools import cached_property
 import numpy as np
 
 from simplebot_navigation.costmap.footprint import parse_footprint
+from simplebot_navigation.parameters import Param, ParameterError
 
 MODEL_TYPES = ("point", "circular", "two_circles", "line", "polygon")
 
@@ -91,7 +92,7 @@ class FootprintModel:
         # a list, or the "[[x, y], ...]" string a nested list becomes as a ROS 2 parameter
         vertices = parse_footprint(params["vertices"], "footprint_model/vertices")
         if len(vertices) < 3:
-            raise ValueError(f"footprint_model/vertices: expected a list of at least 3 [x, y] points, "
+            raise ParameterError(f"footprint_model/vertices: expected a list of at least 3 [x, y] points, "
                              f"got {params['vertices']!r}")
         return cls.polygon([tuple(v) for v in vertices])
 
@@ -251,16 +252,16 @@ def _inside_polygon(q: np.ndarray, vertices: np.ndarray) -> np.ndarray:
     return (np.count_nonzero(crosses, axis=1) % 2) == 1
 
 
+#: a radius, an offset or a coordinate of the footprint model
+_LENGTH = Param(float, 0.0, "m", "footprint model dimension")
+
+
 def _number(params: dict, name: str) -> float:
-    v = params[name]
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise ValueError(f"footprint_model/{name}: expected a number, got {v!r}")
-    return float(v)
+    return _LENGTH.check(params[name], f"footprint_model/{name}")
 
 
 def _xy(params: dict, name: str) -> tuple[float, float]:
     v = params[name]
-    if (not isinstance(v, (list, tuple)) or len(v) != 2
-            or any(isinstance(c, bool) or not isinstance(c, (int, float)) for c in v)):
-        raise ValueError(f"footprint_model/{name}: expected [x, y], got {v!r}")
-    return float(v[0]), float(v[1])
+    if not isinstance(v, (list, tuple)) or len(v) != 2:
+        raise ParameterError(f"footprint_model/{name}: expected [x, y], got {v!r}")
+    return _LENGTH.check(v[0], f"footprint_model/{name}[0]"), _LENGTH.check(v[1], f"footprint_model/{name}[1]")
