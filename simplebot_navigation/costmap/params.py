@@ -148,6 +148,17 @@ LAYER_PARAMS = {"ObstacleLayer": ObstacleLayerParams, "InflationLayer": Inflatio
                 "StaticLayer": StaticLayerParams}
 
 
+def parameter_specs(cfg: CostmapConfig) -> dict[str, Param]:
+    """Every parameter of a resolved costmap by ROS 2 name below the costmap (``obstacles.front_laser.topic``)."""
+    specs = {**fields_of(CostmapConfig), **fields_of(SearchedParams), "plugins": PLUGIN_LIST}
+    for plugin in cfg.plugins:
+        specs.update({f"{plugin.name}.{key}": spec for key, spec in fields_of(LAYER_PARAMS[plugin.kind]).items()})
+        for source in plugin.params.get("sources", ()):
+            specs.update({f"{plugin.name}.{source.name}.{key}": spec
+                          for key, spec in fields_of(ObservationSourceParams).items()})
+    return specs
+
+
 def _search(chain: list[tuple[dict, str]], key: str):
     """searchParam: the value of `key` in the nearest namespace of the chain that has it."""
     for values, path in chain:

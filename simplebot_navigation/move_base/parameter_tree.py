@@ -8,9 +8,7 @@ changes go through both (simplebot_navigation.parameters.overrides).
 
 from __future__ import annotations
 
-from simplebot_navigation.costmap.params import (LAYER_PARAMS, PLUGIN_LIST, CostmapConfig, ObservationSourceParams,
-                                                 SearchedParams, resolve_costmap_params)
-from simplebot_navigation.costmap.plugins import layer_kind
+from simplebot_navigation.costmap.params import SearchedParams, parameter_specs, resolve_costmap_params
 from simplebot_navigation.parameters import PLUGIN_TYPE_KEY, build, fields_of
 from simplebot_navigation.parameters.overrides import ParameterTable, apply_overrides
 from simplebot_navigation.planning.config import GlobalPlannerConfig, NavfnParams
@@ -35,31 +33,6 @@ def _prefixed(prefix: str, cls) -> ParameterTable:
     return {f"{prefix}{name}": spec for name, spec in fields_of(cls).items()}
 
 
-def _costmap_table(name: str, tree: dict) -> ParameterTable:
-    table = {**_prefixed(f"{name}.", CostmapConfig), **_prefixed(f"{name}.", SearchedParams),
-             f"{name}.plugins": PLUGIN_LIST}
-    cm = tree.get(name) if isinstance(tree.get(name), dict) else {}
-    plugins = cm.get("plugins")
-    if isinstance(plugins, list):
-        layers = [(p.get("name"), p.get("type")) for p in plugins if isinstance(p, dict)]
-    else:
-        layers = [("obstacle_layer", "costmap_2d::ObstacleLayer"), ("inflation_layer", "costmap_2d::InflationLayer")]
-        if cm.get("static_map") is True:
-            layers.append(("static_layer", "costmap_2d::StaticLayer"))
-    for layer, plugin_type in layers:
-        try:
-            kind = layer_kind(plugin_type, layer)
-        except ValueError:
-            continue                    # check_tree reports it
-        table.update(_prefixed(f"{name}.{layer}.", LAYER_PARAMS[kind]))
-        if kind == "ObstacleLayer":
-            layer_tree = cm.get(layer) if isinstance(cm.get(layer), dict) else {}
-            sources = layer_tree.get("observation_sources", cm.get("observation_sources", ""))
-            for source in sources.split() if isinstance(sources, str) else []:
-                table.update(_prefixed(f"{name}.{layer}.{source}.", ObservationSourceParams))
-    return table
-
-
 def parameter_table(tree: dict) -> ParameterTable:
     """Every parameter the move_base node with this ROS 1 tree reads, by ROS 2 name."""
     table = {**fields_of(MoveBaseConfig), **fields_of(SearchedParams)}
@@ -71,7 +44,8 @@ def parameter_table(tree: dict) -> ParameterTable:
     for behavior in cfg.recovery_behaviors:
         table.update(_prefixed(f"{behavior['name']}.", _RECOVERY_PARAMS[behavior["type"]]))
     for name in COSTMAPS:
-        table.update(_costmap_table(name, tree))
+        costmap = resolve_costmap_params(tree.get(name, {}), name, [("move_base", tree)])
+        table.update({f"{name}.{key}": spec for key, spec in parameter_specs(costmap).items()})
     return table
 
 

@@ -92,6 +92,11 @@ class NavfnParams:
     planner_window_y: float = param(0.0, "m", "planning window height", not_implemented=_UNUSED_IN_ROS1)
 
 
+def parameter_specs(config: GlobalPlannerConfig) -> dict:
+    """The specs of the parameters resolved_parameters gives, by name."""
+    return fields_of(NavfnParams if config.navfn else GlobalPlannerConfig)
+
+
 def resolved_parameters(config: GlobalPlannerConfig) -> dict:
     """The ROS 1 parameters a planner runs with, under the names its type reads them."""
     if config.navfn:

@@ -34,6 +34,7 @@ from simplebot_navigation.costmap.costmap import Costmap, warm_up
 from simplebot_navigation.costmap.costmap_2d import Costmap2D
 from simplebot_navigation.costmap.obstacle_layer import (Observation, ObservationSource, ObstacleLayer,
                                                          laser_scan_to_observation, point_cloud_to_observation)
+from simplebot_navigation.costmap.params import parameter_specs
 from simplebot_navigation.costmap.static_layer import StaticLayer
 from simplebot_navigation.ros.conversions import occupancy_grid_msg, polygon_msg, quaternion_to_yaw
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
@@ -230,7 +231,7 @@ class Costmap2DROS:
         self.config = self.cm.config
         for warning in self.cm.warnings:
             self.logger.warning(warning)
-        declare_defaults(node, self._resolved_tree(given, parents), prefix=name)
+        declare_defaults(node, self._resolved_tree(given, parents), prefix=name, specs=parameter_specs(self.config))
 
         c = self.config
         self.global_frame = c.global_frame

@@ -26,7 +26,7 @@ from rclpy.node import Node
 from simplebot_navigation.costmap.costmap_2d import Costmap2D
 from simplebot_navigation.planning import (GLOBAL_PLANNER, NAVFN, PlanFailure, PlanResult, make_global_planner,
                                            potential_to_occupancy, warm_up)
-from simplebot_navigation.planning.config import resolved_parameters
+from simplebot_navigation.planning.config import parameter_specs, resolved_parameters
 from simplebot_navigation.ros.conversions import occupancy_grid_msg, path_msg, pose_to_xyyaw
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
 from simplebot_navigation.ros.publishers import create_publisher
@@ -81,7 +81,8 @@ class GlobalPlannerROS:
         self.config = self.planner.config
         for warning in self.config.warnings:
             self.logger.warning(warning)
-        declare_defaults(node, resolved_parameters(self.config), prefix=self.name)
+        declare_defaults(node, resolved_parameters(self.config), prefix=self.name,
+                         specs=parameter_specs(self.config))
         warm_up()
         self._last_off_map_warning: dict[PlanFailure, float] = {}
 

@@ -28,6 +28,7 @@ from simplebot_navigation.move_base.config import MoveBaseConfig
 from simplebot_navigation.move_base.cycle_stats import ControlLoopStats
 from simplebot_navigation.move_base.recovery import ClearCostmapRecovery, RotateRecovery
 from simplebot_navigation.move_base.state_machine import MoveBaseCore, State
+from simplebot_navigation.parameters import fields_of
 from simplebot_navigation.ros.conversions import path_msg, pose_to_xyyaw, xyyaw_to_pose
 from simplebot_navigation.ros.costmap_ros import Costmap2DROS
 from simplebot_navigation.ros.global_planner_ros import GlobalPlannerROS
@@ -148,7 +149,7 @@ class MoveBaseNode(Node):
     # -- set-up ---------------------------------------------------------------------------------
     def _declare_own_defaults(self) -> None:
         own = {k: v for k, v in vars(self.cfg).items() if k not in ("warnings", "recovery_behaviors")}
-        declare_defaults(self, own)
+        declare_defaults(self, own, specs=fields_of(MoveBaseConfig))
 
     def _build_recoveries(self) -> list:
         tree = given_parameter_tree(self)
