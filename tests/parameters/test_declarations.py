@@ -83,3 +83,10 @@ def test_describe_gives_doc_unit_range_and_status():
     assert specs["max_vel_x"].describe() == "maximum forward speed [m/s] (> 0)"
     assert "accepted, not for a differential-drive robot" in specs["max_vel_y"].describe()
     assert specs["footprint_model"].describe().endswith("-- requires restart")
+
+
+def test_the_readme_lists_every_parameter_without_effect():
+    from pathlib import Path
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    section = readme[readme.index("## Parameters"):readme.index("## Failure behaviour")]
+    assert [name for _, name in NOT_IMPLEMENTED if f"`{name}`" not in section] == []
