@@ -1,4 +1,4 @@
-"""The ROS 1 parameter tree <-> flat ROS 2 parameters (DESIGN §4).
+"""The ROS 1 parameter tree <-> flat ROS 2 parameters.
 
 Namespaces become dotted names; a list of {name, type} entries (costmap plugins, recovery
 behaviours) becomes the list of names plus ``<name>.plugin``; a nested or empty list becomes its
@@ -36,7 +36,7 @@ def _format_nested_list(value: list) -> str:
 
 
 def to_ros2_overrides(tree: dict, where: str = "") -> dict[str, Any]:
-    """Map a ROS 1 subtree to flat ROS 2 parameters (DESIGN §4)."""
+    """Map a ROS 1 subtree to flat ROS 2 parameters (see the module docstring)."""
     out: dict[str, Any] = {}
 
     def put(name: str, value: Any) -> None:
