@@ -94,3 +94,14 @@ def test_assignments_are_read_as_yaml():
     assert parse_assignment("a.b = true") == ("a.b", True)
     assert parse_assignment("a.b=[[0.2, 0.1], [0, 1]]") == ("a.b", [[0.2, 0.1], [0, 1]])
     assert parse_assignment("a.b=odom") == ("a.b", "odom")
+
+
+@pytest.mark.parametrize("args", [{}, {"tight": "true"}, {"robot": "round"}, {"tight": "true", "robot": "round"}])
+def test_every_shipped_parameter_set_is_known_and_implemented(args):
+    from simplebot_navigation.launch.loader import load_launch
+    from simplebot_navigation.parameters.ros2 import from_ros2_overrides
+
+    move_base = next(node for node in load_launch("navigation", args).nodes if node.name == "move_base")
+    given = {k: v for k, v in move_base.parameters.items() if k != "use_sim_time"}
+    warnings = check_tree(from_ros2_overrides(given))
+    assert [w for w in warnings if "unknown parameter" in w or "no effect" in w] == []
