@@ -190,7 +190,7 @@ def load(specs: dict[str, Param], given: Any, where: str, also_known=()) -> tupl
     return values, warnings
 
 
-def build(cls, given: Any, where: str, also_known=(), **extra) -> tuple[Any, list[str]]:
+def build(cls, given: Any, where: str, also_known=()) -> tuple[Any, list[str]]:
     """An instance of the configuration dataclass ``cls`` from one namespace: (config, warnings)."""
     values, warnings = load(fields_of(cls), given if given is not None else {}, where, also_known)
-    return cls(**values, **extra), warnings
+    return cls(**values), warnings
