@@ -152,6 +152,9 @@ def parameter_specs(cfg: CostmapConfig) -> dict[str, Param]:
     """Every parameter of a resolved costmap by ROS 2 name below the costmap (``obstacles.front_laser.topic``)."""
     specs = {**fields_of(CostmapConfig), **fields_of(SearchedParams), "plugins": PLUGIN_LIST}
     for plugin in cfg.plugins:
+        own = {**fields_of(ObservationSourceParams), **fields_of(LAYER_PARAMS[plugin.kind])}
+        for key in _PARENT_KEYS[plugin.kind]:           # set at the costmap level, copied into the layer
+            specs.setdefault(key, own[key])
         specs.update({f"{plugin.name}.{key}": spec for key, spec in fields_of(LAYER_PARAMS[plugin.kind]).items()})
         for source in plugin.params.get("sources", ()):
             specs.update({f"{plugin.name}.{source.name}.{key}": spec

@@ -87,6 +87,8 @@ def test_the_table_follows_the_tree(lab):
     assert "GlobalPlanner.use_dijkstra" in table and "NavfnROS.visualize_potential" not in table
     assert "aggressive_reset.reset_distance" in table and "rotate_recovery.max_vel_theta" in table
     assert table["TebLocalPlannerROS.max_vel_x"].unit == "m/s"
+    assert table["local_costmap.inflation_radius"] is table["local_costmap.inflation_layer.inflation_radius"]
+    assert table["local_costmap.obstacle_range"].unit == "m"
 
 
 def test_assignments_are_read_as_yaml():
