@@ -9,6 +9,7 @@ from simplebot_navigation.move_base.recovery import (ClearCostmapParams, ClearCo
                                                      RotateRecovery)
 from simplebot_navigation.planning.config import GlobalPlannerConfig, NavfnParams
 from simplebot_navigation.teb.config import TebConfig
+from simplebot_navigation.teb.footprint import FootprintModel, FootprintModelParams
 
 _LASER = {"observation_sources": "scan", "scan": {"data_type": "LaserScan"}}
 
@@ -29,6 +30,7 @@ def _source(given):
 
 LOADERS = {
     TebConfig: lambda given: TebConfig.from_params(given).warnings,
+    FootprintModelParams: lambda given: FootprintModel.from_params(given).warnings,
     GlobalPlannerConfig: lambda given: list(GlobalPlannerConfig.from_params(given).warnings),
     NavfnParams: lambda given: list(GlobalPlannerConfig.from_navfn_params(given).warnings),
     MoveBaseConfig: lambda given: MoveBaseConfig.from_params(given).warnings,
