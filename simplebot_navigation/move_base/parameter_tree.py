@@ -19,6 +19,7 @@ from .config import MoveBaseConfig
 from .recovery import ClearCostmapParams, RotateParams
 
 COSTMAPS = ("global_costmap", "local_costmap")
+_UNSET = object()
 _PLANNER_PARAMS = {"GlobalPlanner": GlobalPlannerConfig, "NavfnROS": NavfnParams, "TebLocalPlannerROS": TebConfig}
 _RECOVERY_PARAMS = {"clear_costmap_recovery/ClearCostmapRecovery": ClearCostmapParams,
                     "rotate_recovery/RotateRecovery": RotateParams}
@@ -69,6 +70,19 @@ def check_tree(tree: dict) -> list[str]:
         warnings += build(_RECOVERY_PARAMS[behavior["type"]], tree.get(behavior["name"]),
                           f"move_base/{behavior['name']}", also_known=[PLUGIN_TYPE_KEY])[1]
     return warnings
+
+
+def describe_parameters(tree: dict) -> list[str]:
+    """One line per parameter, ``name = value  # doc [unit] (range) -- status``, the value given in the tree
+    or else the declared default (for ``--print-params``)."""
+    lines = []
+    for name, spec in sorted(parameter_table(tree).items()):
+        node = tree
+        for part in name.split("."):
+            node = node.get(part, _UNSET) if isinstance(node, dict) else _UNSET
+        value = spec.default if node is _UNSET else node
+        lines.append(f"{name} = {value!r}  # {spec.describe()}")
+    return lines
 
 
 def apply_move_base_overrides(tree: dict, assignments, live: bool = False) -> tuple[dict, list[str]]:
