@@ -45,7 +45,6 @@ class Param:
     low: float | None = None      # lower bound, inclusive unless low_open
     low_open: bool = False
     high: float | None = None     # upper bound, inclusive
-    choices: tuple = ()
     status: Status = Status.IMPLEMENTED
     reason: str = ""              # why it is not implemented, or what is done instead
     dynamic: bool = True          # False: a change needs a restart (frames, plugin lists, model types)
@@ -57,8 +56,6 @@ class Param:
         return self.status is Status.IMPLEMENTED
 
     def range_text(self) -> str:
-        if self.choices:
-            return "one of " + ", ".join(map(str, self.choices))
         lower = "" if self.low is None else f"{'>' if self.low_open else '>='} {self.low:g}"
         if self.high is None:
             return lower
@@ -82,8 +79,6 @@ class Param:
     def check(self, value: Any, where: str) -> Any:
         """The value converted to this parameter's type, or ParameterError naming ``where``."""
         value = _convert(self, value, where)
-        if self.choices and value not in self.choices:
-            raise ParameterError(f"{where}: must be {self.range_text()}, got {value!r}")
         if self.kind in (int, float):
             below = self.low is not None and (value <= self.low if self.low_open else value < self.low)
             above = self.high is not None and value > self.high
@@ -131,7 +126,7 @@ def _convert(spec: Param, value: Any, where: str) -> Any:
 
 
 def param(default: Any, unit: str, doc: str, *, ge: float | None = None, gt: float | None = None,
-          le: float | None = None, choices: tuple = (), not_implemented: str = "", not_for_this_robot: str = "",
+          le: float | None = None, not_implemented: str = "", not_for_this_robot: str = "",
           restart: bool = False, rounds: bool = False, kind: type | None = None) -> Any:
     """A dataclass field that is a parameter. ``not_implemented`` / ``not_for_this_robot`` give the reason
     setting it has no effect here; ``restart`` marks what cannot change while running."""
@@ -142,7 +137,7 @@ def param(default: Any, unit: str, doc: str, *, ge: float | None = None, gt: flo
         status, reason = Status.NOT_FOR_THIS_ROBOT, not_for_this_robot
     kind = kind or type(default)     # a tuple of types where several forms are accepted
     spec = Param(kind, default, unit, doc, low=gt if gt is not None else ge, low_open=gt is not None, high=le,
-                 choices=tuple(choices), status=status, reason=reason, dynamic=not restart, rounds=rounds)
+                 status=status, reason=reason, dynamic=not restart, rounds=rounds)
     if isinstance(default, (list, dict)):
         return dataclasses.field(default_factory=lambda: copy.deepcopy(default), metadata={_META: spec})
     return dataclasses.field(default=default, metadata={_META: spec})
