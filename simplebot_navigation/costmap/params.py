@@ -3,16 +3,18 @@
 Input is the nested dict rosparam builds for one costmap (e.g. the value at /move_base/global_costmap);
 `parents` are the enclosing namespaces as (path, dict) pairs, nearest first (e.g. ("/move_base", {...})),
 for the parameters costmap_2d finds with searchParam (footprint, robot_radius, per-source ranges).
+Every namespace (costmap, layer, observation source) is declared and checked with the parameter layer.
 Nothing is logged here: warnings come back as strings for the ROS shell to log.
 """
 
 from __future__ import annotations
 
 import copy
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from simplebot_navigation.parameters import PLUGIN_TYPE_KEY, Param, ParameterError, fields_of, load, namespace, param
 
 from .footprint import footprint_from_radius, parse_footprint
 from .obstacle_layer import SUPPORTED_DATA_TYPES, ObservationSource
@@ -26,6 +28,7 @@ _PARENT_KEYS = {
     "ObstacleLayer": ("max_obstacle_height", "raytrace_range", "obstacle_range", "track_unknown_space"),
     "InflationLayer": ("cost_scaling_factor", "inflation_radius"),
 }
+_PRE_HYDRO_KEYS = ("static_map", "map_type", "observation_sources")
 
 
 @dataclass
@@ -37,24 +40,46 @@ class PluginConfig:
 
 
 @dataclass
+class SearchedParams:
+    """Found with searchParam: in the costmap's namespace or the nearest parent that has them."""
+    footprint: list = param([], "m", "robot outline [[x, y], ...] in the base frame (or its string form); "
+                            "empty: a circle of robot_radius", kind=(list, str))
+    robot_radius: float = param(0.46, "m", "radius of a round robot, used when footprint is empty", ge=0)
+    footprint_topic: str = param("footprint", "", "topic a new footprint (Polygon) arrives on", restart=True)
+    published_footprint_topic: str = param("footprint", "", "topic the padded footprint is published on",
+                                           restart=True)
+
+
+#: keys the costmap reads from enclosing namespaces too (see SearchedParams, ObservationSourceParams)
+SEARCHED_KEYS = tuple(fields_of(SearchedParams)) + ("obstacle_range", "raytrace_range")
+
+PLUGIN_LIST = Param(list, [], "", "layers in order, as a list of {name, type}", dynamic=False, name="plugins")
+
+
+@dataclass
 class CostmapConfig:
     name: str
-    global_frame: str = "map"
-    robot_base_frame: str = "base_link"
-    rolling_window: bool = False
-    track_unknown_space: bool = False
-    always_send_full_costmap: bool = False
-    transform_tolerance: float = 0.3
-    update_frequency: float = 5.0
-    publish_frequency: float = 0.0
-    width: int = 10
-    height: int = 10
-    resolution: float = 0.05
-    origin_x: float = 0.0
-    origin_y: float = 0.0
+    global_frame: str = param("map", "", "frame the costmap is kept in", restart=True)
+    robot_base_frame: str = param("base_link", "", "the robot's base frame", restart=True)
+    rolling_window: bool = param(False, "", "keep the map centred on the robot", restart=True)
+    track_unknown_space: bool = param(False, "", "the master grid starts unknown instead of free", restart=True)
+    always_send_full_costmap: bool = param(False, "", "publish the whole grid on every publish cycle")
+    transform_tolerance: float = param(0.3, "s", "tolerated age of the robot pose transform", ge=0)
+    update_frequency: float = param(5.0, "Hz", "map update rate (0: never)", ge=0)
+    publish_frequency: float = param(0.0, "Hz", "map publish rate (0: never)", ge=0)
+    width: int = param(10, "m", "map width (an int, rounded like ROS 1)", ge=0, rounds=True)
+    height: int = param(10, "m", "map height (an int, rounded like ROS 1)", ge=0, rounds=True)
+    resolution: float = param(0.05, "m/cell", "cell size", gt=0)
+    origin_x: float = param(0.0, "m", "x of the map's lower left corner in global_frame")
+    origin_y: float = param(0.0, "m", "y of the map's lower left corner in global_frame")
+    footprint_padding: float = param(0.01, "m", "added around the footprint")
+    static_map: bool = param(False, "", "pre-Hydro: add a static layer (used only without plugins)", restart=True)
+    map_type: str = param("costmap", "", "pre-Hydro: costmap or voxel (used only without plugins)", restart=True)
+    observation_sources: str = param("", "", "pre-Hydro: sensor sub-namespaces (used only without plugins)",
+                                     restart=True)
+    # resolved from searchParam (SearchedParams) and the plugin list
     footprint: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))   # unpadded
     robot_radius: float = 0.46
-    footprint_padding: float = 0.01
     footprint_topic: str = "footprint"
     published_footprint_topic: str = "footprint"
     plugins: list[PluginConfig] = field(default_factory=list)
@@ -69,186 +94,186 @@ class CostmapConfig:
         return int(self.height / self.resolution)
 
 
-class _Namespace:
-    """A dict of parameters plus its path, with typed getters that name the key on bad values."""
-
-    def __init__(self, values, path: str):
-        if not isinstance(values, dict):
-            raise ValueError(f"{path}: expected a namespace (mapping), got {values!r}")
-        self.values, self.path = values, path
-
-    def child(self, key: str) -> "_Namespace":
-        return _Namespace(self.values.get(key, {}), f"{self.path}/{key}")
-
-    def has(self, key: str) -> bool:
-        return key in self.values
-
-    def number(self, key: str, default: float) -> float:
-        return _as_number(self.values.get(key, default), f"{self.path}/{key}")
-
-    def integer(self, key: str, default: int) -> int:
-        return _as_int(self.values.get(key, default), f"{self.path}/{key}")
-
-    def boolean(self, key: str, default: bool) -> bool:
-        value = self.values.get(key, default)
-        if not isinstance(value, bool):
-            raise ValueError(f"{self.path}/{key}: expected true or false, got {value!r}")
-        return value
-
-    def string(self, key: str, default: str) -> str:
-        value = self.values.get(key, default)
-        if not isinstance(value, str):
-            raise ValueError(f"{self.path}/{key}: expected a string, got {value!r}")
-        return value
-
-    def frame(self, key: str, default: str) -> str:
-        """Frame ids are accepted with a leading '/' and stored without it, as tf2 does."""
-        return self.string(key, default).lstrip("/")
+@dataclass
+class ObservationSourceParams:
+    """``<layer>/<source>/``: one sensor of an obstacle layer."""
+    topic: str = param("", "", "topic (default: the source's name)", restart=True)
+    sensor_frame: str = param("", "", "frame of the sensor (default: the message's frame)", restart=True)
+    data_type: str = param("PointCloud", "", f"message type: {', '.join(SUPPORTED_DATA_TYPES)}", restart=True)
+    marking: bool = param(True, "", "hits mark obstacles")
+    clearing: bool = param(False, "", "rays clear free space")
+    inf_is_valid: bool = param(False, "", "+inf ranges clear up to range_max")
+    expected_update_rate: float = param(0.0, "s", "longest expected gap between messages (0: any)", ge=0)
+    observation_persistence: float = param(0.0, "s", "how long readings are kept (0: the latest only)", ge=0)
+    min_obstacle_height: float = param(0.0, "m", "hits below are ignored")
+    max_obstacle_height: float = param(2.0, "m", "hits above are ignored")
+    obstacle_range: float = param(2.5, "m", "hits farther than this do not mark (searched upwards)", ge=0)
+    raytrace_range: float = param(3.0, "m", "rays clear up to this range (searched upwards)", ge=0)
 
 
-def _as_number(value, path: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or math.isnan(value):
-        raise ValueError(f"{path}: expected a number, got {value!r}")
-    return float(value)
+@dataclass
+class ObstacleLayerParams:
+    observation_sources: str = param("", "", "space-separated names of the sensor sub-namespaces", restart=True)
+    track_unknown_space: bool = param(False, "", "keep unseen cells unknown (default: the costmap's)",
+                                      restart=True)
+    max_obstacle_height: float = param(2.0, "m", "hits above are ignored")
+    combination_method: int = param(1, "", "0: overwrite the master grid, 1: maximum, other: not combined",
+                                    rounds=True)
+    footprint_clearing_enabled: bool = param(True, "", "clear the cells under the robot")
+    enabled: bool = param(True, "", "the layer takes part in updates")
 
 
-def _as_int(value, path: str) -> int:
-    """ROS 1 reads a double into an int parameter by rounding (fraction < .5 down, else up)."""
-    number = _as_number(value, path)
-    if not math.isfinite(number):
-        raise ValueError(f"{path}: expected a finite number, got {value!r}")
-    return int(math.floor(number) if math.fmod(number, 1.0) < 0.5 else math.ceil(number))
+@dataclass
+class InflationLayerParams:
+    inflation_radius: float = param(0.55, "m", "distance up to which obstacle cost is inflated", ge=0)
+    cost_scaling_factor: float = param(10.0, "1/m", "how fast the inflated cost decays", ge=0)
+    inflate_unknown: bool = param(False, "", "inflate around unknown cells too")
+    enabled: bool = param(True, "", "the layer takes part in updates")
 
 
-def _search(chain: list[_Namespace], key: str):
+@dataclass
+class StaticLayerParams:
+    map_topic: str = param("map", "", "OccupancyGrid topic", restart=True)
+    first_map_only: bool = param(False, "", "keep the first map and ignore later ones")
+    subscribe_to_updates: bool = param(False, "", "apply OccupancyGridUpdate messages", restart=True)
+    track_unknown_space: bool = param(True, "", "unknown map cells stay unknown")
+    use_maximum: bool = param(False, "", "combine by maximum instead of overwriting")
+    lethal_cost_threshold: int = param(100, "", "map values at or above are lethal", rounds=True)
+    unknown_cost_value: int = param(-1, "", "map value that means unknown", rounds=True)
+    trinary_costmap: bool = param(True, "", "map to free/lethal/unknown only")
+    enabled: bool = param(True, "", "the layer takes part in updates")
+
+
+LAYER_PARAMS = {"ObstacleLayer": ObstacleLayerParams, "InflationLayer": InflationLayerParams,
+                "StaticLayer": StaticLayerParams}
+
+
+def parameter_specs(cfg: CostmapConfig) -> dict[str, Param]:
+    """Every parameter of a resolved costmap by ROS 2 name below the costmap (``obstacles.front_laser.topic``)."""
+    specs = {**fields_of(CostmapConfig), **fields_of(SearchedParams), "plugins": PLUGIN_LIST}
+    for plugin in cfg.plugins:
+        own = {**fields_of(ObservationSourceParams), **fields_of(LAYER_PARAMS[plugin.kind])}
+        for key in _PARENT_KEYS[plugin.kind]:           # set at the costmap level, copied into the layer
+            specs.setdefault(key, own[key])
+        specs.update({f"{plugin.name}.{key}": spec for key, spec in fields_of(LAYER_PARAMS[plugin.kind]).items()})
+        for source in plugin.params.get("sources", ()):
+            specs.update({f"{plugin.name}.{source.name}.{key}": spec
+                          for key, spec in fields_of(ObservationSourceParams).items()})
+    return specs
+
+
+def _search(chain: list[tuple[dict, str]], key: str):
     """searchParam: the value of `key` in the nearest namespace of the chain that has it."""
-    for ns in chain:
-        if ns.has(key):
-            return ns.values[key], f"{ns.path}/{key}"
+    for values, path in chain:
+        if key in values:
+            return values[key], f"{path}/{key}"
     return _MISSING, key
 
 
+def _searched(chain, specs: dict[str, Param], key: str):
+    value, path = _search(chain, key)
+    return specs[key].default if value is _MISSING else specs[key].check(value, path)
+
+
 def resolve_costmap_params(params: dict, name: str = "costmap", parents=()) -> CostmapConfig:
-    """Resolved costmap configuration and per-layer parameters; raises ValueError naming the bad key."""
-    tree = copy.deepcopy(params)
-    root = _Namespace(tree, name)
-    parent_chain = [_Namespace(values, path) for path, values in parents]
-    cfg = CostmapConfig(name=name)
-
-    cfg.global_frame = root.frame("global_frame", "map")
-    cfg.robot_base_frame = root.frame("robot_base_frame", "base_link")
-    cfg.rolling_window = root.boolean("rolling_window", False)
-    cfg.track_unknown_space = root.boolean("track_unknown_space", False)
-    cfg.always_send_full_costmap = root.boolean("always_send_full_costmap", False)
-    cfg.transform_tolerance = root.number("transform_tolerance", 0.3)
-    cfg.update_frequency = root.number("update_frequency", 5.0)
-    cfg.publish_frequency = root.number("publish_frequency", 0.0)
-    cfg.width = root.integer("width", 10)
-    cfg.height = root.integer("height", 10)
-    cfg.resolution = root.number("resolution", 0.05)
-    cfg.origin_x = root.number("origin_x", 0.0)
-    cfg.origin_y = root.number("origin_y", 0.0)
-    cfg.footprint_padding = root.number("footprint_padding", 0.01)
-    for key in ("width", "height"):
-        if getattr(cfg, key) < 0:
-            raise ValueError(f"{name}/{key}: must be >= 0 metres, got {getattr(cfg, key)}")
-    if not cfg.resolution > 0:
-        raise ValueError(f"{name}/resolution: must be positive, got {cfg.resolution}")
-    for key in ("update_frequency", "publish_frequency", "transform_tolerance"):
-        if getattr(cfg, key) < 0:
-            raise ValueError(f"{name}/{key}: must be >= 0, got {getattr(cfg, key)}")
-
-    chain = [root] + parent_chain
-    cfg.footprint, cfg.robot_radius = _footprint(chain)
-    topic, path = _search(chain, "footprint_topic")
-    cfg.footprint_topic = "footprint" if topic is _MISSING else _Namespace({"t": topic}, path).string("t", "")
-    topic, path = _search(chain, "published_footprint_topic")
-    cfg.published_footprint_topic = ("footprint" if topic is _MISSING
-                                     else _Namespace({"t": topic}, path).string("t", ""))
-
-    if "plugins" in tree:
+    """Resolved costmap configuration and per-layer parameters; raises ParameterError naming the bad key."""
+    tree = copy.deepcopy(namespace(params, name))
+    chain = [(tree, name)] + [(namespace(values, path), path) for path, values in parents]
+    plugins_given = "plugins" in tree
+    sources = tree.get("observation_sources", "")
+    source_names = sources.split() if isinstance(sources, str) else []
+    if plugins_given:
         plugin_list = _plugin_list(tree["plugins"], f"{name}/plugins")
+        namespaces = [plugin_name for plugin_name, _, _ in plugin_list] + source_names
+    else:
+        namespaces = ["static_layer", "obstacle_layer", "inflation_layer"] + source_names
+    parent_keys = {key for keys in _PARENT_KEYS.values() for key in keys}
+    values, warnings = load({**fields_of(CostmapConfig), "plugins": PLUGIN_LIST}, tree, name,
+                            also_known=list(SEARCHED_KEYS) + sorted(parent_keys) + namespaces)
+    values.pop("plugins", None)
+    cfg = CostmapConfig(name=name, **values)
+    cfg.global_frame = cfg.global_frame.lstrip("/")          # tf2 frame ids have no leading '/'
+    cfg.robot_base_frame = cfg.robot_base_frame.lstrip("/")
+
+    searched = fields_of(SearchedParams)
+    footprint = _searched(chain, searched, "footprint")
+    cfg.footprint = parse_footprint(footprint, _search(chain, "footprint")[1])
+    if len(cfg.footprint):
+        cfg.robot_radius = searched["robot_radius"].default
+    else:
+        cfg.robot_radius = _searched(chain, searched, "robot_radius")
+        cfg.footprint = footprint_from_radius(cfg.robot_radius)
+    cfg.footprint_topic = _searched(chain, searched, "footprint_topic")
+    cfg.published_footprint_topic = _searched(chain, searched, "published_footprint_topic")
+
+    if plugins_given:
         for old in ("static_map", "map_type"):
             if old in tree:
-                cfg.warnings.append(f'{name}: Pre-Hydro parameter "{old}" unused since "plugins" is provided')
+                warnings.append(f'{name}: Pre-Hydro parameter "{old}" unused since "plugins" is provided')
         for plugin_name, plugin_type, kind in plugin_list:
-            target = tree.setdefault(plugin_name, {})
-            _Namespace(target, f"{name}/{plugin_name}")
+            target = namespace(tree.setdefault(plugin_name, {}), f"{name}/{plugin_name}")
             for key in _PARENT_KEYS[kind]:
                 if key in tree:
                     target[key] = copy.deepcopy(tree[key])
         if "observation_sources" in tree:
-            cfg.warnings.append(f'{name}: "observation_sources" at the costmap level is not used when "plugins" '
-                                f'is provided; list the sources under the obstacle layer\'s namespace')
+            warnings.append(f'{name}: "observation_sources" at the costmap level is not used when "plugins" '
+                            f'is provided; list the sources under the obstacle layer\'s namespace')
     else:
-        cfg.warnings.append(f'{name}: Parameter "plugins" not provided, loading pre-Hydro parameters')
-        plugin_list = _convert_pre_hydro(tree, root)
+        warnings.append(f'{name}: Parameter "plugins" not provided, loading pre-Hydro parameters')
+        plugin_list = _convert_pre_hydro(tree, cfg)
 
     for plugin_name, plugin_type, kind in plugin_list:
-        ns = root.child(plugin_name)
+        path = f"{name}/{plugin_name}"
+        layer_tree = namespace(tree.get(plugin_name, {}), path)
         if kind == "ObstacleLayer":
-            params_ = _obstacle_params(ns, cfg, chain)
-            if not params_["sources"]:
-                cfg.warnings.append(f"{ns.path}: no observation_sources, so this layer will never see an obstacle")
-            for source in params_["sources"]:
-                if source.inf_is_valid:
-                    cfg.warnings.append(
-                        f"{ns.path}/{source.name}: inf_is_valid: +inf ranges clear up to range_max but never mark "
-                        f"(ROS 1 marks them at range_max - 1e-4 when obstacle_range reaches that far)")
-        elif kind == "InflationLayer":
-            params_ = _inflation_params(ns)
+            params_ = _obstacle_params(layer_tree, path, cfg, chain, warnings)
         else:
-            params_ = _static_params(ns)
+            layer, layer_warnings = load(fields_of(LAYER_PARAMS[kind]), layer_tree, path, also_known=[PLUGIN_TYPE_KEY])
+            warnings += layer_warnings
+            params_ = {**_defaults(LAYER_PARAMS[kind]), **layer}
         cfg.plugins.append(PluginConfig(plugin_name, plugin_type, kind, params_))
+    cfg.warnings = warnings
     return cfg
 
 
-def _footprint(chain):
-    value, path = _search(chain, "footprint")
-    if value is not _MISSING:
-        footprint = parse_footprint(value, path)
-        if len(footprint):
-            return footprint, 0.46
-    value, path = _search(chain, "robot_radius")
-    radius = 0.46 if value is _MISSING else _as_number(value, path)
-    return footprint_from_radius(radius), radius
+def _defaults(cls) -> dict:
+    return {key: spec.default for key, spec in fields_of(cls).items()}
 
 
 def _plugin_list(value, path: str):
     if not isinstance(value, list):
-        raise ValueError(f"{path}: expected a list of {{name, type}}, got {value!r}")
+        raise ParameterError(f"{path}: expected a list of {{name, type}}, got {value!r}")
     out, names = [], set()
     for i, entry in enumerate(value):
         if not isinstance(entry, dict) or not isinstance(entry.get("name"), str) \
                 or not isinstance(entry.get("type"), str):
-            raise ValueError(f"{path}[{i}]: expected {{name: <string>, type: <string>}}, got {entry!r}")
+            raise ParameterError(f"{path}[{i}]: expected {{name: <string>, type: <string>}}, got {entry!r}")
         if entry["name"] in names:
-            raise ValueError(f"{path}[{i}]: plugin name {entry['name']!r} is used twice")
+            raise ParameterError(f"{path}[{i}]: plugin name {entry['name']!r} is used twice")
         names.add(entry["name"])
         out.append((entry["name"], entry["type"], layer_kind(entry["type"], entry["name"])))
     return out
 
 
-def _convert_pre_hydro(tree: dict, root: _Namespace):
+def _convert_pre_hydro(tree: dict, cfg: CostmapConfig):
     """costmap_2d's loadOldParameters: build the plugin list and move the old keys into the layers."""
     def move(target: str, key: str, delete: bool = True):
         if key in tree:
-            layer = tree.setdefault(target, {})
-            _Namespace(layer, f"{root.path}/{target}")
+            layer = namespace(tree.setdefault(target, {}), f"{cfg.name}/{target}")
             layer[key] = tree.pop(key) if delete else copy.deepcopy(tree[key])
 
     plugins = []
-    if root.boolean("static_map", False):
+    if cfg.static_map:
         plugins.append(("static_layer", "costmap_2d::StaticLayer", "StaticLayer"))
         for key in ("map_topic", "unknown_cost_value", "lethal_cost_threshold"):
             move("static_layer", key)
         move("static_layer", "track_unknown_space", delete=False)
-    if root.string("map_type", "costmap") == "voxel":
+    if cfg.map_type == "voxel":
         layer_kind("costmap_2d::VoxelLayer", "obstacle_layer")      # raises: not supported
     plugins.append(("obstacle_layer", "costmap_2d::ObstacleLayer", "ObstacleLayer"))
     for key in ("max_obstacle_height", "raytrace_range", "obstacle_range", "track_unknown_space"):
         move("obstacle_layer", key)
-    for source in root.string("observation_sources", "").split():
+    for source in cfg.observation_sources.split():
         move("obstacle_layer", source)
     move("obstacle_layer", "observation_sources")
     for key in ("cost_scaling_factor", "inflation_radius"):
@@ -257,58 +282,33 @@ def _convert_pre_hydro(tree: dict, root: _Namespace):
     return plugins
 
 
-def _obstacle_params(ns: _Namespace, cfg: CostmapConfig, chain) -> dict:
+def _obstacle_params(layer_tree: dict, path: str, cfg: CostmapConfig, chain, warnings: list) -> dict:
+    names = layer_tree.get("observation_sources", "")
+    names = names.split() if isinstance(names, str) else []
+    layer, layer_warnings = load(fields_of(ObstacleLayerParams), layer_tree, path,
+                                 also_known=[PLUGIN_TYPE_KEY, "obstacle_range", "raytrace_range"] + names)
+    warnings += layer_warnings
+    params = {**_defaults(ObstacleLayerParams), "track_unknown_space": cfg.track_unknown_space, **layer}
+    source_specs = fields_of(ObservationSourceParams)
     sources = []
-    for source_name in ns.string("observation_sources", "").split():
-        src = ns.child(source_name)
-        data_type = src.string("data_type", "PointCloud")
-        if data_type not in SUPPORTED_DATA_TYPES:
-            hint = " (the default when data_type is not set)" if not src.has("data_type") else ""
-            raise ValueError(f"{src.path}/data_type: {data_type!r}{hint} is not supported; "
-                             f"use one of {', '.join(SUPPORTED_DATA_TYPES)}")
-        ranges = {}
-        for key, default in (("obstacle_range", 2.5), ("raytrace_range", 3.0)):
-            value, path = _search([src, ns] + chain, key)
-            ranges[key] = default if value is _MISSING else _as_number(value, path)
-        sources.append(ObservationSource(
-            name=source_name,
-            topic=src.string("topic", source_name),
-            sensor_frame=src.frame("sensor_frame", ""),
-            data_type=data_type,
-            marking=src.boolean("marking", True),
-            clearing=src.boolean("clearing", False),
-            inf_is_valid=src.boolean("inf_is_valid", False),
-            expected_update_rate=src.number("expected_update_rate", 0.0),
-            observation_persistence=src.number("observation_persistence", 0.0),
-            min_obstacle_height=src.number("min_obstacle_height", 0.0),
-            max_obstacle_height=src.number("max_obstacle_height", 2.0),
-            **ranges))
-    combination = ns.integer("combination_method", 1)
-    return dict(sources=sources,
-                track_unknown_space=ns.boolean("track_unknown_space", cfg.track_unknown_space),
-                max_obstacle_height=ns.number("max_obstacle_height", 2.0),
-                combination_method=combination,
-                footprint_clearing_enabled=ns.boolean("footprint_clearing_enabled", True),
-                enabled=ns.boolean("enabled", True))
-
-
-def _inflation_params(ns: _Namespace) -> dict:
-    params = dict(inflation_radius=ns.number("inflation_radius", 0.55),
-                  cost_scaling_factor=ns.number("cost_scaling_factor", 10.0),
-                  inflate_unknown=ns.boolean("inflate_unknown", False),
-                  enabled=ns.boolean("enabled", True))
-    if params["inflation_radius"] < 0:
-        raise ValueError(f"{ns.path}/inflation_radius: must be >= 0, got {params['inflation_radius']}")
-    return params
-
-
-def _static_params(ns: _Namespace) -> dict:
-    return dict(map_topic=ns.string("map_topic", "map"),
-                first_map_only=ns.boolean("first_map_only", False),
-                subscribe_to_updates=ns.boolean("subscribe_to_updates", False),
-                track_unknown_space=ns.boolean("track_unknown_space", True),
-                use_maximum=ns.boolean("use_maximum", False),
-                lethal_cost_threshold=ns.integer("lethal_cost_threshold", 100),
-                unknown_cost_value=ns.integer("unknown_cost_value", -1),
-                trinary_costmap=ns.boolean("trinary_costmap", True),
-                enabled=ns.boolean("enabled", True))
+    for source_name in params.pop("observation_sources").split():
+        src_path = f"{path}/{source_name}"
+        src_tree = namespace(layer_tree.get(source_name, {}), src_path)
+        given, source_warnings = load(source_specs, src_tree, src_path)
+        warnings += source_warnings
+        src = {**_defaults(ObservationSourceParams), **given}
+        if src["data_type"] not in SUPPORTED_DATA_TYPES:
+            hint = " (the default when data_type is not set)" if "data_type" not in src_tree else ""
+            raise ParameterError(f"{src_path}/data_type: {src['data_type']!r}{hint} is not supported; "
+                                 f"use one of {', '.join(SUPPORTED_DATA_TYPES)}")
+        for key in ("obstacle_range", "raytrace_range"):
+            src[key] = _searched([(src_tree, src_path), (layer_tree, path)] + chain, source_specs, key)
+        src["sensor_frame"] = src["sensor_frame"].lstrip("/")
+        source = ObservationSource(name=source_name, **src)
+        if source.inf_is_valid:
+            warnings.append(f"{src_path}: inf_is_valid: +inf ranges clear up to range_max but never mark "
+                            f"(ROS 1 marks them at range_max - 1e-4 when obstacle_range reaches that far)")
+        sources.append(source)
+    if not sources:
+        warnings.append(f"{path}: no observation_sources, so this layer will never see an obstacle")
+    return {**params, "sources": sources}

@@ -258,6 +258,9 @@ def load_launch(path: str, given_args: dict[str, str] | None = None) -> LaunchCo
             raise LaunchError(str(err)) from None
         if global_use_sim_time is not None:
             overrides.setdefault("use_sim_time", bool(global_use_sim_time))
+        if ctx.subst(node.args).strip():
+            raise LaunchError(f"{ctx.file}: node {full}: args={node.args!r} is not supported: nodes here take "
+                              "parameters, not command-line arguments")
         respawn = ctx.flag(node.respawn, f"node {full}: respawn")
         required = ctx.flag(node.required, f"node {full}: required")
         if respawn and required:

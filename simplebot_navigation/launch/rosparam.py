@@ -2,19 +2,23 @@
 
 roslaunch flattens a loaded YAML dict into leaf parameters, so loading a second
 file into the same namespace merges with (and overrides leaves of) the first;
-lists are leaves. DESIGN §4 gives the mapping to ROS 2 parameter names and types.
+lists are leaves. The mapping to ROS 2 parameter names and types is in parameters/ros2.py.
 """
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import yaml
 
+from simplebot_navigation.parameters import ParameterError
+from simplebot_navigation.parameters.ros2 import from_ros2_overrides, to_ros2_overrides
 
-class ParamError(ValueError):
-    """A parameter file or value that cannot be used; the message names the file and key."""
+__all__ = ["ParamError", "ParamServer", "from_ros2_overrides", "join_ns", "load_yaml_file", "to_ros2_overrides"]
+
+
+#: a parameter file or value that cannot be used; the message names the file and key
+ParamError = ParameterError
 
 
 def join_ns(*parts: str) -> str:
@@ -122,85 +126,3 @@ class ParamServer:
         sub = self.get(prefix, {})
         base = prefix.rstrip("/")
         return list(walk(sub, base)) if isinstance(sub, dict) else [(prefix, sub)]
-
-
-def _array_value(key: str, values: list) -> list:
-    kinds = {type(v) for v in values}
-    if kinds == {bool}:
-        return values
-    if kinds <= {int, float} and bool not in kinds:
-        if kinds == {int}:
-            return values
-        return [float(v) for v in values]
-    if kinds == {str}:
-        return values
-    raise ParamError(f"{key}: a list must hold values of one type (bool, number or string), got "
-                     f"{sorted(k.__name__ for k in kinds)}")
-
-
-def _format_nested_list(value: list) -> str:
-    def fmt(item):
-        if isinstance(item, list):
-            return "[" + ", ".join(fmt(i) for i in item) + "]"
-        return repr(item) if isinstance(item, str) else str(item)
-    return fmt(value)
-
-
-def to_ros2_overrides(tree: dict, where: str = "") -> dict[str, Any]:
-    """Map a ROS 1 subtree to flat ROS 2 parameters (DESIGN §4)."""
-    out: dict[str, Any] = {}
-
-    def put(name: str, value: Any) -> None:
-        if isinstance(value, float) and not math.isfinite(value):
-            raise ParamError(f"{where}{name}: {value} is not a finite number")
-        out[name] = value
-
-    def walk(node: dict, prefix: str) -> None:
-        for key, value in node.items():
-            name = f"{prefix}{key}"
-            if isinstance(value, dict):
-                walk(value, name + ".")
-            elif isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
-                names = []
-                for i, entry in enumerate(value):
-                    if "name" not in entry or "type" not in entry:
-                        raise ParamError(f"{where}{name}[{i}]: plugin entries need 'name' and 'type', got {entry}")
-                    names.append(str(entry["name"]))
-                    for sub_key, sub_value in entry.items():
-                        if sub_key == "name":
-                            continue
-                        put(f"{prefix}{entry['name']}.{'plugin' if sub_key == 'type' else sub_key}", sub_value)
-                put(name, names)
-            elif isinstance(value, list) and (not value or any(isinstance(v, (list, dict)) for v in value)):
-                put(name, _format_nested_list(value))
-            elif isinstance(value, list):
-                put(name, _array_value(f"{where}{name}", value))
-            else:
-                put(name, value)
-
-    walk(tree, "")
-    return out
-
-
-def from_ros2_overrides(params: dict[str, Any]) -> dict:
-    """Rebuild the ROS 1 tree a node was given: dotted names nest, plugin lists come back as [{name, type}]."""
-    tree: dict = {}
-    for name, value in params.items():
-        node = tree
-        parts = name.split(".")
-        for part in parts[:-1]:
-            child = node.get(part)
-            if not isinstance(child, dict):
-                child = node[part] = {}
-            node = child
-        node[parts[-1]] = list(value) if isinstance(value, (list, tuple)) else value
-
-    def restore(node: dict) -> None:
-        for key, value in list(node.items()):
-            if isinstance(value, dict):
-                restore(value)
-            elif (isinstance(value, list) and value and all(isinstance(v, str) for v in value)
-                  and all(isinstance(node.get(v), dict) and "plugin" in node[v] for v in value)):
-                node[key] = [{"name": v, "type": node[v]["plugin"]} for v in value]
-    restore(tree)
-    return tree

@@ -14,6 +14,7 @@ from typing import Callable, Protocol
 import numpy as np
 
 from simplebot_navigation.geometry import normalize_theta
+from simplebot_navigation.parameters import PLUGIN_TYPE_KEY, ParameterError, build, param
 
 
 @dataclass
@@ -32,13 +33,26 @@ class Recovery(Protocol):
     def tick(self, now: float, pose: tuple[float, float, float]) -> RecoveryStep: ...
 
 
-def _param(params: dict, key: str, default, kind):
-    value = params.get(key, default)
-    if kind is float and isinstance(value, int) and not isinstance(value, bool):
-        value = float(value)
-    if not isinstance(value, kind) or (kind is float and not math.isfinite(value)):
-        raise ValueError(f"recovery parameter {key}: expected {kind.__name__}, got {value!r}")
-    return value
+@dataclass
+class ClearCostmapParams:
+    """The ``<name>/`` namespace of a clear_costmap_recovery/ClearCostmapRecovery."""
+    reset_distance: float = param(3.0, "m", "side of the square kept (default: conservative_reset_dist for "
+                                  "conservative_reset, else 4 x the circumscribed radius)", ge=0)
+    invert_area_to_clear: bool = param(False, "", "clear inside the square instead of outside")
+    force_updating: bool = param(False, "", "update the costmap right after clearing")
+    affected_maps: str = param("both", "", "costmaps to clear: local, global or both")
+    layer_names: list = param(None, "", "layers to clear (default: every obstacle-type layer)", kind=list)
+
+
+@dataclass
+class RotateParams:
+    """The ``<name>/`` namespace of a rotate_recovery/RotateRecovery (the speed limits are also read from
+    TrajectoryPlannerROS, as ROS 1 does)."""
+    sim_granularity: float = param(0.017, "rad", "turn between two collision checks", gt=0)
+    acc_lim_theta: float = param(3.2, "rad/s^2", "angular acceleration limit", gt=0)
+    max_vel_theta: float = param(1.0, "rad/s", "maximum turn rate", gt=0)
+    min_in_place_vel_theta: float = param(0.4, "rad/s", "minimum turn rate", ge=0)
+    yaw_goal_tolerance: float = param(0.10, "rad", "turn left over when the circle counts as done", ge=0)
 
 
 class ClearCostmapRecovery:
@@ -51,19 +65,20 @@ class ClearCostmapRecovery:
     def __init__(self, name: str, params: dict, costmaps: dict[str, object],
                  clear: Callable[..., list[str]], default_reset_distance: float):
         self.name = name
-        self.reset_distance = _param(params, "reset_distance", default_reset_distance, float)
-        self.invert_area = _param(params, "invert_area_to_clear", False, bool)
-        self.force_updating = _param(params, "force_updating", False, bool)
-        affected = params.get("affected_maps", "both")
-        self.warnings: list[str] = []
+        p, self.warnings = build(ClearCostmapParams, params, f"move_base/{name}", also_known=[PLUGIN_TYPE_KEY])
+        self.reset_distance = p.reset_distance if "reset_distance" in params else default_reset_distance
+        self.invert_area = p.invert_area_to_clear
+        self.force_updating = p.force_updating
+        affected = p.affected_maps
         if affected not in ("local", "global", "both"):
-            self.warnings.append(f"{name}: affected_maps {affected!r} is not local, global or both; using both")
+            self.warnings.append(f"move_base/{name}/affected_maps: {affected!r} is not local, global or both; "
+                                 "using both")
             affected = "both"
         self.costmaps = [cm for key, cm in costmaps.items() if affected == "both" or key == affected]
-        names = params.get("layer_names")
-        if names is not None and (not isinstance(names, list) or not all(isinstance(n, str) for n in names)):
-            raise ValueError(f"recovery parameter {name}/layer_names: expected a list of layer names, got {names!r}")
-        self.layer_names = names
+        if p.layer_names is not None and not all(isinstance(n, str) for n in p.layer_names):
+            raise ParameterError(f"move_base/{name}/layer_names: expected a list of layer names, "
+                                 f"got {p.layer_names!r}")
+        self.layer_names = p.layer_names
         self._clear = clear
         self.cleared: list[str] = []
 
@@ -88,11 +103,12 @@ class RotateRecovery:
 
     def __init__(self, name: str, params: dict, footprint_free: Callable[[np.ndarray], bool]):
         self.name = name
-        self.sim_granularity = _param(params, "sim_granularity", 0.017, float)
-        self.acc_lim_theta = _param(params, "acc_lim_theta", 3.2, float)
-        self.max_vel_theta = _param(params, "max_vel_theta", 1.0, float)
-        self.min_in_place_vel_theta = _param(params, "min_in_place_vel_theta", 0.4, float)
-        self.yaw_goal_tolerance = _param(params, "yaw_goal_tolerance", 0.10, float)
+        p, self.warnings = build(RotateParams, params, f"move_base/{name}", also_known=[PLUGIN_TYPE_KEY])
+        self.sim_granularity = p.sim_granularity
+        self.acc_lim_theta = p.acc_lim_theta
+        self.max_vel_theta = p.max_vel_theta
+        self.min_in_place_vel_theta = p.min_in_place_vel_theta
+        self.yaw_goal_tolerance = p.yaw_goal_tolerance
         self._free = footprint_free
         self._start_yaw = 0.0
         self._turned = 0.0

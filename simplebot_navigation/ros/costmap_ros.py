@@ -22,6 +22,7 @@ from rclpy.time import Time
 
 from simplebot_navigation.costmap.costmap import Costmap
 from simplebot_navigation.costmap.costmap_2d import Costmap2D
+from simplebot_navigation.costmap.params import parameter_specs
 from simplebot_navigation.ros.conversions import yaw_of
 from simplebot_navigation.ros.costmap_input import CostmapInput, stamp_seconds
 from simplebot_navigation.ros.costmap_log import Throttle, prepare_process, speaking_for
@@ -61,7 +62,7 @@ class Costmap2DROS:
         self.config = self.cm.config
         for warning in self.cm.warnings:
             self.logger.warning(warning)
-        declare_defaults(node, self._resolved_tree(given, parents), prefix=name)
+        declare_defaults(node, self._resolved_tree(given, parents), prefix=name, specs=parameter_specs(self.config))
 
         c = self.config
         self.global_frame = c.global_frame

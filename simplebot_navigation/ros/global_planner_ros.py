@@ -25,8 +25,9 @@ from rclpy.node import Node
 
 from simplebot_navigation.costmap.costmap_2d import Costmap2D
 from simplebot_navigation.move_base.plugins import plugin_namespace
-from simplebot_navigation.planning import (GlobalPlannerConfig, PlanFailure, PlanResult, make_global_planner,
+from simplebot_navigation.planning import (PlanFailure, PlanResult, make_global_planner,
                                            potential_to_occupancy, warm_up)
+from simplebot_navigation.planning.config import parameter_specs, resolved_parameters
 from simplebot_navigation.ros.conversions import occupancy_grid_msg, path_msg, pose_to_xyyaw
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
 from simplebot_navigation.ros.publishers import create_publisher
@@ -35,23 +36,6 @@ from simplebot_navigation.ros.tf import strip_frame
 #: ROS 1 warns about a start or goal off the costmap at most once a second
 OFF_MAP_WARNING_PERIOD_S = 1.0
 _OFF_MAP = (PlanFailure.START_OFF_MAP, PlanFailure.GOAL_OFF_MAP)
-
-
-def resolved_parameters(config: GlobalPlannerConfig) -> dict:
-    """The ROS 1 parameters a planner runs with, under the names its type reads them."""
-    if config.navfn:
-        return {"allow_unknown": config.allow_unknown, "default_tolerance": config.default_tolerance,
-                "visualize_potential": config.publish_potential,
-                "planner_window_x": config.planner_window_x, "planner_window_y": config.planner_window_y}
-    return {"use_dijkstra": config.use_dijkstra, "use_quadratic": config.use_quadratic,
-            "use_grid_path": config.use_grid_path, "allow_unknown": config.allow_unknown,
-            "lethal_cost": config.lethal_cost, "neutral_cost": config.neutral_cost,
-            "cost_factor": config.cost_factor, "orientation_mode": int(config.orientation_mode),
-            "orientation_window_size": config.orientation_window_size,
-            "outline_map": config.outline_map, "publish_potential": config.publish_potential,
-            "publish_scale": config.publish_scale, "default_tolerance": config.default_tolerance,
-            "old_navfn_behavior": config.old_navfn_behavior,
-            "planner_window_x": config.planner_window_x, "planner_window_y": config.planner_window_y}
 
 
 def potential_grid_msg(potential: np.ndarray, publish_scale: int, resolution: float, origin_x: float,
@@ -85,7 +69,10 @@ class GlobalPlannerROS:
         self.logger = node.get_logger()
         self.planner = make_global_planner(plugin_type, given_parameter_tree(node, self.name))
         self.config = self.planner.config
-        declare_defaults(node, resolved_parameters(self.config), prefix=self.name)
+        for warning in self.config.warnings:
+            self.logger.warning(warning)
+        declare_defaults(node, resolved_parameters(self.config), prefix=self.name,
+                         specs=parameter_specs(self.config))
         warm_up()
         self._last_off_map_warning: dict[PlanFailure, float] = {}
 

@@ -27,6 +27,7 @@ from simplebot_navigation.move_base.config import MoveBaseConfig
 from simplebot_navigation.move_base.cycle_stats import ControlLoopStats
 from simplebot_navigation.move_base.events import MoveBaseEvents
 from simplebot_navigation.move_base.state_machine import MoveBaseCore
+from simplebot_navigation.parameters import fields_of
 from simplebot_navigation.ros.conversions import path_msg, pose_to_xyyaw, xyyaw_to_pose
 from simplebot_navigation.ros.costmap_ros import Costmap2DROS
 from simplebot_navigation.ros.move_base_goal import MoveBaseGoal, validate_goal
@@ -128,7 +129,7 @@ class MoveBaseNode(MoveBaseSupervision, Node):
     # -- set-up ---------------------------------------------------------------------------------
     def _declare_own_defaults(self) -> None:
         own = {k: v for k, v in vars(self.cfg).items() if k not in ("warnings", "recovery_behaviors")}
-        declare_defaults(self, own)
+        declare_defaults(self, own, specs=fields_of(MoveBaseConfig))
 
     def _build_recoveries(self) -> list:
         """One instance per behaviour name (a name listed twice runs the same instance twice)."""
@@ -139,6 +140,8 @@ class MoveBaseNode(MoveBaseSupervision, Node):
             if name not in instances:
                 params = tree.get(name) if isinstance(tree.get(name), dict) else {}
                 instances[name] = RECOVERY_BEHAVIORS.resolve(entry["type"])(self, name, params)
+                for warning in instances[name].warnings:
+                    self.get_logger().warn(warning)
             behaviors.append(instances[name])
         return behaviors
 

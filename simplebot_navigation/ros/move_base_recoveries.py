@@ -32,10 +32,7 @@ def clear_costmap_recovery(node, name: str, params: dict) -> ClearCostmapRecover
     default_distance = (node.cfg.conservative_reset_dist if name == "conservative_reset"
                         else 4.0 * node.local_costmap.circumscribed_radius)
     costmaps = {"global": node.global_costmap, "local": node.local_costmap}
-    recovery = ClearCostmapRecovery(name, params, costmaps, clear_costmap, default_distance)
-    for warning in recovery.warnings:
-        node.get_logger().warn(warning)
-    return recovery
+    return ClearCostmapRecovery(name, params, costmaps, clear_costmap, default_distance)
 
 
 def clear_costmap(costmap_ros, x, y, reset_distance, layer_names, invert, force_updating) -> list[str]:

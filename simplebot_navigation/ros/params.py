@@ -3,20 +3,23 @@
 Nodes are created with ``automatically_declare_parameters_from_overrides``, so
 what the launcher gave them is declared with the given types; the pure modules
 resolve defaults on the ROS 1 tree, and ``declare_defaults`` then declares the
-rest with their ROS 1 defaults so that ``ros2 param list`` tells the truth.
+rest with their ROS 1 defaults, each with the description and range of its spec,
+so that ``ros2 param list`` and ``ros2 param describe`` tell the truth.
 """
 
 from __future__ import annotations
 
-import math
+import sys
 from typing import Any
 
-from rcl_interfaces.msg import ParameterDescriptor
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.node import Node
 
-from simplebot_navigation.launch.rosparam import from_ros2_overrides, to_ros2_overrides
+from simplebot_navigation.parameters import Param
+from simplebot_navigation.parameters.ros2 import from_ros2_overrides, to_ros2_overrides
 
 _NODE_LEVEL = {"use_sim_time", "start_type_description_service"}
+_INT64 = 2 ** 63 - 1
 
 
 def given_parameter_tree(node: Node, prefix: str = "") -> dict:
@@ -26,28 +29,45 @@ def given_parameter_tree(node: Node, prefix: str = "") -> dict:
     return from_ros2_overrides(values)
 
 
-def declare_defaults(node: Node, defaults: dict[str, Any], prefix: str = "") -> None:
-    """Declare every leaf of a resolved ROS 1 tree that the node does not have yet."""
+def descriptor(spec: Param | None) -> ParameterDescriptor:
+    """The description and range of a declared parameter (ROS 2 ranges are closed: '> 0' shows as from 0;
+    the parameter layer still rejects 0)."""
+    if spec is None:
+        return ParameterDescriptor()
+    out = ParameterDescriptor(description=spec.describe(), read_only=False)
+    if spec.low is None and spec.high is None:
+        return out
+    if spec.kind is float:
+        big = sys.float_info.max
+        out.floating_point_range = [FloatingPointRange(
+            from_value=-big if spec.low is None else float(spec.low),
+            to_value=big if spec.high is None else float(spec.high), step=0.0)]
+    elif spec.kind is int:
+        out.integer_range = [IntegerRange(from_value=-_INT64 if spec.low is None else int(spec.low),
+                                          to_value=_INT64 if spec.high is None else int(spec.high), step=1)]
+    return out
+
+
+def declare_defaults(node: Node, defaults: dict[str, Any], prefix: str = "",
+                     specs: dict[str, Param] | None = None) -> None:
+    """Declare every leaf of a resolved ROS 1 tree that the node does not have yet; ``specs`` (by the
+    leaf's dotted name below prefix) give the descriptions and ranges."""
     flat = to_ros2_overrides(defaults, where=node.get_fully_qualified_name() + "/")
     for name, value in flat.items():
         full = f"{prefix}.{name}" if prefix else name
         if not node.has_parameter(full) and value is not None:
-            node.declare_parameter(full, value)
+            node.declare_parameter(full, value, descriptor((specs or {}).get(name)))
 
 
 def declare_checked(node: Node, defaults: dict[str, Any], label: str = "parameter",
                     positive: tuple[str, ...] = ()) -> dict[str, Any]:
-    """Declare a node's own parameters and check their types (an int where a float is expected is fine),
-    before anything else is built; names in ``positive`` must be finite rates > 0 (Hz)."""
+    """Declare a node's own parameters and check them with the parameter layer's rules (the default's
+    type, an int where a float is expected is fine, no NaN or inf), before anything else is built;
+    names in ``positive`` are rates in Hz that must be > 0."""
     values = {}
     for name, default in defaults.items():
         value = node.declare_parameter(name, default, ParameterDescriptor(dynamic_typing=True)).value
-        if isinstance(default, float) and isinstance(value, int) and not isinstance(value, bool):
-            value = float(value)
-        if type(value) is not type(default):
-            raise ValueError(f"{label} {name!r} must be a {type(default).__name__}, got {value!r}")
-        values[name] = value
-    for name in positive:
-        if not (math.isfinite(values[name]) and values[name] > 0):
-            raise ValueError(f"{label} {name!r} must be a positive number of Hz, got {values[name]!r}")
+        rate = name in positive
+        spec = Param(type(default), default, "Hz" if rate else "", name, low=0.0 if rate else None, low_open=rate)
+        values[name] = spec.check(value, f"{label} {name!r}")
     return values

@@ -10,11 +10,13 @@ dd/dp = -R(theta) dd/dq and dd/dtheta = dd/dq . (q_y, -q_x).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 
 from simplebot_navigation.costmap.footprint import parse_footprint
+from simplebot_navigation.parameters import Param, ParameterError, fields_of, load, param
 
 MODEL_TYPES = ("point", "circular", "two_circles", "line", "polygon")
 
@@ -58,41 +60,40 @@ class FootprintModel:
     def from_params(cls, params: dict | None) -> "FootprintModel":
         """The ``footprint_model`` sub-namespace. Missing or unknown type, or missing
         parameters of a known type, fall back to ``point`` with a warning, as TEB does;
-        present but malformed values raise ValueError naming the parameter."""
-        params = params or {}
-        kind = params.get("type")
+        present but malformed values raise ParameterError naming the parameter."""
+        given, warnings = load(fields_of(FootprintModelParams), params or {}, "footprint_model")
+        model = cls._from_checked(given)
+        model.warnings = warnings + model.warnings
+        return model
+
+    @classmethod
+    def _from_checked(cls, given: dict) -> "FootprintModel":
+        kind = given.get("type")
         if kind is None:
             return cls.point(["footprint_model/type not specified: using the point model "
                               "(min_obstacle_dist must include the robot radius)"])
-        if not isinstance(kind, str) or kind not in MODEL_TYPES:
+        if kind not in MODEL_TYPES:
             return cls.point([f"footprint_model/type {kind!r} is not one of {', '.join(MODEL_TYPES)}: "
+                              "using the point model"])
+        needs = {"point": (), "circular": ("radius",), "line": ("line_start", "line_end"), "polygon": ("vertices",),
+                 "two_circles": ("front_offset", "front_radius", "rear_offset", "rear_radius")}[kind]
+        missing = [name for name in needs if name not in given]
+        if missing:
+            return cls.point([f"footprint_model/{', '.join(missing)} missing for type '{kind}': "
                               "using the point model"])
         if kind == "point":
             return cls.point()
         if kind == "circular":
-            if "radius" not in params:
-                return cls.point(["footprint_model/radius missing for type 'circular': using the point model"])
-            return cls.circular(_number(params, "radius"))
+            return cls.circular(given["radius"])
         if kind == "two_circles":
-            names = ("front_offset", "front_radius", "rear_offset", "rear_radius")
-            missing = [n for n in names if n not in params]
-            if missing:
-                return cls.point([f"footprint_model/{', '.join(missing)} missing for type 'two_circles': "
-                                  "using the point model"])
-            return cls.two_circles(*(_number(params, n) for n in names))
+            return cls.two_circles(*(given[name] for name in needs))
         if kind == "line":
-            missing = [n for n in ("line_start", "line_end") if n not in params]
-            if missing:
-                return cls.point([f"footprint_model/{', '.join(missing)} missing for type 'line': "
-                                  "using the point model"])
-            return cls.line(_xy(params, "line_start"), _xy(params, "line_end"))
-        if "vertices" not in params:
-            return cls.point(["footprint_model/vertices missing for type 'polygon': using the point model"])
+            return cls.line(_xy(given, "line_start"), _xy(given, "line_end"))
         # a list, or the "[[x, y], ...]" string a nested list becomes as a ROS 2 parameter
-        vertices = parse_footprint(params["vertices"], "footprint_model/vertices")
+        vertices = parse_footprint(given["vertices"], "footprint_model/vertices")
         if len(vertices) < 3:
-            raise ValueError(f"footprint_model/vertices: expected a list of at least 3 [x, y] points, "
-                             f"got {params['vertices']!r}")
+            raise ParameterError(f"footprint_model/vertices: expected a list of at least 3 [x, y] points, "
+                                 f"got {given['vertices']!r}")
         return cls.polygon([tuple(v) for v in vertices])
 
     # -- geometry -----------------------------------------------------------------------
@@ -251,16 +252,28 @@ def _inside_polygon(q: np.ndarray, vertices: np.ndarray) -> np.ndarray:
     return (np.count_nonzero(crosses, axis=1) % 2) == 1
 
 
-def _number(params: dict, name: str) -> float:
-    v = params[name]
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise ValueError(f"footprint_model/{name}: expected a number, got {v!r}")
-    return float(v)
+@dataclass
+class FootprintModelParams:
+    """``TebLocalPlannerROS/footprint_model``: the shape the optimiser keeps away from obstacles."""
+    type: str = param("point", "", f"model type: {', '.join(MODEL_TYPES)}", restart=True)
+    radius: float = param(0.0, "m", "radius (circular)", ge=0)
+    front_offset: float = param(0.0, "m", "front circle centre ahead of the base (two_circles)")
+    front_radius: float = param(0.0, "m", "front circle radius (two_circles)", ge=0)
+    rear_offset: float = param(0.0, "m", "rear circle centre behind the base (two_circles)")
+    rear_radius: float = param(0.0, "m", "rear circle radius (two_circles)", ge=0)
+    line_start: list = param([], "m", "[x, y] where the segment starts (line)")
+    line_end: list = param([], "m", "[x, y] where the segment ends (line)")
+    vertices: list = param([], "m", "[[x, y], ...] in the base frame, or its string form (polygon)",
+                           kind=(list, str))
 
 
-def _xy(params: dict, name: str) -> tuple[float, float]:
-    v = params[name]
-    if (not isinstance(v, (list, tuple)) or len(v) != 2
-            or any(isinstance(c, bool) or not isinstance(c, (int, float)) for c in v)):
-        raise ValueError(f"footprint_model/{name}: expected [x, y], got {v!r}")
-    return float(v[0]), float(v[1])
+#: a coordinate of a line model
+_COORDINATE = Param(float, 0.0, "m", "footprint model coordinate")
+
+
+def _xy(given: dict, name: str) -> tuple[float, float]:
+    v = given[name]
+    if len(v) != 2:
+        raise ParameterError(f"footprint_model/{name}: expected [x, y], got {v!r}")
+    return (_COORDINATE.check(v[0], f"footprint_model/{name}[0]"),
+            _COORDINATE.check(v[1], f"footprint_model/{name}[1]"))

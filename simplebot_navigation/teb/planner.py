@@ -23,19 +23,6 @@ GOAL_ORIENTATION_AVERAGE = 3
 #: followed band is always optimised; the rest of the period is for the costmap and the shell).
 CYCLE_BUDGET_FRACTION = 0.5
 
-#: Parameters whose feature this diff-drive port leaves out: (name, value that means "off", effect).
-UNSUPPORTED = (
-    ("min_turning_radius", 0.0, "car-like kinematics are not modelled (diff-drive edges are used)"),
-    ("max_vel_y", 0.0, "holonomic velocity edges are not modelled (vy stays 0)"),
-    ("cmd_angle_instead_rotvel", False, "the command is always (v, omega)"),
-    ("exact_arc_length", False, "velocities use the chord length"),
-    ("legacy_obstacle_association", False, "the left/right closest association is used"),
-    ("include_dynamic_obstacles", False, "dynamic obstacles are not modelled"),
-    ("costmap_converter_plugin", "", "costmap cells are used as point obstacles"),
-    ("weight_shortest_path", 0.0, "the shortest-path edge is not added"),
-    ("weight_velocity_obstacle_ratio", 0.0, "the velocity-obstacle-ratio edge is not added"),
-)
-
 
 @dataclass
 class VelocityCommandResult:
@@ -66,8 +53,6 @@ class TebLocalPlanner:
                 f"footprint model inscribed radius ({self.model.inscribed_radius:.3f}) + min_obstacle_dist "
                 f"({config.min_obstacle_dist:.3f}) is smaller than the costmap footprint's inscribed radius "
                 f"({self.costmap_inscribed_radius:.3f}): the optimiser may plan into the inflated zone")
-        self.warnings += [f"TebLocalPlannerROS/{name} = {getattr(config, name)!r} is not supported here: {why}"
-                          for name, unset, why in UNSUPPORTED if getattr(config, name) != unset]
         self.controller_period = float(controller_period)
         self.planner = HomotopyClassPlanner(config, self.model)
         self.global_plan = np.zeros((0, 3))

@@ -56,9 +56,10 @@ def test_width_is_an_int_parameter_rounded_like_ros1(width, cells):
 
 
 @pytest.mark.parametrize("key, value, message", [
-    ("width", "abc", "c/width: expected a number"),
+    ("width", "abc", "c/width: expected an integer, got 'abc'"),
+    ("origin_x", float("nan"), "c/origin_x: expected a number \\(finite\\), got nan"),
     ("rolling_window", "yes", "c/rolling_window: expected true or false"),
-    ("resolution", 0.0, "c/resolution: must be positive"),
+    ("resolution", 0.0, "c/resolution: must be > 0, got 0.0"),
     ("footprint", [[1, 2], [3, 4]], "c/footprint: a footprint needs at least three points"),
     ("plugins", "obstacles", "c/plugins: expected a list"),
 ])

@@ -269,6 +269,7 @@ def test_navigation_respawns_its_nodes_unless_told_not_to():
     ('respawn=True, respawn_delay="soon"', "node /n: respawn_delay 'soon' must be a number of seconds >= 0"),
     ('respawn=True, respawn_delay=-1', "node /n: respawn_delay '-1' must be a number of seconds >= 0"),
     ('respawn=True, required=True', "node /n: respawn and required cannot both be set"),
+    ('args="--verbose"', "node /n: args='--verbose' is not supported: nodes here take parameters"),
 ])
 def test_bad_respawn_attributes_are_named(tmp_path, attributes, message):
     launch = write_launch(tmp_path, f"""

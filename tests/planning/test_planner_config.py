@@ -41,7 +41,7 @@ def test_values_are_converted():
     ({"default_tolerance": -0.5}, "default_tolerance"),
     ({"default_tolerance": float("inf")}, "default_tolerance"),
     ({"publish_scale": 200}, "publish_scale"),
-    ({"use_dijstra": False}, "use_dijstra"),
+    ({"cost_factor": float("nan")}, "cost_factor"),
 ])
 def test_bad_parameters_name_the_parameter(params, name):
     with pytest.raises(ValueError, match=name):
@@ -54,5 +54,13 @@ def test_navfn_parameters():
     assert cfg.navfn and not cfg.allow_unknown and cfg.default_tolerance == 0.5
     assert cfg.publish_potential and cfg.orientation_mode is OrientationMode.NONE
     assert GlobalPlannerConfig.from_navfn_params({}).publish_potential is False
-    with pytest.raises(ValueError, match="orientation_mode"):
-        GlobalPlannerConfig.from_navfn_params({"orientation_mode": 1})
+    # navfn has no orientation filter: the key is ignored, as ROS 1 would, and named once
+    cfg = GlobalPlannerConfig.from_navfn_params({"orientation_mode": 1})
+    assert cfg.orientation_mode is OrientationMode.NONE
+    assert cfg.warnings == ("NavfnROS: unknown parameter 'orientation_mode' ignored",)
+
+
+def test_a_misspelt_key_is_ignored_with_a_warning_naming_the_closest_key():
+    cfg = GlobalPlannerConfig.from_params({"use_dijstra": False})
+    assert cfg.use_dijkstra is True
+    assert cfg.warnings == ("GlobalPlanner: unknown parameter 'use_dijstra' ignored (did you mean 'use_dijkstra'?)",)

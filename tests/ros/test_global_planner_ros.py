@@ -205,6 +205,16 @@ def test_parameters_are_declared_with_ros1_defaults_and_the_override(ros):
     assert GlobalPlannerConfig.from_params(declared) == ros.planner.config
 
 
+def test_declared_defaults_carry_the_description_and_range_of_their_spec(ros):
+    cost_factor = ros.node.describe_parameter("GlobalPlanner.cost_factor")
+    assert cost_factor.description.startswith("factor applied to each costmap cost")
+    assert [(r.from_value, r.to_value) for r in cost_factor.floating_point_range] == [(0.01, 5.0)]
+    lethal = ros.node.describe_parameter("GlobalPlanner.lethal_cost")
+    assert [(r.from_value, r.to_value) for r in lethal.integer_range] == [(1, 255)]
+    window = ros.node.describe_parameter("GlobalPlanner.planner_window_x").description
+    assert "accepted, not implemented" in window
+
+
 def test_get_plan_honours_the_tolerance_for_a_goal_inside_the_wall(ros):
     goal = (0.05, -4.9, 0.0)                 # wall cell (75, 50)
     assert len(ros.call(goal, START, tolerance=0.0).poses) == 0

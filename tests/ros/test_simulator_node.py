@@ -337,7 +337,9 @@ def test_the_simulator_does_not_follow_its_own_clock(context):
     ("world", "atlantis", r"'world'.*'atlantis'.*clutter, doors, empty, lab"),
     ("robot", "tank", r"robot body must be one of box, round; got 'tank'"),
     ("real_time_factor", -1.0, r"'real_time_factor' must be >= 0"),
-    ("physics_rate", "fast", r"'physics_rate' must be a float, got 'fast'"),
+    ("physics_rate", "fast", r"'physics_rate': expected a number, got 'fast'"),
+    ("real_time_factor", float("nan"), r"'real_time_factor': expected a number \(finite\), got nan"),
+    ("physics_rate", 0.0, r"'physics_rate': must be > 0, got 0.0"),
 ])
 def test_bad_parameters_fail_with_a_clear_message(context, name, value, message):
     with pytest.raises(ValueError, match=message):

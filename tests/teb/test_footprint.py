@@ -69,6 +69,8 @@ def test_missing_or_invalid_model_falls_back_to_point_with_a_warning(params):
 
 @pytest.mark.parametrize("params, name", [
     ({"type": "circular", "radius": "big"}, "radius"),
+    ({"type": "circular", "radius": float("nan")}, "radius"),
+    ({"type": "line", "line_start": [0, float("inf")], "line_end": [1, 0]}, r"line_start\[1\]"),
     ({"type": "line", "line_start": [0, 0], "line_end": [1]}, "line_end"),
     ({"type": "polygon", "vertices": [[0, 0], [1, 0]]}, "vertices"),
     ({"type": "polygon", "vertices": "[[0, 0], [1, 0], [1"}, "vertices"),

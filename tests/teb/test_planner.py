@@ -205,10 +205,11 @@ def test_small_model_warns_against_the_costmap_footprint():
     assert any("inscribed radius" in w for w in planner.warnings)
 
 
-def test_unsupported_features_are_reported():
+def test_unsupported_features_are_reported_once_each():
     planner = lab_planner(min_turning_radius=0.5, exact_arc_length=True)
-    assert sum("not supported" in w for w in planner.warnings) == 2
-    assert any("min_turning_radius" in w for w in planner.warnings)
+    assert sum("has no effect" in w for w in planner.warnings) == 2
+    assert sum("TebLocalPlannerROS/min_turning_radius" in w for w in planner.warnings) == 1
+    assert sum("TebLocalPlannerROS/exact_arc_length" in w for w in planner.warnings) == 1
 
 
 

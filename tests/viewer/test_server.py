@@ -134,7 +134,7 @@ def test_a_taken_port_is_named(scenario, context):
     port = int(scenario.viewer.url.rsplit(":", 1)[1].strip("/"))
     with pytest.raises(OSError, match=f"viewer cannot listen on 127.0.0.1:{port}: .*set the 'port' parameter"):
         ViewerNode(context=context, parameter_overrides=[Parameter("port", value=port)])
-    with pytest.raises(ValueError, match="viewer parameter 'rate' must be a positive number of Hz, got 0.0"):
+    with pytest.raises(ValueError, match="viewer parameter 'rate': must be > 0, got 0.0"):
         ViewerNode(context=context, parameter_overrides=[Parameter("rate", value=0.0)])
 
 

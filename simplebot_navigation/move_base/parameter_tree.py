@@ -1,0 +1,91 @@
+"""Every parameter of a move_base node, by its ROS 2 name, from the node's ROS 1 tree.
+
+Which namespaces exist depends on the tree itself (the selected planners, each costmap's plugin
+list and observation sources, the recovery list), so the table is built from it. ``check_tree``
+builds every configuration the node would build at start-up; overrides (``--set``) and run-time
+changes go through both (simplebot_navigation.parameters.overrides).
+"""
+
+from __future__ import annotations
+
+from simplebot_navigation.costmap.params import SearchedParams, parameter_specs, resolve_costmap_params
+from simplebot_navigation.parameters import PLUGIN_TYPE_KEY, build, fields_of
+from simplebot_navigation.parameters.overrides import ParameterTable, apply_overrides
+from simplebot_navigation.planning.config import GlobalPlannerConfig, NavfnParams
+from simplebot_navigation.teb.config import TebConfig
+from simplebot_navigation.teb.footprint import FootprintModel
+
+from .config import MoveBaseConfig
+from .recovery import ClearCostmapParams, RotateParams
+
+COSTMAPS = ("global_costmap", "local_costmap")
+_UNSET = object()
+_PLANNER_PARAMS = {"GlobalPlanner": GlobalPlannerConfig, "NavfnROS": NavfnParams, "TebLocalPlannerROS": TebConfig}
+_RECOVERY_PARAMS = {"clear_costmap_recovery/ClearCostmapRecovery": ClearCostmapParams,
+                    "rotate_recovery/RotateRecovery": RotateParams}
+
+
+def plugin_namespace(plugin_type: str) -> str:
+    """'teb_local_planner/TebLocalPlannerROS' -> 'TebLocalPlannerROS', the plugin's parameter namespace."""
+    return plugin_type.rsplit("/", 1)[-1]
+
+
+def _prefixed(prefix: str, cls) -> ParameterTable:
+    return {f"{prefix}{name}": spec for name, spec in fields_of(cls).items()}
+
+
+def parameter_table(tree: dict) -> ParameterTable:
+    """Every parameter the move_base node with this ROS 1 tree reads, by ROS 2 name."""
+    table = {**fields_of(MoveBaseConfig), **fields_of(SearchedParams)}
+    cfg = MoveBaseConfig.from_params(tree)
+    for plugin_type in (cfg.base_global_planner, cfg.base_local_planner):
+        namespace = plugin_namespace(plugin_type)
+        if namespace in _PLANNER_PARAMS:
+            table.update(_prefixed(f"{namespace}.", _PLANNER_PARAMS[namespace]))
+    for behavior in cfg.recovery_behaviors:
+        table.update(_prefixed(f"{behavior['name']}.", _RECOVERY_PARAMS[behavior["type"]]))
+    for name in COSTMAPS:
+        costmap = resolve_costmap_params(tree.get(name, {}), name, [("move_base", tree)])
+        table.update({f"{name}.{key}": spec for key, spec in parameter_specs(costmap).items()})
+    return table
+
+
+def check_tree(tree: dict) -> list[str]:
+    """Build every configuration of the node from the tree (raising ParameterError on a bad value) and
+    return the warnings the node would log."""
+    cfg = MoveBaseConfig.from_params(tree)
+    warnings = list(cfg.warnings)
+    for name in COSTMAPS:
+        warnings += resolve_costmap_params(tree.get(name, {}), name, [("move_base", tree)]).warnings
+    namespace = plugin_namespace(cfg.base_global_planner)
+    if namespace == "GlobalPlanner":
+        warnings += GlobalPlannerConfig.from_params(tree.get(namespace)).warnings
+    elif namespace == "NavfnROS":
+        warnings += GlobalPlannerConfig.from_navfn_params(tree.get(namespace)).warnings
+    namespace = plugin_namespace(cfg.base_local_planner)
+    if namespace == "TebLocalPlannerROS":
+        teb = TebConfig.from_params(tree.get(namespace))
+        warnings += teb.warnings + FootprintModel.from_params(teb.footprint_model).warnings
+    for behavior in cfg.recovery_behaviors:
+        warnings += build(_RECOVERY_PARAMS[behavior["type"]], tree.get(behavior["name"]),
+                          f"move_base/{behavior['name']}", also_known=[PLUGIN_TYPE_KEY])[1]
+    return warnings
+
+
+def describe_parameters(tree: dict) -> list[str]:
+    """One line per parameter, ``name = value  # doc [unit] (range) -- status``, the value given in the tree
+    or else the declared default (for ``--print-params``)."""
+    lines = []
+    for name, spec in sorted(parameter_table(tree).items()):
+        node = tree
+        for part in name.split("."):
+            node = node.get(part, _UNSET) if isinstance(node, dict) else _UNSET
+        value = spec.default if node is _UNSET else node
+        lines.append(f"{name} = {value!r}  # {spec.describe()}")
+    return lines
+
+
+def apply_move_base_overrides(tree: dict, assignments, live: bool = False) -> tuple[dict, list[str]]:
+    """``--set`` for move_base (``live``: a change while running, which refuses restart-only parameters):
+    the new tree and the warnings the node would log with it."""
+    return apply_overrides(tree, assignments, parameter_table, check_tree, live=live)
