@@ -22,6 +22,8 @@ from simplebot_navigation.sim.world import Pose2D
 pytestmark = pytest.mark.timeout(300)
 
 LEGS = (Pose2D(3.5, 0.0, 0.0, "corridor"), Pose2D(0.5, 0.0, math.pi, "start"))
+#: seconds from a sensor fault to move_base's first zero command (about 0.3 s on an idle machine)
+FAULT_STOP_BOUND_S = 2.0
 
 
 class Stack:
@@ -184,19 +186,23 @@ def test_huge_and_non_finite_commands_do_not_break_the_simulator(stack):
     ("faults.odometry_dropout", True, False, "transform timeout"),
 ])
 def test_a_sensor_fault_stops_the_robot_and_the_goal_goes_on_when_it_ends(stack, fault, value, cleared, message):
+    """The lab's sensors are stale 0.1 s after their last message and TF after transform_tolerance (0.5 s);
+    the bound leaves room for a loaded machine."""
     mark = len(stack.session.log_text())
     run = stack.session.send_goal(stack.next_goal())
     stack.spin(4.0)
     assert stack.moving_between(time.monotonic() - 1.0, time.monotonic()), "the robot should be driving"
-    stack.set_fault(fault, value)
-    injected = time.monotonic()
-    stack.spin(3.0)
-    stopped = stack.zero_after(injected)
-    assert stopped is not None and stopped <= 1.0, f"first zero command {stopped} s after {fault}"
-    moving = stack.moving_between(injected + stopped, time.monotonic())
-    assert not moving, f"commands {moving[:3]} while {fault} = {value!r}"
-    assert not run.done, f"the goal ended during a short fault: {run.status} {run.reason}"
-    stack.set_fault(fault, cleared)
+    try:
+        stack.set_fault(fault, value)
+        injected = time.monotonic()
+        stack.spin(3.0)
+        stopped = stack.zero_after(injected)
+        assert stopped is not None and stopped <= FAULT_STOP_BOUND_S, f"first zero command {stopped} s after {fault}"
+        moving = stack.moving_between(injected + stopped, time.monotonic())
+        assert not moving, f"commands {moving[:3]} while {fault} = {value!r}"
+        assert not run.done, f"the goal ended during a short fault: {run.status} {run.reason}"
+    finally:
+        stack.set_fault(fault, cleared)
     assert stack.spin(120.0, lambda: run.done)
     assert run.status == "SUCCEEDED", (run.status, run.reason)
     assert message in stack.log_after(mark)
