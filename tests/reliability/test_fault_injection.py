@@ -22,7 +22,7 @@ from simplebot_navigation.sim.world import Pose2D
 pytestmark = pytest.mark.timeout(300)
 
 LEGS = (Pose2D(3.5, 0.0, 0.0, "corridor"), Pose2D(0.5, 0.0, math.pi, "start"))
-#: seconds from a sensor fault to move_base's first zero command (about 0.3 s on an idle machine)
+#: seconds from a sensor fault to move_base's first zero command (under 1 s at load 5, 1.2 s seen at load 10 on 2 cores)
 FAULT_STOP_BOUND_S = 2.0
 
 
