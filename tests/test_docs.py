@@ -5,10 +5,8 @@ number (``3`` or ``2.4``); further numbers may follow in the same citation (``, 
 ``and 2.6``, each with its own section sign) and belong to the same file. A section exists when a
 Markdown heading of that file starts with its number (``## 3. Lockstep``, ``### 2.4 Static layer``).
 
-The code used to cite two documents kept outside the repository by an upper-case name, a space and
-the section sign. docs/citations.tsv maps each such citation to its section in docs/.
-``test_no_old_form_citations`` fails until that mapping has been applied to the code; every other
-test here must pass before and after.
+The code once cited two documents kept outside the repository by an upper-case name, a space and
+the section sign; ``test_no_old_form_citations`` keeps that form from coming back.
 """
 
 from __future__ import annotations
@@ -20,7 +18,6 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
-MAPPING = DOCS / "citations.tsv"
 #: where citations are looked for (this file excepted: it describes the forms it looks for)
 SCANNED = ("simplebot_navigation", "tests", "bench")
 SUFFIXES = {".py", ".md", ".yaml", ".txt"}
@@ -70,19 +67,6 @@ def unresolved(text: str, where: str) -> list[str]:
     return problems
 
 
-def read_mapping() -> dict[str, str]:
-    mapping = {}
-    for i, row in enumerate(MAPPING.read_text(encoding="utf-8").splitlines(), 1):
-        if not row.strip():
-            continue
-        old, sep, new = row.partition("\t")
-        assert sep and OLD_FORM.fullmatch(old) and CITATION.fullmatch(new), \
-            f"docs/citations.tsv:{i}: expected '<old citation>\\t<docs/file.md citation>', got {row!r}"
-        assert old not in mapping, f"docs/citations.tsv:{i}: {old!r} is mapped twice"
-        mapping[old] = new
-    return mapping
-
-
 @pytest.mark.parametrize("name", ["design.md", "reference.md", "README.md"])
 def test_documents_exist(name):
     assert (DOCS / name).is_file(), f"docs/{name} is missing"
@@ -115,34 +99,13 @@ def test_doc_citations_resolve():
     assert not problems, "citations of missing documentation:\n" + "\n".join(problems)
 
 
-def test_citation_mapping_resolves():
-    """docs/citations.tsv maps every old-form citation still in the code, to sections that exist; applied
-    to the code (in memory, token by token), every resulting citation resolves."""
-    if not MAPPING.is_file():
-        pytest.skip("docs/citations.tsv has been retired")
-    mapping = read_mapping()
-    problems = unresolved("\n".join(mapping.values()), "docs/citations.tsv")
-    for path in scanned_files():
-        text = path.read_text(encoding="utf-8", errors="replace")
-        where = str(path.relative_to(ROOT))
-        for match in OLD_FORM.finditer(text):
-            if match.group(0) not in mapping:
-                line = text.count("\n", 0, match.start()) + 1
-                problems.append(f"{where}:{line}: {match.group(0)!r} has no line in docs/citations.tsv")
-        mapped = OLD_FORM.sub(lambda m: mapping.get(m.group(0), m.group(0)), text)
-        problems += unresolved(mapped, where + " (mapped)")
-    assert not problems, "\n".join(problems)
-
-
 def test_no_old_form_citations():
-    """EXPECTED TO FAIL until docs/citations.tsv has been applied to the code (the branch that wrote
-    docs/ leaves the comments to the files' owners): no comment may still cite the documents that
-    lived outside the repository."""
+    """No comment cites the documents that lived outside the repository."""
     found = []
     for path in scanned_files():
         text = path.read_text(encoding="utf-8", errors="replace")
         for match in OLD_FORM.finditer(text):
             line = text.count("\n", 0, match.start()) + 1
             found.append(f"{path.relative_to(ROOT)}:{line}: {match.group(0)}")
-    assert not found, (f"{len(found)} citations of documents outside the repository; apply docs/citations.tsv:\n"
+    assert not found, (f"{len(found)} citations of documents outside the repository; cite docs/ instead:\n"
                        + "\n".join(found))

@@ -1,4 +1,4 @@
-"""costmap_2d cost values and the OccupancyGrid translation table (REFERENCE §2.1)."""
+"""costmap_2d cost values and the OccupancyGrid translation table (docs/reference.md §2.1)."""
 
 import numpy as np
 

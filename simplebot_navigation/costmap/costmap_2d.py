@@ -1,4 +1,4 @@
-"""Costmap2D: a uint8 cost grid with costmap_2d's exact coordinate conventions (REFERENCE §0.2).
+"""Costmap2D: a uint8 cost grid with costmap_2d's exact coordinate conventions (docs/reference.md §0.2).
 
 The grid is stored as ``costmap[my, mx]`` (row = y), which is the same memory
 layout as costmap_2d's ``index = my * size_x + mx`` and as nav_msgs/OccupancyGrid.

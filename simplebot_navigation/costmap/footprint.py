@@ -1,4 +1,4 @@
-"""Robot footprint: parsing, padding, radius polygons and the inscribed/circumscribed radii (REFERENCE §2.2).
+"""Robot footprint: parsing, padding, radius polygons and the inscribed/circumscribed radii (docs/reference.md §2.2).
 
 A footprint is an (N, 2) float array of vertices in the robot base frame, in order around the outline.
 """

@@ -1,4 +1,4 @@
-"""InflationLayer: graded cost around lethal cells (REFERENCE §2.6).
+"""InflationLayer: graded cost around lethal cells (docs/reference.md §2.6).
 
 The propagation is costmap_2d's brushfire, not an exact distance transform: cells are visited in
 increasing distance bins, each carrying the lethal cell it was reached from, and a cell keeps the

@@ -1,4 +1,4 @@
-"""Layer interface and the grid-backed CostmapLayer with costmap_2d's combination rules (REFERENCE §2.3)."""
+"""Layer interface and the grid-backed CostmapLayer with costmap_2d's combination rules (docs/reference.md §2.3)."""
 
 from __future__ import annotations
 

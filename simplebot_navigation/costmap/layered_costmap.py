@@ -1,4 +1,4 @@
-"""LayeredCostmap: the master grid and the bounds-based layer update of costmap_2d (REFERENCE §2.3)."""
+"""LayeredCostmap: the master grid and the bounds-based layer update of costmap_2d (docs/reference.md §2.3)."""
 
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ class LayeredCostmap:
 
     `clock` returns the current time in seconds (the ROS shell passes its node clock so that
     sensor staleness follows simulated time); `update_period` is one costmap update cycle,
-    used by the observation sources' is-current slack (DESIGN §9).
+    used by the observation sources' is-current slack (docs/design.md §9).
     """
 
     def __init__(self, rolling_window: bool = False, track_unknown_space: bool = False,

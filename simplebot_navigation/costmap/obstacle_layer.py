@@ -1,4 +1,4 @@
-"""ObstacleLayer: marks sensor hits and clears along sensor rays (REFERENCE §2.5, DESIGN §9).
+"""ObstacleLayer: marks sensor hits and clears along sensor rays (docs/reference.md §2.5, docs/design.md §9).
 
 Sensor data arrives as plain `Observation`s already expressed in the costmap's global frame; the ROS
 shell does the TF lookups and message conversion, using `laser_scan_to_observation` or
@@ -93,7 +93,7 @@ def laser_scan_to_observation(ranges, angle_min: float, angle_increment: float, 
 
     Returns in [range_min, range_max) become hits, but never a negative one (whatever range_min
     says): NaN, negative and other out-of-range values are dropped. With inf_is_valid, +inf becomes
-    a clearing-only ray of length range_max - 1e-4 that never marks (DESIGN §9: costmap_2d would
+    a clearing-only ray of length range_max - 1e-4 that never marks (docs/design.md §9: costmap_2d would
     mark a phantom ring there). A scan whose geometry is unusable (see _scan_problem) gives an empty
     observation; both kinds of drop are logged as warnings, which the ROS shell throttles.
     """
@@ -172,7 +172,7 @@ class ObservationBuffer:
 
     def is_current(self, now: float, update_period: float) -> bool:
         """Current if the last observation came within expected_update_rate plus one costmap update
-        period (DESIGN §9); an expected_update_rate of 0 means always current."""
+        period (docs/design.md §9); an expected_update_rate of 0 means always current."""
         rate = self.source.expected_update_rate
         if rate == 0.0:
             return True

@@ -1,4 +1,4 @@
-"""Costmap parameters from a ROS 1 parameter tree, with Costmap2DROS's semantics (REFERENCE §0.1, §2.2, §2.7).
+"""Costmap parameters from a ROS 1 parameter tree, with Costmap2DROS's semantics (docs/reference.md §0.1, §2.2, §2.7).
 
 Input is the nested dict rosparam builds for one costmap (e.g. the value at /move_base/global_costmap);
 `parents` are the enclosing namespaces as (path, dict) pairs, nearest first (e.g. ("/move_base", {...})),

@@ -1,4 +1,4 @@
-"""StaticLayer: costs from an OccupancyGrid map (REFERENCE §2.4).
+"""StaticLayer: costs from an OccupancyGrid map (docs/reference.md §2.4).
 
 The ROS shell hands over the grid as an int8 array [height, width] plus its geometry; in a rolling
 costmap it also sets `global_to_map`, the (x, y, yaw) transform taking global-frame points into the

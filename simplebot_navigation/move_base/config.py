@@ -1,4 +1,4 @@
-"""move_base parameters with their effective ROS 1 defaults (REFERENCE §1.2), declared with the
+"""move_base parameters with their effective ROS 1 defaults (docs/reference.md §1.2), declared with the
 parameter layer: each has a unit, a doc, a range and a status."""
 
 from __future__ import annotations

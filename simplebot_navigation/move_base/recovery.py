@@ -59,7 +59,7 @@ class ClearCostmapRecovery:
     """Forget obstacles outside a square of side reset_distance around the robot (inside with invert).
 
     clear(costmap, x, y, reset_distance, layer_names, invert) is called for each affected costmap.
-    Unlike ROS 1, layer_names defaults to every obstacle-type layer that exists (DESIGN §9).
+    Unlike ROS 1, layer_names defaults to every obstacle-type layer that exists (docs/design.md §9).
     """
 
     def __init__(self, name: str, params: dict, costmaps: dict[str, object],

@@ -1,4 +1,4 @@
-"""move_base's executeCycle (REFERENCE §1.3) as a pure state machine.
+"""move_base's executeCycle (docs/reference.md §1.3) as a pure state machine.
 
 The planner runs synchronously inside the cycle (a plan on the lab's costmap takes about a
 millisecond), which keeps runs deterministic in lockstep; ROS 1's planner thread and its triple

@@ -1,4 +1,4 @@
-"""Parameters of global_planner/GlobalPlanner and navfn/NavfnROS (REFERENCE §3.1, §3.3).
+"""Parameters of global_planner/GlobalPlanner and navfn/NavfnROS (docs/reference.md §3.1, §3.3).
 
 Built from the planner's ROS 1 parameter namespace (e.g. the ``GlobalPlanner:`` block of the
 lab's global_planner.yaml). Defaults are the effective ROS 1 defaults: the dynamic_reconfigure

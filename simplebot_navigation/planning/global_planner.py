@@ -1,4 +1,4 @@
-"""global_planner/GlobalPlanner (and navfn/NavfnROS) on a Costmap2D (REFERENCE §3).
+"""global_planner/GlobalPlanner (and navfn/NavfnROS) on a Costmap2D (docs/reference.md §3).
 
 Pipeline of one make_plan call, as in ROS 1: clear the robot's cell in the costmap, outline the
 map, map raw costs to per-cell step costs, expand a potential from the start (Dijkstra wavefront

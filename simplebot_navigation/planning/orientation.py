@@ -1,4 +1,4 @@
-"""global_planner's OrientationFilter: the yaw of every plan pose (REFERENCE §3.2).
+"""global_planner's OrientationFilter: the yaw of every plan pose (docs/reference.md §3.4).
 
 The last pose always keeps the goal's yaw. One deliberate fix: ROS 1 interpolates from index
 ``start_index`` with ``start_yaw + increment * i`` (absolute i), which in

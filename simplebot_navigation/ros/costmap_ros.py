@@ -1,4 +1,4 @@
-"""Costmap2DROS: the ROS shell around a `Costmap`, living inside the move_base node (REFERENCE §2.2).
+"""Costmap2DROS: the ROS shell around a `Costmap`, living inside the move_base node (docs/reference.md §2.2).
 
 It reads `<name>.*` parameters of its node, waits for global_frame <- robot_base_frame, updates the
 layers at update_frequency on the node's clock and hands publishing to a CostmapPublisher and
@@ -122,7 +122,7 @@ class Costmap2DROS:
         return tree
 
     def _topic(self, topic: str) -> str:
-        """A costmap-private topic: relative names live under /<name>/ (DESIGN §1)."""
+        """A costmap-private topic: relative names live under /<name>/ (docs/design.md §5)."""
         return topic if topic.startswith("/") else f"/{self.name}/{topic}"
 
     def now_s(self) -> float:

@@ -1,4 +1,4 @@
-"""GlobalPlannerROS: the ROS shell of the global planner, owned by move_base (REFERENCE §3.1).
+"""GlobalPlannerROS: the ROS shell of the global planner, owned by move_base (docs/reference.md §3.1).
 
 Selected by ``base_global_planner`` (global_planner/GlobalPlanner or navfn/NavfnROS). It reads
 the ``<name>.*`` parameters of its node, plans on the global costmap's master grid while holding

@@ -1,4 +1,4 @@
-"""Lockstep: the simulator advances only while every other node of the process is idle (DESIGN §3).
+"""Lockstep: the simulator advances only while every other node of the process is idle (docs/design.md §3).
 
 One SingleThreadedExecutor holds the simulator (``real_time_factor: 0``) and the nodes it drives.
 Each round advances the physics to the next event and then runs callbacks until the graph is idle.

@@ -1,7 +1,7 @@
 """The move_base node: costmaps, planner and controller plugins, the state machine, and its interfaces.
 
 A thin shell: MoveBaseCore (simplebot_navigation/move_base) decides, this node converts messages,
-owns the ROS interfaces of DESIGN §7, and runs the control cycle on a timer of the node's clock.
+owns the ROS interfaces of docs/design.md §7, and runs the control cycle on a timer of the node's clock.
 """
 
 from __future__ import annotations

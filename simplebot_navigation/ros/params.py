@@ -1,4 +1,4 @@
-"""ROS 2 parameters <-> the ROS 1 parameter tree the pure modules understand (DESIGN §4).
+"""ROS 2 parameters <-> the ROS 1 parameter tree the pure modules understand (docs/design.md §4).
 
 Nodes are created with ``automatically_declare_parameters_from_overrides``, so
 what the launcher gave them is declared with the given types; the pure modules

@@ -3,7 +3,7 @@
 Simulated time is the clock of every other node (/clock). In its own process the
 node steps the simulation against the wall clock at ``real_time_factor``; with
 ``real_time_factor: 0`` it does not step by itself and a lockstep driver calls
-``advance()`` (single-process runs, tests and the scenario runner: DESIGN §3).
+``advance()`` (single-process runs, tests and the scenario runner: docs/design.md §3).
 
 /clock goes out on every physics step, so sim-time timers fire at the physics resolution
 (10 ms) rather than in bursts; it is about 4 % of the node's stepping cost (bench/sim_speed.py).

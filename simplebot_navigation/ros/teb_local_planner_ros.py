@@ -1,7 +1,7 @@
 """TebLocalPlannerROS: the ROS shell move_base owns around the pure TebLocalPlanner.
 
 It converts the global plan into the local costmap's frame, feeds odometry, holds the local
-costmap's lock while planning, and publishes what the lab visualises (REFERENCE §4.6). The
+costmap's lock while planning, and publishes what the lab visualises (docs/reference.md §4.6). The
 visualisation has its own timer, so building markers and paths never delays a velocity command,
 and costs nothing while no one subscribes.
 """

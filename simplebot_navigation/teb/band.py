@@ -1,4 +1,4 @@
-"""The timed elastic band: SE(2) poses s_0..s_n and time differences dT_0..dT_{n-1} (REFERENCE §4.1).
+"""The timed elastic band: SE(2) poses s_0..s_n and time differences dT_0..dT_{n-1} (docs/reference.md §4.1).
 
 Pose 0 (the robot) and pose n (the local goal) are fixed during optimisation.
 """

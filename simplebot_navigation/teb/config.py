@@ -1,6 +1,6 @@
 """TebConfig: the TebLocalPlannerROS parameters with teb_local_planner's effective defaults.
 
-The effective defaults are the dynamic_reconfigure cfg values (REFERENCE §0.1, §4.2), not
+The effective defaults are the dynamic_reconfigure cfg values (docs/reference.md §0.1, §4.2), not
 the C++ constructor values, because the reconfigure server overwrites every unset parameter.
 Each field is declared once, with unit, doc, range and status (simplebot_navigation.parameters).
 """

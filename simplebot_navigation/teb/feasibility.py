@@ -1,4 +1,4 @@
-"""Feasibility of the start of a band against the costmap footprint (REFERENCE §4.5 step 9).
+"""Feasibility of the start of a band against the costmap footprint (docs/reference.md §4.5 step 9).
 
 Reproduces base_local_planner's CostmapModel::footprintCost for the "-1" answer only: the
 footprint outline is rasterised edge by edge with the costmap LineIterator, and the first

@@ -1,4 +1,4 @@
-"""TEB robot footprint models (REFERENCE §4.3): the shapes the optimiser keeps away from obstacles.
+"""TEB robot footprint models (docs/reference.md §4.3): the shapes the optimiser keeps away from obstacles.
 
 Every model is a union of primitives in the robot frame -- circles (a point is a circle of
 radius 0) and segments (a line is one segment, a polygon its closed outline) -- so one

@@ -1,7 +1,7 @@
 """Homotopy class planning, simple version: several bands through distinct gaps, the cheapest wins.
 
 TEB's full HCP samples a roadmap and compares H-signatures against every point obstacle, which
-is what makes it slow with costmap cells (REFERENCE §4.7). Here lethal cells are first grouped
+is what makes it slow with costmap cells (docs/reference.md §4.7). Here lethal cells are first grouped
 into clusters (cells closer than the robot can pass between), each cluster is represented by one
 key point, and a band's class is the vector of angles it sweeps around those key points: two
 bands with the same start and goal are in the same class when every swept angle agrees to within

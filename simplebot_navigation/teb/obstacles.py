@@ -1,4 +1,4 @@
-"""Point obstacles from the local costmap and their association with band poses (REFERENCE §4.1, §4.4)."""
+"""Point obstacles from the local costmap and their association with band poses (docs/reference.md §4.1, §4.4)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Sparse non-linear least squares over the TEB hyper-graph for a diff-drive robot (REFERENCE §4.1).
+"""Sparse non-linear least squares over the TEB hyper-graph for a diff-drive robot (docs/reference.md §4.1).
 
 Per outer iteration the band is resized, obstacles and via-points are associated with its poses
 (the g2o graph of one buildGraph call), and the Levenberg-Marquardt inner loop runs as one

@@ -1,4 +1,4 @@
-"""TebLocalPlanner: the control cycle of TebLocalPlannerROS::computeVelocityCommands (REFERENCE §4.5),
+"""TebLocalPlanner: the control cycle of TebLocalPlannerROS::computeVelocityCommands (docs/reference.md §4.5),
 free of ROS. The ROS shell feeds it the global plan (already in the local costmap frame), the robot
 pose and odometry velocity and the local Costmap2D, and publishes what the accessors return.
 """

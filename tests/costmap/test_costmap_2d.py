@@ -1,4 +1,4 @@
-"""Costmap2D grid operations: rolling origin, raytrace, polygon fill, translation table (REFERENCE §0.2, §2.1)."""
+"""Costmap2D grid operations: rolling origin, raytrace, polygon fill, translation table (docs/reference.md §0.2, §2.1)."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""Footprint parsing, padding and radii (REFERENCE §2.2)."""
+"""Footprint parsing, padding and radii (docs/reference.md §2.2)."""
 
 import math
 

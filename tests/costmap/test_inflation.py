@@ -1,4 +1,4 @@
-"""InflationLayer: exact costs, brushfire equivalence, vanished halos, reinflation (REFERENCE §2.6)."""
+"""InflationLayer: exact costs, brushfire equivalence, vanished halos, reinflation (docs/reference.md §2.6)."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""ObstacleLayer and observation handling (REFERENCE §2.5, DESIGN §9), and the lab stack against the
+"""ObstacleLayer and observation handling (docs/reference.md §2.5, docs/design.md §9), and the lab stack against the
 per-ray reference."""
 
 import math

@@ -1,4 +1,4 @@
-"""Costmap parameters with ROS 1 semantics: defaults, rounding, plugins vs pre-Hydro (REFERENCE §0.1, §2.7)."""
+"""Costmap parameters with ROS 1 semantics: defaults, rounding, plugins vs pre-Hydro (docs/reference.md §0.1, §2.7)."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""StaticLayer from an OccupancyGrid (REFERENCE §2.4)."""
+"""StaticLayer from an OccupancyGrid (docs/reference.md §2.4)."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""move_base's decision logic with a scripted planner and controller (REFERENCE §1.3, §1.5)."""
+"""move_base's decision logic with a scripted planner and controller (docs/reference.md §1.3, §1.5)."""
 
 import math
 

@@ -17,7 +17,7 @@ def free_map(size_x: int = 60, size_y: int = 40, resolution: float = 0.1,
 
 def inflate(costmap: Costmap2D, inscribed_radius: float, inflation_radius: float,
             cost_scaling_factor: float) -> None:
-    """InflationLayer costs from the exact distance to the nearest lethal cell (REFERENCE §2.6)."""
+    """InflationLayer costs from the exact distance to the nearest lethal cell (docs/reference.md §2.6)."""
     grid = costmap.costmap
     lethal = grid == LETHAL_OBSTACLE
     if not lethal.any():

@@ -1,4 +1,4 @@
-"""global_planner/GlobalPlanner and navfn/NavfnROS on small Costmap2D grids (REFERENCE §3)."""
+"""global_planner/GlobalPlanner and navfn/NavfnROS on small Costmap2D grids (docs/reference.md §3)."""
 
 import math
 

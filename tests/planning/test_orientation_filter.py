@@ -1,4 +1,4 @@
-"""OrientationFilter modes on hand-made paths (REFERENCE §3.2)."""
+"""OrientationFilter modes on hand-made paths (docs/reference.md §3.4)."""
 
 import math
 

@@ -1,4 +1,4 @@
-"""GlobalPlanner / NavfnROS parameters: ROS defaults and validation (REFERENCE §3.1, §3.3)."""
+"""GlobalPlanner / NavfnROS parameters: ROS defaults and validation (docs/reference.md §3.1, §3.3)."""
 
 import pytest
 

@@ -2,7 +2,7 @@
 
 A fake robot stands at the odom origin between two walls: one 2.02 m ahead (x = 2.02), one behind
 (x = -1.52), both 6 m long. The wall positions sit mid-cell in both costmaps, so every expected cell
-follows from REFERENCE §2.1 and §2.6 without rounding luck.
+follows from docs/reference.md §2.1 and §2.6 without rounding luck.
 """
 
 import math
@@ -42,7 +42,7 @@ INFLATION_RADIUS, COST_SCALING = 1.5, 8.0
 
 
 def grid_value(d_cells: int, resolution: float) -> int:
-    """OccupancyGrid value of a cell d_cells from the nearest lethal cell (REFERENCE §2.1, §2.6)."""
+    """OccupancyGrid value of a cell d_cells from the nearest lethal cell (docs/reference.md §2.1, §2.6)."""
     if d_cells == 0:
         return 100
     if d_cells * resolution <= INSCRIBED:

@@ -9,7 +9,7 @@ from .scenes import LAB_PARAMS
 
 def test_defaults_are_the_dynamic_reconfigure_values():
     cfg = TebConfig()
-    # cfg values where they differ from the C++ constructor (REFERENCE §4.2)
+    # cfg values where they differ from the C++ constructor (docs/reference.md §4.2)
     assert cfg.max_global_plan_lookahead_dist == 3.0
     assert cfg.global_plan_viapoint_sep == -0.1
     assert cfg.force_reinit_new_goal_angular == 0.78
