@@ -20,7 +20,8 @@ RECOVERY_TYPES = ("clear_costmap_recovery/ClearCostmapRecovery", "rotate_recover
 @dataclass
 class MoveBaseConfig:
     base_global_planner: str = param("navfn/NavfnROS", "", "global planner plugin", restart=True)
-    base_local_planner: str = param("base_local_planner/TrajectoryPlannerROS", "", "local planner plugin",
+    # ROS 1's default, base_local_planner/TrajectoryPlannerROS, does not exist here: TEB is the default.
+    base_local_planner: str = param("teb_local_planner/TebLocalPlannerROS", "", "local planner plugin",
                                     restart=True)
     planner_frequency: float = param(0.0, "Hz", "replanning rate while driving (0: only when needed)", ge=0)
     controller_frequency: float = param(20.0, "Hz", "control loop rate", gt=0, restart=True)
