@@ -7,7 +7,8 @@ own process, as a user runs it), sends the tour's goals one after the other thro
 action and measures, only while a goal is active ("while driving"):
 
   CPU %       utime + stime of the move_base and simulator processes (/proc/<pid>/stat, all
-              threads), as a percentage of one core.
+              threads), as a percentage of one core; "/sim s" is move_base's per simulated second,
+              which stays comparable when a loaded machine makes the simulator fall behind.
   cycle       move_base's control-cycle compute times from its /diagnostics reports ("move_base:
               control loop": p50/p95/max over every cycle_times_ms of the drive; missed % =
               missed_total / cycles_total over the drive). "-" when move_base has no such report.
@@ -87,6 +88,7 @@ class RunResult:
     goals_reached: int = 0
     goals: int = 0
     drive_s: float = 0.0
+    drive_sim_s: float = 0.0
     cpu_s: dict[str, float] = field(default_factory=lambda: {"move_base": 0.0, "simulator": 0.0})
     cycle_ms: list[float] = field(default_factory=list)
     cycles: int = 0
@@ -204,7 +206,7 @@ class Run:
         for goal in goals:
             budget = time_budget(world, self.client.pose, goal, max_vel_x)
             cpu0 = {name: cpu_seconds(pid) for name, pid in self.pids.items()}
-            wall0 = time.monotonic()
+            wall0, sim0 = time.monotonic(), self.client.sim_time()
             epoch0 = time.time_ns()
             reports0 = len(self.client.loop_reports)
             status = self.send(goal, world.start, budget)
@@ -212,6 +214,7 @@ class Run:
             for name, pid in self.pids.items():
                 result.cpu_s[name] += cpu_seconds(pid) - cpu0[name]
             result.drive_s += wall1 - wall0
+            result.drive_sim_s += self.client.sim_time() - sim0
             result.goals += 1
             result.goals_reached += status == GoalStatus.STATUS_SUCCEEDED
             stamps = [t for t in self.client.cmd_stamps_ns if epoch0 <= t <= epoch1]
@@ -302,16 +305,18 @@ def percentiles(values: list[float]) -> str:
 
 
 def table(results: list[RunResult], period_ms: float) -> str:
-    header = (f"{'version':22} {'load':9} {'goals':>5} {'mb CPU%':>7} {'sim CPU%':>8} {'cycle p50/p95/max ms':>21} "
+    header = (f"{'version':22} {'load':9} {'goals':>5} {'mb CPU%':>7} {'/sim s':>6} {'sim CPU%':>8} "
+              f"{'cycle p50/p95/max ms':>21} "
               f"{'missed%':>7} {'cmd_vel p50/p95/max ms':>23} {'late%':>6} {'load1':>5}")
     lines = [header, "-" * len(header)]
     for r in results:
         cpu = {name: f"{100 * s / r.drive_s:.1f}" if r.drive_s else "-" for name, s in r.cpu_s.items()}
+        per_sim = f"{100 * r.cpu_s['move_base'] / r.drive_sim_s:.1f}" if r.drive_sim_s > 0 else "-"
         missed = f"{100 * r.missed / r.cycles:.2f}" if r.has_diagnostics and r.cycles else "-"
         late = (f"{100 * np.mean(np.asarray(r.intervals_ms) > LATE_FACTOR * period_ms):.2f}"
                 if r.intervals_ms else "-")
         lines.append(f"{r.version:22} {r.load:9} {f'{r.goals_reached}/{r.goals}':>5} {cpu['move_base']:>7} "
-                     f"{cpu['simulator']:>8} {percentiles(r.cycle_ms):>21} {missed:>7} "
+                     f"{per_sim:>6} {cpu['simulator']:>8} {percentiles(r.cycle_ms):>21} {missed:>7} "
                      f"{percentiles(r.intervals_ms):>23} {late:>6} {r.loadavg:>5}"
                      + (f"  ({r.error})" if r.error else ""))
     return "\n".join(lines)
@@ -366,7 +371,8 @@ def main() -> None:
         finally:
             stop_stress(stress)
     print()
-    print(f"CPU % of one core while a goal is active; cycle: move_base's /diagnostics; cmd_vel: intervals between "
+    print(f"CPU % of one core while a goal is active (/sim s: move_base's CPU per simulated second, which a "
+          f"simulator falling behind real time does not flatter); cycle: move_base's /diagnostics; cmd_vel: intervals between "
           f"publishes, late > {LATE_FACTOR:g} x {period_ms:g} ms; load1: 1-min load average at the end of the run")
     print(table(results, period_ms))
 
