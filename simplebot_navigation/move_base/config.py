@@ -9,19 +9,21 @@ from typing import Any
 from simplebot_navigation.costmap.params import SEARCHED_KEYS
 from simplebot_navigation.parameters import ParameterError, build, param
 
+from .plugins import CLEAR_COSTMAP_RECOVERY, NAVFN, ROTATE_RECOVERY, TEB_LOCAL_PLANNER
+
 DEFAULT_RECOVERY_BEHAVIORS = (
-    {"name": "conservative_reset", "type": "clear_costmap_recovery/ClearCostmapRecovery"},
-    {"name": "rotate_recovery", "type": "rotate_recovery/RotateRecovery"},
-    {"name": "aggressive_reset", "type": "clear_costmap_recovery/ClearCostmapRecovery"},
+    {"name": "conservative_reset", "type": CLEAR_COSTMAP_RECOVERY},
+    {"name": "rotate_recovery", "type": ROTATE_RECOVERY},
+    {"name": "aggressive_reset", "type": CLEAR_COSTMAP_RECOVERY},
 )
-RECOVERY_TYPES = ("clear_costmap_recovery/ClearCostmapRecovery", "rotate_recovery/RotateRecovery")
+RECOVERY_TYPES = (CLEAR_COSTMAP_RECOVERY, ROTATE_RECOVERY)
 
 
 @dataclass
 class MoveBaseConfig:
-    base_global_planner: str = param("navfn/NavfnROS", "", "global planner plugin", restart=True)
+    base_global_planner: str = param(NAVFN, "", "global planner plugin", restart=True)
     # ROS 1's default, base_local_planner/TrajectoryPlannerROS, does not exist here: TEB is the default.
-    base_local_planner: str = param("teb_local_planner/TebLocalPlannerROS", "", "local planner plugin",
+    base_local_planner: str = param(TEB_LOCAL_PLANNER, "", "local planner plugin",
                                     restart=True)
     planner_frequency: float = param(0.0, "Hz", "replanning rate while driving (0: only when needed)", ge=0)
     controller_frequency: float = param(20.0, "Hz", "control loop rate", gt=0, restart=True)
@@ -85,5 +87,5 @@ class MoveBaseConfig:
             self.warnings.append(f"move_base/recovery_behaviors: {problem}; using the default recovery behaviours")
         behaviors = [dict(b) for b in DEFAULT_RECOVERY_BEHAVIORS]
         if not self.clearing_rotation_allowed:
-            return [b for b in behaviors if b["type"] != "rotate_recovery/RotateRecovery"]
+            return [b for b in behaviors if b["type"] != ROTATE_RECOVERY]
         return behaviors + [dict(DEFAULT_RECOVERY_BEHAVIORS[1])]  # rotate once more after the aggressive reset
