@@ -29,8 +29,9 @@ class CSpaceMetrics:
     """How hard the drive from the start to one goal is for a disc of ``inflation`` = radius + margin.
 
     ``narrowest_passage`` is the free width between obstacle surfaces at the bottleneck of the widest
-    path (twice the best path's minimum clearance); ``tortuosity`` is the shortest C-space path over
-    the straight line. Both are measured on the grid, to about one ``resolution``.
+    path (twice the best path's minimum clearance, the start's and the goal's own clearance
+    included); ``tortuosity`` is the shortest C-space path over the straight line. Both are
+    measured on the grid: the width to about one ``resolution``, the length to about 2 %.
     """
 
     inflation: float
@@ -99,8 +100,8 @@ def analyse(world: World, robot_radius: float, goal: Pose2D | None = None, margi
     start_cell, goal_cell = grid.cell(world.start), grid.cell(goal)
     for what, pose, cell in (("start", world.start, start_cell), ("goal", goal, goal_cell)):
         if not free[cell]:
-            raise ValueError(f"{unsolvable}: the {what} ({pose.x:g}, {pose.y:g}) is blocked, "
-                             f"{max(grid.clearance[cell], 0.0):.3f} m from the nearest obstacle")
+            distance, label = world.nearest_obstacle(pose.x, pose.y)
+            raise ValueError(f"{unsolvable}: the {what} ({pose.x:g}, {pose.y:g}) is blocked, {distance:.3f} m from {label}")
     labels, _ = ndimage.label(free, structure=_FOUR_CONNECTED)
     if labels[start_cell] != labels[goal_cell]:
         raise ValueError(f"{unsolvable}: no C-space path connects the start ({world.start.x:g}, {world.start.y:g}) "
@@ -131,18 +132,35 @@ def _widest_path_clearance(grid: _Grid, start: tuple, goal: tuple, known: float)
 
 
 def _shortest_path(free: np.ndarray, start: tuple, goal: tuple) -> float:
-    """Length in cells of the shortest 8-connected path over free cells (Dijkstra on the grid graph)."""
+    """Length in cells of the shortest 16-connected path over free cells (Dijkstra on the grid graph).
+
+    Knight moves, allowed when both cells they cut through are free, keep a straight line in any
+    direction within about 3 % of its length (8-connected moves are up to 8 % long).
+    """
     index = np.full(free.shape, -1)
     index[free] = np.arange(int(free.sum()))
     rows, cols, weights = [], [], []
-    h, w = free.shape
-    for di, dj in ((0, 1), (1, 0), (1, 1), (1, -1)):
-        a = (slice(0, h - di), slice(max(0, -dj), w - max(0, dj)))
-        b = (slice(di, h), slice(max(0, dj), w - max(0, -dj)))
-        both = free[a] & free[b]
-        rows.append(index[a][both])
-        cols.append(index[b][both])
-        weights.append(np.full(int(both.sum()), math.hypot(di, dj)))
+    for move, crossed in _MOVES:
+        both = _shifted(free, (0, 0), move) & _shifted(free, move, move)
+        for cell in crossed:
+            both &= _shifted(free, cell, move)
+        rows.append(_shifted(index, (0, 0), move)[both])
+        cols.append(_shifted(index, move, move)[both])
+        weights.append(np.full(int(both.sum()), math.hypot(*move)))
     n = int(free.sum())
     graph = coo_matrix((np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
     return float(dijkstra(graph.tocsr(), directed=False, indices=index[start])[index[goal]])
+
+
+# Half of the 16 moves (the graph is undirected), each with the cells a knight move cuts through.
+_MOVES = (((0, 1), ()), ((1, 0), ()), ((1, 1), ()), ((1, -1), ()),
+          ((1, 2), ((0, 1), (1, 1))), ((2, 1), ((1, 0), (1, 1))),
+          ((1, -2), ((0, -1), (1, -1))), ((2, -1), ((1, 0), (1, -1))))
+
+
+def _shifted(array: np.ndarray, offset: tuple, move: tuple) -> np.ndarray:
+    """array[r + offset] for every cell r whose move stays on the grid (rows 0..h-di, columns as fit)."""
+    h, w = array.shape
+    di, dj = move
+    c0 = max(0, -dj)
+    return array[offset[0]:h - di + offset[0], c0 + offset[1]:w - max(0, dj) + offset[1]]

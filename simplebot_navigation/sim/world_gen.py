@@ -178,8 +178,8 @@ def _forest_obstacle(rng: np.random.Generator, kind: str, depth: float, width: f
         return Cylinder((x, y), diameter / 2)
     yaw = round(float(rng.uniform(0.0, math.pi)), 3)
     if kind == "box":
-        return Box((x, y), tuple(round(float(v), 3) for v in rng.uniform(0.3, 0.8, 2)), yaw)
-    half = float(rng.uniform(0.4, 0.9))
+        return Box((x, y), tuple(round(float(v), 3) for v in rng.uniform(0.2, 0.5, 2)), yaw)
+    half = float(rng.uniform(0.3, 0.7))
     dx, dy = half * math.cos(yaw), half * math.sin(yaw)
     return Wall((round(x - dx, 3), round(y - dy, 3)), (round(x + dx, 3), round(y + dy, 3)))
 
