@@ -104,6 +104,13 @@ def test_load_world_resolves_forest_names():
         load_world("forest:x")
 
 
+def test_scenario_runs_of_forest_take_the_run_seed():
+    from simplebot_navigation.scenarios.runner import world_for_run
+
+    assert [world_for_run("forest", seed, "/nonexistent") for seed in (3, 4)] == ["forest:3", "forest:4"]
+    assert world_for_run("forest:9", 4, "/nonexistent") == "forest:9"
+
+
 def test_the_benchmark_set_generates_solvable_and_spans_difficulty():
     worlds = [benchmark_forest(seed) for seed in FOREST_BENCHMARK_SEEDS]
     assert len(worlds) >= 200
