@@ -135,32 +135,30 @@ def _shortest_path(free: np.ndarray, start: tuple, goal: tuple) -> float:
     """Length in cells of the shortest 16-connected path over free cells (Dijkstra on the grid graph).
 
     Knight moves, allowed when both cells they cut through are free, keep a straight line in any
-    direction within about 3 % of its length (8-connected moves are up to 8 % long).
+    direction within about 3 % of its length (8-connected moves are up to 8 % long). Cells are
+    numbered on the grid padded by two blocked cells, so no move wraps around an edge.
     """
-    index = np.full(free.shape, -1)
-    index[free] = np.arange(int(free.sum()))
+    padded = np.pad(free, 2)
+    width = padded.shape[1]
+    flat = padded.ravel()
+    cells = np.flatnonzero(flat)
     rows, cols, weights = [], [], []
-    for move, crossed in _MOVES:
-        both = _shifted(free, (0, 0), move) & _shifted(free, move, move)
-        for cell in crossed:
-            both &= _shifted(free, cell, move)
-        rows.append(_shifted(index, (0, 0), move)[both])
-        cols.append(_shifted(index, move, move)[both])
-        weights.append(np.full(int(both.sum()), math.hypot(*move)))
-    n = int(free.sum())
-    graph = coo_matrix((np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
-    return float(dijkstra(graph.tocsr(), directed=False, indices=index[start])[index[goal]])
+    for (di, dj), crossed in _MOVES:
+        allowed = flat[cells + di * width + dj]
+        for ci, cj in crossed:
+            allowed &= flat[cells + ci * width + cj]
+        tails = cells[allowed]
+        heads = tails + di * width + dj
+        rows += [tails, heads]
+        cols += [heads, tails]
+        weights.append(np.full(2 * len(tails), math.hypot(di, dj)))
+    graph = coo_matrix((np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))),
+                       shape=(flat.size, flat.size))
+    source, target = ((r + 2) * width + c + 2 for r, c in (start, goal))
+    return float(dijkstra(graph.tocsr(), indices=source)[target])
 
 
-# Half of the 16 moves (the graph is undirected), each with the cells a knight move cuts through.
+# Half of the 16 moves, each with the cells a knight move cuts through (the edges go both ways).
 _MOVES = (((0, 1), ()), ((1, 0), ()), ((1, 1), ()), ((1, -1), ()),
           ((1, 2), ((0, 1), (1, 1))), ((2, 1), ((1, 0), (1, 1))),
           ((1, -2), ((0, -1), (1, -1))), ((2, -1), ((1, 0), (1, -1))))
-
-
-def _shifted(array: np.ndarray, offset: tuple, move: tuple) -> np.ndarray:
-    """array[r + offset] for every cell r whose move stays on the grid (rows 0..h-di, columns as fit)."""
-    h, w = array.shape
-    di, dj = move
-    c0 = max(0, -dj)
-    return array[offset[0]:h - di + offset[0], c0 + offset[1]:w - max(0, dj) + offset[1]]
