@@ -101,7 +101,8 @@ def analyse(world: World, robot_radius: float, goal: Pose2D | None = None, margi
     for what, pose, cell in (("start", world.start, start_cell), ("goal", goal, goal_cell)):
         if not free[cell]:
             distance, label = world.nearest_obstacle(pose.x, pose.y)
-            raise ValueError(f"{unsolvable}: the {what} ({pose.x:g}, {pose.y:g}) is blocked, {distance:.3f} m from {label}")
+            raise ValueError(f"{unsolvable}: the {what} ({pose.x:g}, {pose.y:g}) is blocked, "
+                             f"{distance:.3f} m from {label}")
     labels, _ = ndimage.label(free, structure=_FOUR_CONNECTED)
     if labels[start_cell] != labels[goal_cell]:
         raise ValueError(f"{unsolvable}: no C-space path connects the start ({world.start.x:g}, {world.start.y:g}) "

@@ -86,7 +86,8 @@ def report(seeds) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m simplebot_navigation.sim.forest", description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m simplebot_navigation.sim.forest",
+                                     description=__doc__.split("\n\n")[0])
     parser.add_argument("--report", action="store_true", help="print the difficulty of every benchmark world")
     parser.add_argument("--seeds", type=_seeds, default=list(FOREST_BENCHMARK_SEEDS),
                         help="seeds as 'first-last' or one seed (default: the benchmark set, 0-199)")

@@ -34,7 +34,8 @@ def _outline_points(shape, spacing=0.002):
         return np.column_stack((np.cos(angles), np.sin(angles))) * shape.radius + shape.center
     hx, hy = shape.size[0] / 2, shape.size[1] / 2
     corners = np.array([(-hx, -hy), (hx, -hy), (hx, hy), (-hx, hy), (-hx, -hy)])
-    local = np.concatenate([np.linspace(a, b, int(np.hypot(*(b - a)) / spacing) + 2) for a, b in zip(corners, corners[1:])])
+    local = np.concatenate([np.linspace(a, b, int(np.hypot(*(b - a)) / spacing) + 2)
+                            for a, b in zip(corners, corners[1:])])
     c, s = math.cos(shape.yaw), math.sin(shape.yaw)
     return local @ np.array([[c, s], [-s, c]]) + shape.center
 
@@ -70,7 +71,8 @@ def _corridor(*inner, start=Pose2D(0.0, 0.0), goal=Pose2D(4.0, 0.0, 0.0, "goal")
 
 
 def test_blocked_start_and_cut_corridor_are_rejected():
-    with pytest.raises(ValueError, match=r"<corridor>: unsolvable .*: the start \(0, 0\) is blocked, 0.100 m from walls\[4\]"):
+    with pytest.raises(ValueError, match=r"<corridor>: unsolvable .*: "
+                                         r"the start \(0, 0\) is blocked, 0.100 m from walls\[4\]"):
         analyse(_corridor(Wall((0.15, -1.0), (0.15, 1.0))), 0.25)
     with pytest.raises(ValueError, match=r"<corridor>: unsolvable .*: no C-space path connects"):
         analyse(_corridor(Wall((2.0, -3.0), (2.0, 3.0))), 0.25)
