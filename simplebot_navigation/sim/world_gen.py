@@ -146,6 +146,10 @@ def forest_world(seed: int = 0, occupancy: float = 0.12, field=(10.0, 4.5), min_
         raise ValueError(f"forest_world: shapes must weigh {', '.join(FOREST_SHAPES)} with weights >= 0, "
                          f"got {dict(shapes)}")
     depth, width = field
+    for name, value in (("occupancy", occupancy), ("field depth", depth), ("field width", width),
+                        ("min_passage", min_passage), ("cylinder_diameter", cylinder_diameter)):
+        if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+            raise ValueError(f"forest_world: {name} must be a positive number, got {value!r}")
     rng = np.random.default_rng(seed)
     kinds, cumulative = list(shapes), np.cumsum(list(shapes.values())) / sum(shapes.values())
     field_obstacles = _Field(width, min_passage)
@@ -157,7 +161,7 @@ def forest_world(seed: int = 0, occupancy: float = 0.12, field=(10.0, 4.5), min_
         else:
             misses += 1
     placed = field_obstacles.shapes
-    half = width / 2 + OUTER_THICKNESS / 2
+    half = width / 2 + OUTER_THICKNESS / 2  # wall centre lines, so the clear width is the field's
     walls = _outer_walls(-FOREST_APPROACH - 1.0, -half, depth + FOREST_APPROACH + 1.0, half)
     walls += [s for s in placed if isinstance(s, Wall)]
     goal = Pose2D(depth + FOREST_APPROACH, 0.0, 0.0, FOREST_GOAL)
@@ -167,7 +171,8 @@ def forest_world(seed: int = 0, occupancy: float = 0.12, field=(10.0, 4.5), min_
                   tuple(s for s in placed if isinstance(s, Cylinder)), Pose2D(-FOREST_APPROACH, 0.0, 0.0),
                   (goal,), f"forest:{seed}", MappingProxyType(knobs))
     metrics = analyse(world, robot_radius, margin=margin)
-    cspace = {"robot_radius": robot_radius, "margin": margin, "narrowest_passage": round(metrics.narrowest_passage, 3),
+    cspace = {"robot_radius": robot_radius, "margin": margin,
+              "narrowest_passage": round(metrics.narrowest_passage, 3),
               "path_length": round(metrics.path_length, 3), "tortuosity": round(metrics.tortuosity, 4)}
     return replace(world, extra=MappingProxyType({**knobs, "cspace": cspace}))
 
@@ -185,7 +190,7 @@ def _forest_obstacle(rng: np.random.Generator, kind: str, depth: float, width: f
 
 
 class _Field:
-    """The obstacles placed so far, with what the passage check needs: centres, bounding radii, outlines.
+    """The obstacles placed so far, with their centres and bounding radii for a quick first check.
 
     The gap between two convex shapes is the least distance from one's outline to the other, so
     outlines sampled 1 cm apart err by at most half of that; the check demands it on top.
@@ -199,7 +204,6 @@ class _Field:
         self._centres = np.empty((0, 2))
         self._reach = np.empty(0)
         self._round = np.empty(0, dtype=bool)
-        self._outlines: list[np.ndarray] = []
 
     def place(self, shape) -> bool:
         """Keep the shape if it leaves every passage at least min_passage wide."""
@@ -209,7 +213,8 @@ class _Field:
             reach = half_height = solid.radius
         else:
             reach = math.hypot(*solid.size) / 2
-            half_height = (abs(math.sin(solid.yaw)) * solid.size[0] + abs(math.cos(solid.yaw)) * solid.size[1]) / 2
+            c, s = abs(math.cos(solid.yaw)), abs(math.sin(solid.yaw))
+            half_height = (s * solid.size[0] + c * solid.size[1]) / 2
         if abs(solid.center[1]) + half_height > self.width / 2 - self.need:
             return False
         gaps = np.hypot(*(self._centres - solid.center).T) - self._reach - reach
@@ -219,7 +224,8 @@ class _Field:
         outline = _outline(solid) if len(close) else None
         for i in close:
             other = self.shapes[i]
-            if np.min(_shape_distance(other.as_box() if isinstance(other, Wall) else other, outline)) < self.need:
+            other_solid = other.as_box() if isinstance(other, Wall) else other
+            if np.min(_shape_distance(other_solid, outline)) < self.need:
                 return False
         self.shapes.append(shape)
         self.covered += math.pi * reach ** 2 if round_ else solid.size[0] * solid.size[1]
@@ -232,12 +238,12 @@ class _Field:
 def _outline(solid: Box | Cylinder) -> np.ndarray:
     """Points along the shape's outline 1 cm apart."""
     if isinstance(solid, Cylinder):
-        n = max(8, int(2 * math.pi * solid.radius / _BOUNDARY_SPACING))
+        n = math.ceil(2 * math.pi * solid.radius / _BOUNDARY_SPACING)
         angles = np.linspace(0.0, 2 * math.pi, n, endpoint=False)
         return np.column_stack((np.cos(angles), np.sin(angles))) * solid.radius + solid.center
     hx, hy = solid.size[0] / 2, solid.size[1] / 2
     corners = np.array([(-hx, -hy), (hx, -hy), (hx, hy), (-hx, hy), (-hx, -hy)])
-    local = np.concatenate([np.linspace(a, b, max(2, int(np.hypot(*(b - a)) / _BOUNDARY_SPACING)), endpoint=False)
+    local = np.concatenate([np.linspace(a, b, math.ceil(np.hypot(*(b - a)) / _BOUNDARY_SPACING), endpoint=False)
                             for a, b in zip(corners[:-1], corners[1:])])
     c, s = math.cos(solid.yaw), math.sin(solid.yaw)
     return local @ np.array([[c, s], [-s, c]]) + solid.center
