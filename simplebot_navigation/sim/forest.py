@@ -6,7 +6,8 @@ passage) as well as the layout, so consecutive seeds differ in difficulty, not o
 
     python -m simplebot_navigation.sim.forest --report [--seeds 0-199]
 
-prints every world's knobs and C-space difficulty (narrowest passage, tortuosity) and the spread.
+prints every world's knobs and C-space difficulty (narrowest passage, tortuosity) and the spread;
+exit code 1 if a world was unsolvable.
 """
 
 from __future__ import annotations
@@ -54,8 +55,8 @@ def _seeds(text: str) -> list[int]:
     return list(range(int(first), int(last or first) + 1))
 
 
-def report(seeds) -> str:
-    """One row per world and a summary of the spread of the difficulty measures."""
+def report(seeds) -> tuple[str, int]:
+    """One row per world and a summary of the spread of the difficulty measures; and how many failed."""
     rows = ["  seed  occupancy  min_passage  cylinders  boxes  walls  narrowest  tortuosity  solvable"]
     narrowest, tortuosity, failures = [], [], []
     for seed in seeds:
@@ -82,7 +83,7 @@ def report(seeds) -> str:
             rows.append(f"{label:>22}: min {q[0]:.3f}  p10 {q[1]:.3f}  median {q[2]:.3f}  "
                         f"p90 {q[3]:.3f}  max {q[4]:.3f}")
     rows += failures
-    return "\n".join(rows)
+    return "\n".join(rows), len(failures)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -96,9 +97,10 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 2
     began = time.monotonic()
-    print(report(args.seeds))
+    text, failed = report(args.seeds)
+    print(text)
     print(f"({time.monotonic() - began:.1f} s)")
-    return 0
+    return 1 if failed else 0
 
 
 if __name__ == "__main__":
