@@ -7,7 +7,8 @@ ROUND = "$(eval robot == 'round')"
 TIGHT = "$(arg tight)"
 
 LAUNCH = [
-    Arg("world", default="lab", doc="built-in world name (lab, doors, clutter, empty) or a world/map YAML path"),
+    Arg("world", default="lab",
+        doc="built-in world name (lab, doors, clutter, empty), forest:<seed> or a world/map YAML path"),
     Arg("robot", default="box", choices=("box", "round"), doc="robot body: the lab's 0.9 x 0.6 m box, or round"),
     Arg("radius", default="0.3", doc="radius of the round body in metres"),
     Arg("rtf", default="1.0", doc="real-time factor of the simulation (0: as fast as the nodes allow)"),

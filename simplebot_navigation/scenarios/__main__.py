@@ -26,8 +26,8 @@ def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m simplebot_navigation.scenarios",
                                 description=__doc__.split("\n\n")[1].replace("\n", " "))
     p.add_argument("--world", default="lab",
-                   help=f"built-in world ({', '.join(builtin_worlds())}) or a world/map YAML path; "
-                        "'clutter' is regenerated for each run's seed (default: lab)")
+                   help=f"built-in world ({', '.join(builtin_worlds())}), forest:<seed> or a world/map YAML "
+                        "path; 'clutter' and 'forest' are regenerated for each run's seed (default: lab)")
     p.add_argument("--robot", default="box", choices=("box", "round"), help="robot body (default: box)")
     p.add_argument("--radius", type=float, default=0.3, help="radius of the round body in metres (default: 0.3)")
     p.add_argument("--tight", action="store_true",

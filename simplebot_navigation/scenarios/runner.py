@@ -107,7 +107,10 @@ def parse_goals(text: str | None, world: World) -> list[Pose2D]:
 
 
 def world_for_run(world: str, seed: int, folder: str) -> str:
-    """The world argument of one run: 'clutter' is regenerated with the run's seed, others as given."""
+    """The world argument of one run: 'clutter' is regenerated with the run's seed, 'forest' is
+    benchmark forest <seed>, others as given."""
+    if world == "forest":
+        return f"forest:{seed}"
     if world != "clutter":
         return world
     path = os.path.join(folder, f"clutter_{seed}.yaml")
@@ -250,7 +253,7 @@ def run_scenarios(options: ScenarioOptions, progress: Callable[[str], None] = pr
                   ) -> tuple[list[GoalResult], list[World]]:
     """Every goal of the scenario, in order, options.repeat times (run i uses seed options.seed + i).
 
-    Returns the results and the world of each run (``clutter`` differs from seed to seed).
+    Returns the results and the world of each run (``clutter`` and ``forest`` differ from seed to seed).
     """
     if options.repeat < 1:
         raise ValueError(f"--repeat must be >= 1, got {options.repeat}")

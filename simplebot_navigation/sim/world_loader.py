@@ -10,12 +10,14 @@ import yaml
 
 from simplebot_description import builtin_worlds, world_path
 
+from .forest import generated_world
 from .map_import import world_from_map
 from .world import World, check_clearance, world_from_dict
 
 
 def load_world(name_or_path: str | Path, robot_radius: float = 0.0) -> World:
-    """Load a built-in world by name, a world YAML file, or a map_server map.yaml.
+    """Load a built-in world by name, a generated one ("forest:<seed>"), a world YAML file, or a
+    map_server map.yaml.
 
     ``robot_radius`` is the clearance the start and the goals need from every obstacle (pass the
     robot's inscribed radius, or 0 to check only that they are not inside an obstacle).
@@ -24,13 +26,17 @@ def load_world(name_or_path: str | Path, robot_radius: float = 0.0) -> World:
     if isinstance(robot_radius, bool) or not isinstance(robot_radius, (int, float)) \
             or not math.isfinite(robot_radius) or robot_radius < 0:
         raise ValueError(f"robot_radius must be a finite number >= 0; got {robot_radius!r}")
+    world = generated_world(str(name_or_path))
+    if world is not None:
+        check_clearance(world, robot_radius)
+        return world
     path = Path(name_or_path)
     if str(name_or_path) in builtin_worlds():
         path = world_path(str(name_or_path))
     elif not path.is_file():
         raise ValueError(
             f"unknown world {str(name_or_path)!r}: no such file, and not a built-in world "
-            f"({', '.join(builtin_worlds())})")
+            f"({', '.join(builtin_worlds())}) or a generated one (forest, forest:<seed>)")
     try:
         data = yaml.safe_load(path.read_text())
     except yaml.YAMLError as exc:
