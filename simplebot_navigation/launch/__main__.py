@@ -7,6 +7,7 @@ import sys
 
 from simplebot_navigation import paths
 from simplebot_navigation.launch.loader import LaunchError, declared_args, load_launch
+from simplebot_navigation.launch.overrides import apply_set
 from simplebot_navigation.launch.rosparam import ParamError
 
 USAGE = """python -m simplebot_navigation.launch <launch-file> [options] [arg:=value ...]
@@ -61,6 +62,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--print-params", action="store_true", help="print the parameters each node gets, then exit")
     parser.add_argument("--single-process", action="store_true", help="run all nodes in this process, one executor")
     parser.add_argument("--record", metavar="FILE.mcap", help="record every topic of the run to an MCAP file")
+    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                        help="a move_base parameter by its ROS 2 name, e.g. TebLocalPlannerROS.max_vel_x=0.6 "
+                             "(repeatable; checked like the parameter files)")
     parser.add_argument("--keep-run-dir", action="store_true",
                         help="keep the run directory (simplebot_launch_* in the system temp folder: each node's "
                              "parameter file, and the output of output=\"log\" nodes); without this option it is "
@@ -85,6 +89,7 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"  {arg.name}:=VALUE  {arg.doc}{default}")
             return 0
         config = load_launch(path, _split_launch_args(rest, {a.name for a in declared}))
+        apply_set(config, opts.set)
         if opts.record:
             from simplebot_navigation.launch.record import recorder_spec
             config.nodes.insert(0, recorder_spec(opts.record))  # first up, so it misses the least
@@ -92,6 +97,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"[launch] error: {err}", file=sys.stderr)
         return 2
     if opts.print_params:
+        if opts.set:
+            print("# --set " + " --set ".join(opts.set))
         _print_params(config)
         return 0
     if opts.single_process:

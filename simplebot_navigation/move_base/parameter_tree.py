@@ -16,18 +16,13 @@ from simplebot_navigation.teb.config import TebConfig
 from simplebot_navigation.teb.footprint import FootprintModel
 
 from .config import MoveBaseConfig
-from .plugins import CLEAR_COSTMAP_RECOVERY, ROTATE_RECOVERY
+from .plugins import CLEAR_COSTMAP_RECOVERY, ROTATE_RECOVERY, plugin_namespace
 from .recovery import ClearCostmapParams, RotateParams
 
 COSTMAPS = ("global_costmap", "local_costmap")
 _UNSET = object()
 _PLANNER_PARAMS = {"GlobalPlanner": GlobalPlannerConfig, "NavfnROS": NavfnParams, "TebLocalPlannerROS": TebConfig}
 _RECOVERY_PARAMS = {CLEAR_COSTMAP_RECOVERY: ClearCostmapParams, ROTATE_RECOVERY: RotateParams}
-
-
-def plugin_namespace(plugin_type: str) -> str:
-    """'teb_local_planner/TebLocalPlannerROS' -> 'TebLocalPlannerROS', the plugin's parameter namespace."""
-    return plugin_type.rsplit("/", 1)[-1]
 
 
 def _prefixed(prefix: str, cls) -> ParameterTable:

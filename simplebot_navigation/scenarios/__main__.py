@@ -46,6 +46,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--time-budget", type=float,
                    help="sim seconds per goal (default: 20 s + 2 x shortest path / max_vel_x)")
     p.add_argument("--wall-timeout", type=float, help="wall-clock seconds per goal before giving up on a hang")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                   help="a move_base parameter by its ROS 2 name, e.g. TebLocalPlannerROS.max_vel_x=1.0 (repeatable)")
     p.add_argument("--json", metavar="OUT.json", help="write the results as JSON")
     p.add_argument("--plot", metavar="OUT.png", help="draw the trajectories over the world (matplotlib PNG)")
     return p
@@ -77,7 +79,7 @@ def _check(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Scenari
     return ScenarioOptions(world=args.world, robot=args.robot, radius=args.radius, goals=args.goals, rtf=args.rtf,
                            repeat=args.repeat, seed=args.seed, range_noise=args.range_noise,
                            time_budget=args.time_budget, processes=args.processes, tight=args.tight,
-                           wall_timeout_s=args.wall_timeout)
+                           wall_timeout_s=args.wall_timeout, overrides=tuple(args.set))
 
 
 def main(argv: list[str] | None = None) -> int:

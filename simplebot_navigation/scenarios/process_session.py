@@ -20,6 +20,7 @@ from rclpy.executors import SingleThreadedExecutor
 
 from simplebot_description import robot_description
 from simplebot_navigation.launch.loader import load_launch
+from simplebot_navigation.launch.overrides import apply_set
 from simplebot_navigation.move_base.plugins import TEB_LOCAL_PLANNER, plugin_namespace
 from simplebot_navigation.sim.world import Pose2D
 from simplebot_navigation.sim.world_loader import load_world
@@ -48,13 +49,14 @@ class ProcessSession(_Session):
 
     def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, rtf: float = 1.0,
                  seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation", tight: bool = False,
-                 respawn: bool = False):
+                 respawn: bool = False, overrides: tuple[str, ...] = ()):
         if not (math.isfinite(rtf) and rtf > 0):
             raise ValueError(f"separate processes need rtf > 0 (lockstep is single-process), got {rtf!r}")
         self.description = robot_description(robot, radius)
         self.world = load_world(world, robot_radius=self.description.inscribed_radius)
         args = launch_args(world, robot, radius, rtf, tight, respawn)
         self.launch = load_launch(launch_file, args)
+        apply_set(self.launch, list(overrides))     # checked here, and read by controller_param
         self.run_dir = run_dir = tempfile.mkdtemp(prefix="simplebot_scenario_")
         wrapper = os.path.join(run_dir, "scenario_launch.py")
         with open(wrapper, "w", encoding="utf-8") as handle:
@@ -62,7 +64,8 @@ class ProcessSession(_Session):
                                                noise=float(range_noise)))
         self.log_file = os.path.join(run_dir, "launch.log")
         with open(self.log_file, "w", encoding="utf-8") as log:
-            self.process = subprocess.Popen([sys.executable, "-u", "-m", "simplebot_navigation.launch", wrapper],
+            self.process = subprocess.Popen([sys.executable, "-u", "-m", "simplebot_navigation.launch", wrapper,
+                                             *(f"--set={assignment}" for assignment in overrides)],
                                             stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
                                             start_new_session=True)
         self.context = rclpy.Context()

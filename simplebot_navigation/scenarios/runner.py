@@ -74,6 +74,7 @@ class ScenarioOptions:
     time_budget: float | None = None  # sim s per goal; None: from the shortest path and max_vel_x
     processes: bool = False        # the launcher's processes (rtf > 0) instead of nodes in this process
     wall_timeout_s: float | None = None  # per goal, a guard against hangs
+    overrides: tuple[str, ...] = ()      # --set NAME=VALUE for move_base
 
 
 # -- goals -----------------------------------------------------------------------------------------
@@ -266,7 +267,8 @@ def run_scenarios(options: ScenarioOptions, progress: Callable[[str], None] = pr
         session_class = ProcessSession if options.processes else NavigationSession
         with tempfile.TemporaryDirectory(prefix="simplebot_scenarios_") as folder, \
                 session_class(world_for_run(options.world, seed, folder), options.robot, options.radius,
-                              options.rtf, seed, options.range_noise, tight=options.tight) as session:
+                              options.rtf, seed, options.range_noise, tight=options.tight,
+                              overrides=options.overrides) as session:
             goals = parse_goals(options.goals, session.world)
             worlds.append(session.world)
             session.wait_ready(wall_timeout_s=options.wall_timeout_s or 120.0)

@@ -37,6 +37,7 @@ from simplebot_description import RobotDescription, robot_description
 from simplebot_navigation.geometry import pose_in_frame
 from simplebot_navigation.launch.loader import load_launch
 from simplebot_navigation.launch.nodes import resolve_executable
+from simplebot_navigation.launch.overrides import apply_set
 from simplebot_navigation.launch.runner import ros_args, write_params_file
 from simplebot_navigation.move_base.cycle_stats import CycleSnapshot
 from simplebot_navigation.move_base.events import MoveBaseStats
@@ -234,13 +235,15 @@ class NavigationSession(_Session):
     """Simulator + move_base + ScenarioClient in one process; goals and poses in the world frame."""
 
     def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, rtf: float = 0.0,
-                 seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation", tight: bool = False):
+                 seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation", tight: bool = False,
+                 overrides: tuple[str, ...] = ()):
         if not (math.isfinite(rtf) and rtf >= 0):
             raise ValueError(f"rtf must be >= 0 (0: lockstep), got {rtf!r}")
         self.description = robot_description(robot, radius)
         self.world = load_world(world, robot_radius=self.description.inscribed_radius)
         self.rtf = rtf
         config = load_launch(launch_file, launch_args(world, robot, radius, rtf, tight))
+        apply_set(config, list(overrides))
         self.context = rclpy.Context()
         rclpy.init(context=self.context)
         self.nodes: list[Node] = []

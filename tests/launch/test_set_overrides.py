@@ -1,0 +1,59 @@
+"""--set NAME=VALUE: move_base parameters from the command line, checked like the parameter files, and what the
+robot then does with them."""
+
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from simplebot_navigation.scenarios.session import NavigationSession
+from simplebot_navigation.sim.world import Pose2D
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def print_params(*sets: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "simplebot_navigation.launch", "navigation", "--print-params",
+                           *(f"--set={s}" for s in sets)], cwd=REPO, capture_output=True, text=True, timeout=120)
+
+
+def test_set_values_reach_move_base_and_print_params_shows_them():
+    done = print_params("TebLocalPlannerROS.max_vel_x=0.8", "local_costmap.inflation_layer.inflation_radius=0.3")
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert "# --set TebLocalPlannerROS.max_vel_x=0.8 --set local_costmap.inflation_layer.inflation_radius=0.3" in lines
+    assert "TebLocalPlannerROS.max_vel_x: 0.8" in lines
+    assert "local_costmap.inflation_layer.inflation_radius: 0.3" in lines
+    assert "global_costmap.inflation_layer.inflation_radius: 1.5" in lines      # the other costmap keeps its own
+
+
+@pytest.mark.parametrize("assignment, message", [
+    ("TebLocalPlannerROS.max_vel_x=.nan", "TebLocalPlannerROS.max_vel_x"),
+    ("TebLocalPlannerROS.max_vel_x=fast", "expected a number, got 'fast'"),
+    ("TebLocalPlannerROS.max_vel=1", "did you mean 'TebLocalPlannerROS.max_vel_y'"),
+    ("local_costmap.inflation_layer.inflation_radius=-1", "local_costmap.inflation_layer.inflation_radius"),
+    ("max_vel_x", "expected NAME=VALUE"),
+])
+def test_a_bad_set_is_one_line_naming_it(assignment, message):
+    done = print_params(assignment)
+    assert done.returncode == 2
+    assert message in done.stderr and "--set" in done.stderr and "Traceback" not in done.stderr, done.stderr
+
+
+@pytest.mark.timeout(300)
+def test_a_lower_max_vel_x_slows_the_robot_down():
+    with NavigationSession("empty", overrides=("TebLocalPlannerROS.max_vel_x=0.2",)) as session:
+        session.wait_ready(wall_timeout_s=120.0)
+        assert session.controller_param("max_vel_x", 0.4) == pytest.approx(0.2)
+        start = session.pose()
+        run = session.send_goal(Pose2D(start.x + 2.5, start.y, start.yaw))
+        session.run_until(session.time + 60.0, lambda: run.done, wall_timeout_s=240.0)
+        assert run.status == "SUCCEEDED", run.reason
+        truth = np.array(session.truth_since(run.sent_at))
+        speeds = np.hypot(np.diff(truth[:, 1]), np.diff(truth[:, 2])) / np.maximum(np.diff(truth[:, 0]), 1e-9)
+        top = float(np.percentile(speeds, 99))
+        assert 0.1 < top <= 0.2 * 1.1, f"99th-percentile speed {top:.3f} m/s with max_vel_x 0.2"
+        assert math.isclose(session.pose().x, start.x + 2.5, abs_tol=0.3)
