@@ -29,7 +29,8 @@ POLL_S = 1.0
 class Progress:
     """Runs done / failed / running with an ETA: a tqdm bar when tqdm is installed, else one line per run."""
 
-    def __init__(self, total: int, done: int, failed: int, stream=sys.stderr):
+    def __init__(self, total: int, done: int, failed: int, stream=None):
+        stream = stream or sys.stderr
         self.total, self.done, self.failed, self.stream = total, done, failed, stream
         self.already, self.started = done, time.monotonic()
         try:
@@ -69,8 +70,9 @@ class Progress:
             self.bar.close()
 
 
-def run_campaign(spec: CampaignSpec, out: str, executor, resume: bool = False, stream=sys.stderr) -> list[dict]:
+def run_campaign(spec: CampaignSpec, out: str, executor, resume: bool = False, stream=None) -> list[dict]:
     """Every run not yet in ``out``, at most executor.slots at a time; returns the record that counts per run."""
+    stream = stream or sys.stderr
     try:
         runs = plan(spec)
         results = ResultsFile(out, spec, resume)

@@ -190,14 +190,14 @@ def plan(spec: CampaignSpec) -> list[Run]:
         for robot in spec.robots:
             try:
                 loaded = load_world(world, robot_radius=robot_description(robot).inscribed_radius)
-                if spec.goals:
-                    for goal in spec.goals:
-                        parse_goals(goal, loaded)  # raises for an unknown name or bad coordinates
-                    goals = list(spec.goals)
-                else:
-                    goals = [g.name for g in parse_goals(None, loaded)]
             except (ValueError, FileNotFoundError) as err:
                 raise SpecError(f"worlds: {world} ({robot} robot): {err}") from err
+            try:
+                for goal in spec.goals or ():
+                    parse_goals(goal, loaded)  # raises for an unknown name or bad coordinates
+                goals = list(spec.goals) if spec.goals else [g.name for g in parse_goals(None, loaded)]
+            except ValueError as err:
+                raise SpecError(f"goals: world {world}: {err}") from err
             runs += [Run(world, seed, robot, params, goal)
                      for params, goal, seed in itertools.product(spec.params, goals, spec.seeds)]
     return runs
