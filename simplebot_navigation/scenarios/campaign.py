@@ -189,8 +189,8 @@ def main(argv: list[str] | None = None) -> int:
     print(summary_table(summarize(records)))
     print(f"results in {args.out}")
     if args.plot:
-        from .campaign_plot import summary_figure
+        from .campaign_plot import hardest_runs, summary_figure
 
         summary_figure(args.plot, records)
-        print(f"summary figure in {args.plot}")
+        print(f"summary figure in {args.plot}; hardest runs in {', '.join(hardest_runs(args.plot, records))}")
     return 1 if any(r["error"] for r in records) else 0

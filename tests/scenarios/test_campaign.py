@@ -13,6 +13,7 @@ import pytest
 
 from simplebot_navigation.scenarios.campaign import main, run_campaign
 from simplebot_navigation.scenarios.campaign_exec import LocalExecutor, RayExecutor, domain_lease
+from simplebot_navigation.scenarios.campaign_plot import hardest_runs, summary_figure
 from simplebot_navigation.scenarios.campaign_results import read_results
 from simplebot_navigation.scenarios.campaign_spec import SpecError, expand_worlds, plan, spec_from_dict
 from simplebot_navigation.scenarios.campaign_stats import compare, fisher_p, summarize, welch_p, wilson_interval
@@ -215,3 +216,18 @@ def test_a_local_ray_gives_the_sequential_results(sequential, tmp_path):
         ray.shutdown()
     assert outcomes(records) == sequential
     assert json.loads((tmp_path / "r.jsonl").read_text().splitlines()[0])["spec"]["seeds"] == list(range(6))
+
+
+def test_the_summary_figure_and_the_hardest_runs(tmp_path):
+    records = [record(i, i < 7, 20.0 + i) for i in range(10)]
+    goal = {"x": 8.5, "y": 5.0, "yaw": 0.0, "status": "ABORTED", "reason": "", "budget_s": 60.0,
+            "straight_line": 9.9, "min_clearance": None, "replans": 1, "recoveries": 0, "cycle_p95_ms": 12.0,
+            "cycles_missed": 0, "final": [4.0, 0.0, 0.0], "position_error": 5.0, "yaw_error": 0.0, "wall_s": 9.0,
+            "trajectory": [[2.0, 0.0, 0.0, 0.0], [9.0, 4.0, 0.0, 0.0]]}
+    records[9] |= goal
+    records[0] |= goal | {"status": "SUCCEEDED"}
+    summary_figure(str(tmp_path / "fig.png"), records)
+    assert (tmp_path / "fig.png").read_bytes()[:4] == b"\x89PNG"
+    files = hardest_runs(str(tmp_path / "fig.png"), records)
+    assert files == [str(tmp_path / "fig_hardest_1.png"), str(tmp_path / "fig_hardest_2.png")]
+    assert all(os.path.getsize(f) > 10_000 for f in files)
