@@ -20,7 +20,7 @@ import yaml
 
 from .campaign_exec import CampaignError, LocalExecutor, RayExecutor
 from .campaign_results import ResultsFile, latest_by_run, read_results
-from .campaign_spec import CampaignSpec, SpecError, params_label, plan, spec_from_dict
+from .campaign_spec import CampaignSpec, Run, SpecError, params_label, plan, spec_from_dict
 from .campaign_stats import compare, comparison_table, summarize, summary_table
 
 POLL_S = 1.0
@@ -70,11 +70,15 @@ class Progress:
             self.bar.close()
 
 
-def run_campaign(spec: CampaignSpec, out: str, executor, resume: bool = False, stream=None) -> list[dict]:
-    """Every run not yet in ``out``, at most executor.slots at a time; returns the record that counts per run."""
+def run_campaign(spec: CampaignSpec, out: str, executor, resume: bool = False, stream=None,
+                 runs: list[Run] | None = None) -> list[dict]:
+    """Every run not yet in ``out``, at most executor.slots at a time; returns the record that counts per run.
+
+    ``runs`` is the spec's plan when the caller already has it (planning loads every world).
+    """
     stream = stream or sys.stderr
     try:
-        runs = plan(spec)
+        runs = plan(spec) if runs is None else runs
         results = ResultsFile(out, spec, resume)
     except BaseException:
         executor.close()
@@ -83,9 +87,10 @@ def run_campaign(spec: CampaignSpec, out: str, executor, resume: bool = False, s
     if resume:
         print(f"resuming {out}: {len(runs) - len(pending)} of {len(runs)} runs already finished",
               file=stream, flush=True)
-    counted = latest_by_run(read_results(out)[1]).values()
-    progress = Progress(len(runs), len(runs) - len(pending), sum(not r["success"] for r in counted), stream)
-    running: dict[concurrent.futures.Future, object] = {}
+    latest = latest_by_run(read_results(out)[1])
+    failed = sum(not record["success"] for key, record in latest.items() if key in results.finished)
+    progress = Progress(len(runs), len(runs) - len(pending), failed, stream)
+    running: dict[concurrent.futures.Future, Run] = {}
     try:
         while pending or running:
             while pending and len(running) < executor.slots:
@@ -178,9 +183,9 @@ def main(argv: list[str] | None = None) -> int:
             parser.error(f"{option} {path}: directory {folder} does not exist")
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     try:
-        plan(spec)
+        runs = plan(spec)
         executor = RayExecutor(args.ray) if args.ray else LocalExecutor(args.jobs)
-        records = run_campaign(spec, args.out, executor, args.resume)
+        records = run_campaign(spec, args.out, executor, args.resume, runs=runs)
     except SpecError as err:
         parser.error(str(err))
     except CampaignError as err:

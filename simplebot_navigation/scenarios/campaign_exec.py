@@ -137,7 +137,7 @@ class RayExecutor:
         self.started_ray = not ray.is_initialized()
         if self.started_ray:
             try:
-                ray.init(address=None if address in ("local", "auto") else address,
+                ray.init(address=None if address == "auto" else address,
                          **({"include_dashboard": False} if address == "local" else {}))
             except (ConnectionError, RuntimeError, ValueError) as err:
                 raise CampaignError(f"--ray {address}: {err}") from err
