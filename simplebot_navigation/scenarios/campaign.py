@@ -1,4 +1,4 @@
-"""python -m simplebot_navigation.scenarios campaign [SPEC.yaml] [--worlds ...] --out results.jsonl [--jobs N | --ray ADDR]
+"""python -m simplebot_navigation.scenarios campaign [SPEC.yaml] [--worlds ...] --out R.jsonl [--jobs N | --ray ADDR]
 
 Runs a campaign - every combination of worlds, robot bodies, parameter sets, goals and seeds, one
 lockstep scenario per run - on worker processes here or on a Ray cluster, appending each finished

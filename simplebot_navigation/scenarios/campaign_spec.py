@@ -7,6 +7,7 @@ command line flags; every error names the key (or flag) it is about.
 
 from __future__ import annotations
 
+import inspect
 import itertools
 import json
 import math
@@ -17,6 +18,7 @@ from simplebot_description import robot_description
 from simplebot_navigation.sim.world import load_world
 
 from .runner import parse_goals
+from .session import NavigationSession
 
 ROBOTS = ("box", "round")
 SPEC_KEYS = ("worlds", "seeds", "robots", "params", "goals", "run_timeout")
@@ -185,6 +187,9 @@ class Run:
 
 def plan(spec: CampaignSpec) -> list[Run]:
     """Every run of the campaign, worlds outermost; each world is loaded once here to check it and its goals."""
+    if any(spec.params) and "overrides" not in inspect.signature(NavigationSession).parameters:
+        raise SpecError(f"params: {params_label(next(p for p in spec.params if p))!r}: this NavigationSession "
+                        "takes no overrides= argument yet, so parameter sets cannot be applied")
     runs = []
     for world in spec.worlds:
         for robot in spec.robots:

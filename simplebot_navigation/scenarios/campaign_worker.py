@@ -7,35 +7,22 @@ run's nodes, and a crash or a hang takes nothing else down.
 
 from __future__ import annotations
 
-import inspect
 import json
 import os
 import sys
 import tempfile
 
 from .campaign_spec import Run
+from .report import finite
+from .runner import parse_goals, run_goal, time_budget, world_for_run
+from .session import NavigationSession
 
 READY_TIMEOUT_S = 300.0
 
 
-def session_overrides(params: tuple[str, ...]) -> dict:
-    """The keyword that carries a parameter set into NavigationSession, if the session takes one."""
-    from .session import NavigationSession
-
-    if not params:
-        return {}
-    if "overrides" not in inspect.signature(NavigationSession).parameters:
-        raise RuntimeError(f"parameter set {' '.join(params)!r}: this NavigationSession takes no overrides= "
-                           "argument yet, so --set cannot be applied")
-    return {"overrides": list(params)}
-
-
 def execute(run: Run) -> dict:
     """Start the stack in lockstep for the run's world, body and seed, send its goal, and measure it."""
-    from .runner import parse_goals, run_goal, time_budget, world_for_run
-    from .session import NavigationSession
-
-    extra = session_overrides(run.params)
+    extra = {"overrides": list(run.params)} if run.params else {}  # plan() checked that the session takes them
     with tempfile.TemporaryDirectory(prefix="simplebot_campaign_") as folder, \
             NavigationSession(world_for_run(run.world, run.seed, folder), run.robot, rtf=0.0, seed=run.seed,
                               **extra) as session:
@@ -55,8 +42,6 @@ def main(argv: list[str]) -> int:
         return 2
     run = Run.from_dict(json.loads(argv[0]))
     print(f"campaign run {run.key} in ROS domain {os.environ.get('ROS_DOMAIN_ID')}", flush=True)
-    from .report import finite
-
     record = finite(execute(run))
     partial = argv[1] + ".partial"
     with open(partial, "w", encoding="utf-8") as handle:

@@ -1,6 +1,7 @@
 """Scenario campaigns: the spec, the results file under crashes, hangs and kills, the statistics, and
 lockstep determinism across sequential, parallel and Ray execution."""
 
+import inspect
 import json
 import math
 import os
@@ -11,19 +12,36 @@ import time
 
 import pytest
 
+from simplebot_navigation.scenarios import campaign_spec
 from simplebot_navigation.scenarios.campaign import main, run_campaign
 from simplebot_navigation.scenarios.campaign_exec import LocalExecutor, RayExecutor, domain_lease
 from simplebot_navigation.scenarios.campaign_plot import hardest_runs, summary_figure
 from simplebot_navigation.scenarios.campaign_results import read_results
 from simplebot_navigation.scenarios.campaign_spec import SpecError, expand_worlds, plan, spec_from_dict
 from simplebot_navigation.scenarios.campaign_stats import compare, fisher_p, summarize, welch_p, wilson_interval
+from simplebot_navigation.scenarios.session import NavigationSession
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 FAKE_WORKER = (sys.executable, os.path.join(os.path.dirname(os.path.abspath(__file__)), "campaign_fake_worker.py"))
 
 
 # -- spec ------------------------------------------------------------------------------------------
-def test_the_cross_product_and_generated_families():
+class SessionWithOverrides:
+    def __init__(self, world, robot="box", radius=0.3, rtf=0.0, seed=0, overrides=None):
+        pass
+
+
+def test_parameter_sets_need_a_session_that_takes_overrides(monkeypatch):
+    spec = spec_from_dict({"worlds": "lab", "params": ["default", "a.b=1 c=x"]})
+    if "overrides" not in inspect.signature(NavigationSession).parameters:
+        with pytest.raises(SpecError, match="params: 'a.b=1 c=x': this NavigationSession takes no overrides="):
+            plan(spec)
+    monkeypatch.setattr(campaign_spec, "NavigationSession", SessionWithOverrides)
+    assert [run.params for run in plan(spec)[::6]] == [(), ("a.b=1", "c=x")]
+
+
+def test_the_cross_product_and_generated_families(monkeypatch):
+    monkeypatch.setattr(campaign_spec, "NavigationSession", SessionWithOverrides)
     assert expand_worlds(["forest:0-2", "lab", "maps/a.yaml"]) == ["forest:0", "forest:1", "forest:2", "lab",
                                                                     "maps/a.yaml"]
     spec = spec_from_dict({"worlds": "lab", "seeds": "0-1", "robots": "box,round", "goals": "library,lab",
