@@ -41,9 +41,7 @@ class CampaignError(RuntimeError):
 def domain_lease(first: int, avoid: int | None) -> Iterator[int]:
     """Hold a ROS domain id no other run on this host holds, trying ``first`` and then the ones after it."""
     os.makedirs(LOCK_FOLDER, exist_ok=True)
-    candidates = [d for d in DOMAIN_IDS if d != avoid]
-    start = first % len(candidates)
-    order = candidates[start:] + candidates[:start]
+    order = sorted((d for d in DOMAIN_IDS if d != avoid), key=lambda d: (d - first) % len(DOMAIN_IDS))
     while True:
         for domain in order:
             handle = open(os.path.join(LOCK_FOLDER, f"{domain}.lock"), "w")
@@ -99,27 +97,39 @@ def run_isolated(run: dict, timeout_s: float, first_domain: int, avoid_domain: i
         return {**where, "error": error, "log_tail": tail}
 
 
-class LocalExecutor:
+class _Executor:
+    """What both executors share: ``slots`` runs at a time, each in a fresh process with a leased domain."""
+
+    slots: int
+
+    def __init__(self, command: tuple[str, ...] | None):
+        self.command = command
+        self.avoid = parent_domain()
+        self.submitted = 0
+
+    def _arguments(self, run: Run, timeout_s: float) -> tuple:
+        """run_isolated's arguments; the slots start their leases at successive ids just above the campaign's."""
+        first = (self.avoid if self.avoid is not None else -1) + 1 + self.submitted % self.slots
+        self.submitted += 1
+        return run.to_dict(), timeout_s, first, self.avoid, self.command
+
+
+class LocalExecutor(_Executor):
     """--jobs N: N threads on this machine, each waiting on one worker process at a time."""
 
     def __init__(self, jobs: int, command: tuple[str, ...] | None = None):
+        super().__init__(command)
         self.slots = jobs
-        self.command = command
-        self.avoid = parent_domain()
-        self.first = (self.avoid + 1) if self.avoid is not None else 0
         self.pool = concurrent.futures.ThreadPoolExecutor(max_workers=jobs, thread_name_prefix="campaign")
-        self.submitted = 0
 
     def submit(self, run: Run, timeout_s: float) -> concurrent.futures.Future:
-        first = self.first + self.submitted % self.slots
-        self.submitted += 1
-        return self.pool.submit(run_isolated, run.to_dict(), timeout_s, first, self.avoid, self.command)
+        return self.pool.submit(run_isolated, *self._arguments(run, timeout_s))
 
     def close(self) -> None:
         self.pool.shutdown(wait=True, cancel_futures=True)
 
 
-class RayExecutor:
+class RayExecutor(_Executor):
     """--ray: one Ray task (one CPU) per run, on the cluster at ``address`` or a local Ray instance.
 
     'local' starts an embedded Ray; 'auto' joins the cluster this machine belongs to (or starts
@@ -133,6 +143,7 @@ class RayExecutor:
         except ImportError as err:
             raise CampaignError("--ray: Ray is not installed; pip install -e '.[cluster]' "
                                 "(or pip install 'ray[default]>=2.40,<3')") from err
+        super().__init__(command)
         self.ray = ray
         self.started_ray = not ray.is_initialized()
         if self.started_ray:
@@ -142,16 +153,11 @@ class RayExecutor:
             except (ConnectionError, RuntimeError, ValueError) as err:
                 raise CampaignError(f"--ray {address}: {err}") from err
         self.slots = max(1, int(ray.cluster_resources().get("CPU", 1)))
-        self.command = command
-        self.avoid = parent_domain()
         self.task = ray.remote(num_cpus=1, max_retries=0, runtime_env={
             "env_vars": {"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}})(run_isolated)
-        self.submitted = 0
 
     def submit(self, run: Run, timeout_s: float) -> concurrent.futures.Future:
-        first = (self.avoid or 0) + 1 + self.submitted % self.slots
-        self.submitted += 1
-        return self.task.remote(run.to_dict(), timeout_s, first, self.avoid, self.command).future()
+        return self.task.remote(*self._arguments(run, timeout_s)).future()
 
     def close(self) -> None:
         if self.started_ray:

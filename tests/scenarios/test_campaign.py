@@ -12,9 +12,9 @@ import time
 
 import pytest
 
-from simplebot_navigation.scenarios import campaign_spec
+from simplebot_navigation.scenarios import campaign_exec, campaign_spec
 from simplebot_navigation.scenarios.campaign import main, run_campaign
-from simplebot_navigation.scenarios.campaign_exec import LocalExecutor, RayExecutor, domain_lease
+from simplebot_navigation.scenarios.campaign_exec import CampaignError, LocalExecutor, RayExecutor, domain_lease
 from simplebot_navigation.scenarios.campaign_plot import hardest_runs, summary_figure
 from simplebot_navigation.scenarios.campaign_results import read_results
 from simplebot_navigation.scenarios.campaign_spec import SpecError, expand_worlds, plan, spec_from_dict
@@ -123,9 +123,18 @@ def test_crashes_and_hangs_are_recorded_with_their_log_and_retried_once(tmp_path
     assert len(fake_worker.read_text().splitlines()) == 7
 
 
-def test_concurrent_runs_never_share_a_domain():
+def test_concurrent_runs_never_share_a_domain(tmp_path, monkeypatch):
+    monkeypatch.setattr(campaign_exec, "LOCK_FOLDER", str(tmp_path))  # no campaign of this host in the way
     with domain_lease(40, avoid=41) as a, domain_lease(40, avoid=41) as b, domain_lease(40, avoid=41) as c:
-        assert len({a, b, c}) == 3 and 41 not in (a, b, c)
+        assert (a, b, c) == (40, 42, 43)  # taken in order from the first, the campaign's own id skipped
+    with domain_lease(101, avoid=None) as a, domain_lease(101, avoid=None) as b:
+        assert (a, b) == (101, 0)
+
+
+def test_without_ray_the_error_says_how_to_install_it(monkeypatch):
+    monkeypatch.setitem(sys.modules, "ray", None)
+    with pytest.raises(CampaignError, match=r"--ray: Ray is not installed; pip install -e '.\[cluster\]'"):
+        RayExecutor("auto")
 
 
 CAMPAIGN_SCRIPT = """
