@@ -13,7 +13,7 @@ import time
 import pytest
 
 from simplebot_navigation.scenarios import campaign_exec, campaign_spec
-from simplebot_navigation.scenarios.campaign import main, run_campaign
+from simplebot_navigation.scenarios.campaign import Progress, main, run_campaign
 from simplebot_navigation.scenarios.campaign_exec import CampaignError, LocalExecutor, RayExecutor, domain_lease
 from simplebot_navigation.scenarios.campaign_plot import hardest_runs, summary_figure
 from simplebot_navigation.scenarios.campaign_results import read_results
@@ -258,3 +258,26 @@ def test_the_summary_figure_and_the_hardest_runs(tmp_path):
     files = hardest_runs(str(tmp_path / "fig.png"), records)
     assert files == [str(tmp_path / "fig_hardest_1.png"), str(tmp_path / "fig_hardest_2.png")]
     assert all(os.path.getsize(f) > 10_000 for f in files)
+
+
+def test_progress_goes_through_tqdm_when_it_is_installed(monkeypatch):
+    class Bar:
+        def __init__(self, total, initial, **kw):
+            self.total, self.n, self.lines, self.postfix = total, initial, [], ""
+
+        def write(self, line):
+            self.lines.append(line)
+
+        def set_postfix_str(self, text):
+            self.postfix = text
+
+        def close(self):
+            pass
+
+    monkeypatch.setitem(sys.modules, "tqdm", type(sys)("tqdm"))
+    sys.modules["tqdm"].tqdm = Bar
+    progress = Progress(total=3, done=1, failed=0)
+    progress.finished(record(4, False, 12.0) | {"status": "ABORTED"}, retrying=False, running=1)
+    assert (progress.bar.n, progress.bar.postfix) == (2, "failed 1, running 1")
+    assert progress.bar.lines == ["[2/3] lab seed 4 box default goal g: FAIL ABORTED in 12.0 s sim "
+                                  "(timeout: no result within the 30 s budget)"]
