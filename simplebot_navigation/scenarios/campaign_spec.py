@@ -105,12 +105,19 @@ def goal_items(text: str, key: str = "goals") -> list[str]:
         fields = [f.strip() for f in item.split(",")]
         if not item or not all(fields):
             raise SpecError(f"{key}: empty item in {text!r}")
-        try:
-            [float(f) for f in fields]
-            items.append(item)
-        except ValueError:
-            items += fields
+        if all(_is_number(f) for f in fields):
+            items.append(item)      # one pose, checked by parse_goals when the plan is made
+        else:
+            items += fields         # goal names
     return items
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def _as_list(value, key: str) -> list:
