@@ -75,7 +75,9 @@ def run_isolated(run: dict, timeout_s: float, first_domain: int, avoid_domain: i
     with domain_lease(first_domain, avoid_domain) as domain, \
             tempfile.TemporaryDirectory(prefix="simplebot_campaign_run_") as folder:
         out, log_path = os.path.join(folder, "result.json"), os.path.join(folder, "run.log")
-        env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+        # One CPU per run, as Ray gives its tasks: without the cap each run's BLAS/OpenMP threads fight the others'.
+        env = {"OMP_NUM_THREADS": "1", **os.environ, "ROS_DOMAIN_ID": str(domain),
+               "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
         with open(log_path, "w", encoding="utf-8") as log:
             process = subprocess.Popen([*command, json.dumps(run), out], stdout=log, stderr=subprocess.STDOUT,
                                        stdin=subprocess.DEVNULL, env=env)  # Ctrl-C reaches it too
