@@ -33,12 +33,7 @@ def main() -> None:
         session.client.create_subscription(
             Twist, "/simplebot_controller/cmd_vel",
             lambda msg: commands.append((time.monotonic(), msg.linear.x, msg.angular.z)), 50)
-
-        def spin(seconds: float, stop=lambda: False) -> bool:
-            end = time.monotonic() + seconds
-            while time.monotonic() < end and not stop():
-                session.executor.spin_once(timeout_sec=0.02)
-            return stop()
+        spin = session.spin_wall
 
         for kill in range(1, args.kills + 1):
             old = session.send_goal(OUT)

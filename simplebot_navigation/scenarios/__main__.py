@@ -1,4 +1,4 @@
-"""python -m simplebot_navigation.scenarios [--world lab] [--robot box|round] [--goals ...] [--json out.json]
+"""python -m simplebot_navigation.scenarios [campaign ...] [--world lab] [--robot box|round] [--goals ...] [--json out.json]
 
 Runs the simulator and move_base of the navigation launch file in this process (lockstep by
 default: as fast as the nodes allow, and the same seed gives the same run), sends each goal through
@@ -83,6 +83,11 @@ def _check(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Scenari
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["campaign"]:
+        from .campaign import main as campaign_main
+
+        return campaign_main(argv[1:])
     parser = _parser()
     args = parser.parse_args(argv)
     options = _check(parser, args)

@@ -58,17 +58,18 @@ def table(results: list[GoalResult]) -> str:
     return "\n".join(lines)
 
 
-def write_json(path: str, options: ScenarioOptions, results: list[GoalResult]) -> None:
-    """Strict JSON: an infinite clearance (nothing in the world) or an undefined mean become null."""
-    def finite(value):
-        if isinstance(value, float) and not math.isfinite(value):
-            return None
-        if isinstance(value, dict):
-            return {k: finite(v) for k, v in value.items()}
-        if isinstance(value, (list, tuple)):
-            return [finite(v) for v in value]
-        return value
+def finite(value):
+    """For strict JSON: an infinite clearance (nothing in the world) or an undefined mean become null."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [finite(v) for v in value]
+    return value
 
+
+def write_json(path: str, options: ScenarioOptions, results: list[GoalResult]) -> None:
     with open(path, "w", encoding="utf-8") as handle:
         json.dump(finite({"options": asdict(options), "summary": summary(results),
                           "results": [r.to_dict() for r in results]}), handle, indent=1, allow_nan=False)

@@ -161,6 +161,16 @@ class _Session(abc.ABC):
                 wall_timeout_s: float | None = None) -> bool:
         return self.run_until(self.time + duration_s, stop, wall_timeout_s)
 
+    def spin_wall(self, seconds: float, stop: Callable[[], bool] = lambda: False) -> bool:
+        """Spin for wall-clock seconds, or until stop(); for when simulated time may stop or jump back (a
+        killed or restarted simulator). True if stop() ended it."""
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            if stop():
+                return True
+            self.executor.spin_once(timeout_sec=0.02)
+        return stop()
+
     def wait_ready(self, wall_timeout_s: float = 60.0) -> None:
         """Warm up: move_base ready for goals, and at least WARM_UP_S of sim time."""
         self.run_until(WARM_UP_S, wall_timeout_s=wall_timeout_s)

@@ -44,12 +44,7 @@ class Stack:
         self.legs = 0
 
     def spin(self, seconds: float, stop=lambda: False) -> bool:
-        end = time.monotonic() + seconds
-        while time.monotonic() < end:
-            if stop():
-                return True
-            self.session.executor.spin_once(timeout_sec=0.02)
-        return stop()
+        return self.session.spin_wall(seconds, stop)
 
     def next_goal(self) -> Pose2D:
         goal = LEGS[self.legs % 2]

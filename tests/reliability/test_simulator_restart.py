@@ -13,15 +13,6 @@ from simplebot_navigation.scenarios.process_session import ProcessSession
 from simplebot_navigation.sim.world import Pose2D
 
 
-def spin_wall(session, seconds: float, stop=lambda: False) -> bool:
-    end = time.monotonic() + seconds
-    while time.monotonic() < end:
-        if stop():
-            return True
-        session.executor.spin_once(timeout_sec=0.02)
-    return stop()
-
-
 @pytest.mark.timeout(420)
 def test_a_killed_and_respawned_simulator_stops_the_robot_then_the_next_goal_succeeds():
     with ProcessSession("lab", rtf=1.0, respawn=True) as session:
@@ -32,29 +23,29 @@ def test_a_killed_and_respawned_simulator_stops_the_robot_then_the_next_goal_suc
             lambda msg: commands.append((time.monotonic(), msg.linear.x, msg.angular.z)), 10)
         goal = Pose2D(4.0, 0.0, 0.0, "corridor")
         first = session.send_goal(goal)
-        spin_wall(session, 6.0)
+        session.spin_wall(6.0)
         assert any(abs(v) > 0.05 for _, v, _ in commands[-10:]), "the robot should be driving"
 
         old_pid = session.node_pid("simulator")
         seen, last_stamp = len(session.client.truth), session.client.truth[-1][0]
         os.kill(old_pid, signal.SIGKILL)
         killed = time.monotonic()
-        spin_wall(session, 1.0)
+        session.spin_wall(1.0)
         stops = [t - killed for t, v, w in commands if t > killed and v == 0.0 and w == 0.0]
         assert stops and stops[0] <= 0.5, f"first zero command {stops[:1]} s after the simulator was killed"
         moving = [(v, w) for t, v, w in commands if t > killed + 0.5 and (v != 0.0 or w != 0.0)]
         assert not moving, f"move_base kept commanding {moving[:3]} with the simulator dead"
 
-        assert spin_wall(session, 60.0, lambda: session.node_pid("simulator") not in (None, old_pid)), \
+        assert session.spin_wall(60.0, lambda: session.node_pid("simulator") not in (None, old_pid)), \
             "the launcher did not respawn the simulator"
-        assert spin_wall(session, 60.0, lambda: first.done), "the goal of the old timeline never ended"
+        assert session.spin_wall(60.0, lambda: first.done), "the goal of the old timeline never ended"
         assert first.status == "ABORTED" and "time jumped back" in first.reason, (first.status, first.reason)
 
-        assert spin_wall(session, 60.0, lambda: any(2.0 < t < last_stamp for t, *_ in session.client.truth[seen:])), \
+        assert session.spin_wall(60.0, lambda: any(2.0 < t < last_stamp for t, *_ in session.client.truth[seen:])), \
             "no ground truth from the new timeline"
         assert session.client.action.server_is_ready()
         second = session.send_goal(goal)
-        assert spin_wall(session, 120.0, lambda: second.done), "the goal after the restart did not finish"
+        assert session.spin_wall(120.0, lambda: second.done), "the goal after the restart did not finish"
         assert second.status == "SUCCEEDED", (second.status, second.reason)
         final = session.pose()
         assert abs(final.x - goal.x) < 0.5 and abs(final.y - goal.y) < 0.5, final

@@ -17,7 +17,7 @@ def test_move_base_stops_the_robot_when_the_simulator_dies(capfd):
         session.client.create_subscription(
             Twist, "/simplebot_controller/cmd_vel",
             lambda msg: commands.append((time.monotonic(), msg.linear.x, msg.angular.z)), 10)
-        run = session.send_goal(Pose2D(4.0, 0.0, 0.0, "corridor"))
+        session.send_goal(Pose2D(4.0, 0.0, 0.0, "corridor"))
         session.run_for(4.0, wall_timeout_s=60.0)
         assert any(abs(v) > 0.05 for _, v, _ in commands[-10:]), "the robot should be driving"
 

@@ -1,0 +1,218 @@
+"""What a campaign is: worlds x robot bodies x parameter sets x goals x seeds, and the runs it expands to.
+
+A run is a plain dict ``{world, seed, robot, params, goal}``; in lockstep it determines the whole run,
+so any record of a results file can be repeated exactly. The spec comes from a YAML file or from the
+command line flags; every error names the key (or flag) it is about.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+import re
+from dataclasses import asdict, dataclass, field
+
+from simplebot_description import robot_description
+from simplebot_navigation.launch.loader import LaunchError, load_launch
+from simplebot_navigation.launch.overrides import apply_set
+from simplebot_navigation.sim.world_loader import load_world
+
+from .runner import parse_goals
+from .session import launch_args
+
+ROBOTS = ("box", "round")
+SPEC_KEYS = ("worlds", "seeds", "robots", "params", "goals", "run_timeout")
+FAMILY_RANGE = re.compile(r"^(?P<family>[A-Za-z_][\w-]*):(?P<a>\d+)-(?P<b>\d+)$")
+DEFAULT_RUN_TIMEOUT_S = 900.0
+
+
+class SpecError(ValueError):
+    """A malformed campaign spec; the message starts with the key or flag at fault."""
+
+
+@dataclass(frozen=True)
+class CampaignSpec:
+    worlds: tuple[str, ...]
+    seeds: tuple[int, ...] = (0,)
+    robots: tuple[str, ...] = ("box",)
+    params: tuple[tuple[str, ...], ...] = ((),)   # parameter sets, each a tuple of "K=V" overrides
+    goals: tuple[str, ...] | None = None          # goal items (names or "x,y,yaw"); None: every goal of the world
+    run_timeout: float = DEFAULT_RUN_TIMEOUT_S    # wall seconds one run may take before it counts as hung
+
+    def to_dict(self) -> dict:
+        return json.loads(json.dumps(asdict(self)))
+
+
+def integer_range(text: str, key: str) -> list[int]:
+    """'0-9' -> 0..9, '3' -> [3], '0-2,7' -> [0, 1, 2, 7]."""
+    values: list[int] = []
+    for part in str(text).split(","):
+        match = re.fullmatch(r"\s*(\d+)\s*(?:-\s*(\d+)\s*)?", part)
+        if not match:
+            raise SpecError(f"{key}: {part.strip()!r} is not an integer or a range a-b")
+        a, b = int(match[1]), int(match[2] if match[2] is not None else match[1])
+        if b < a:
+            raise SpecError(f"{key}: range {part.strip()!r} runs backwards")
+        values += range(a, b + 1)
+    return values
+
+
+def expand_worlds(names: list[str], key: str = "worlds") -> list[str]:
+    """Generated families: 'forest:0-199' becomes forest:0 ... forest:199, passed as such to load_world."""
+    worlds = []
+    for name in names:
+        match = FAMILY_RANGE.match(name)
+        if match:
+            worlds += [f"{match['family']}:{n}" for n in integer_range(f"{match['a']}-{match['b']}", key)]
+        else:
+            worlds.append(name)
+    return worlds
+
+
+def world_family(world: str) -> str:
+    """What the summary groups by: 'forest:17' -> 'forest', a file -> its stem, a built-in world -> itself."""
+    name = world.split("/")[-1]
+    return name.split(":")[0] if ":" in name else re.sub(r"\.ya?ml$", "", name)
+
+
+def parameter_set(value, key: str) -> tuple[str, ...]:
+    """One parameter set from a list of 'K=V', a mapping {K: V}, 'K=V K=V' text, or 'default' / nothing."""
+    if value is None or value == "default":
+        return ()
+    if isinstance(value, dict):
+        items = [f"{k}={v}" for k, v in value.items()]
+    elif isinstance(value, str):
+        items = value.split()
+    elif isinstance(value, list):
+        items = [str(v) for v in value]
+    else:
+        raise SpecError(f"{key}: expected K=V overrides, got {value!r}")
+    for item in items:
+        name, sep, _ = item.partition("=")
+        if not sep or not name.strip():
+            raise SpecError(f"{key}: {item!r} is not K=V")
+    return tuple(items)
+
+
+def params_label(params: tuple[str, ...] | list[str]) -> str:
+    return " ".join(params) if params else "default"
+
+
+def goal_items(text: str, key: str = "goals") -> list[str]:
+    """Goals in the runner's syntax ('x,y,yaw;x,y,yaw' and/or 'name,name'), one item per goal."""
+    items = []
+    for item in (part.strip() for part in text.split(";")):
+        fields = [f.strip() for f in item.split(",")]
+        if not item or not all(fields):
+            raise SpecError(f"{key}: empty item in {text!r}")
+        if all(_is_number(f) for f in fields):
+            items.append(item)      # one pose, checked by parse_goals when the plan is made
+        else:
+            items += fields         # goal names
+    return items
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _as_list(value, key: str) -> list:
+    if isinstance(value, str):
+        return [v.strip() for v in value.split(",") if v.strip()]
+    if isinstance(value, list) and value:
+        return value
+    raise SpecError(f"{key}: expected a non-empty list or a comma-separated string, got {value!r}")
+
+
+def spec_from_dict(data, source: str = "spec") -> CampaignSpec:
+    """Validate a parsed spec (YAML file or flags); errors name the key."""
+    if not isinstance(data, dict):
+        raise SpecError(f"{source}: expected a mapping with keys {', '.join(SPEC_KEYS)}, got {type(data).__name__}")
+    unknown = sorted(set(data) - set(SPEC_KEYS))
+    if unknown:
+        raise SpecError(f"{unknown[0]}: unknown key in {source} (keys: {', '.join(SPEC_KEYS)})")
+    if "worlds" not in data:
+        raise SpecError(f"worlds: missing in {source}")
+    worlds = expand_worlds([str(w) for w in _as_list(data["worlds"], "worlds")])
+    seeds_value = data.get("seeds", 0)
+    if isinstance(seeds_value, list):
+        if not all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in seeds_value) or not seeds_value:
+            raise SpecError(f"seeds: expected integers >= 0, got {seeds_value!r}")
+        seeds = seeds_value
+    elif isinstance(seeds_value, bool):
+        raise SpecError(f"seeds: expected integers or a range a-b, got {seeds_value!r}")
+    else:
+        seeds = integer_range(str(seeds_value), "seeds")
+    robots = [str(r) for r in _as_list(data.get("robots", "box"), "robots")]
+    for robot in robots:
+        if robot not in ROBOTS:
+            raise SpecError(f"robots: unknown body {robot!r} (bodies: {', '.join(ROBOTS)})")
+    params_value = data.get("params", [None])
+    if not isinstance(params_value, list) or not params_value:
+        raise SpecError(f"params: expected a list of parameter sets, got {params_value!r}")
+    params = [parameter_set(p, f"params[{i}]") for i, p in enumerate(params_value)]
+    goals = data.get("goals")
+    if goals is not None and goals != "all":
+        goals = goal_items(goals) if isinstance(goals, str) else [str(g) for g in _as_list(goals, "goals")]
+    timeout = data.get("run_timeout", DEFAULT_RUN_TIMEOUT_S)
+    if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not math.isfinite(timeout) \
+            or timeout <= 0:
+        raise SpecError(f"run_timeout: expected a positive number of wall seconds, got {timeout!r}")
+    for name, values in (("worlds", worlds), ("seeds", seeds), ("robots", robots), ("params", params)):
+        if len(set(values)) != len(values):
+            raise SpecError(f"{name}: listed twice in {values!r}")
+    return CampaignSpec(tuple(worlds), tuple(seeds), tuple(robots), tuple(params),
+                        None if goals in (None, "all") else tuple(goals), float(timeout))
+
+
+# -- runs ------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Run:
+    world: str
+    seed: int
+    robot: str
+    params: tuple[str, ...] = field(default=())
+    goal: str = ""
+
+    @property
+    def key(self) -> str:
+        """Identifies the run in a results file (resume, retries, comparisons)."""
+        return json.dumps([self.world, self.seed, self.robot, list(self.params), self.goal])
+
+    def to_dict(self) -> dict:
+        return {"world": self.world, "seed": self.seed, "robot": self.robot, "params": list(self.params),
+                "goal": self.goal}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> Run:
+        return cls(data["world"], int(data["seed"]), data["robot"], tuple(data["params"]), data["goal"])
+
+
+def plan(spec: CampaignSpec) -> list[Run]:
+    """Every run of the campaign, worlds outermost; each world is loaded once here to check it and its goals."""
+    for params in spec.params:     # each parameter set checked as move_base would take it
+        try:
+            apply_set(load_launch("navigation", launch_args("lab", "box", 0.3, 0.0, False)), list(params))
+        except LaunchError as err:
+            raise SpecError(f"params: {params_label(params)!r}: {err}") from err
+    runs = []
+    for world in spec.worlds:
+        for robot in spec.robots:
+            try:
+                loaded = load_world(world, robot_radius=robot_description(robot).inscribed_radius)
+            except (ValueError, FileNotFoundError) as err:
+                raise SpecError(f"worlds: {world} ({robot} robot): {err}") from err
+            try:
+                for goal in spec.goals or ():
+                    parse_goals(goal, loaded)  # raises for an unknown name or bad coordinates
+                goals = list(spec.goals) if spec.goals else [g.name for g in parse_goals(None, loaded)]
+            except ValueError as err:
+                raise SpecError(f"goals: world {world}: {err}") from err
+            runs += [Run(world, seed, robot, params, goal)
+                     for params, goal, seed in itertools.product(spec.params, goals, spec.seeds)]
+    return runs

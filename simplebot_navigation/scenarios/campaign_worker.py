@@ -1,0 +1,53 @@
+"""One campaign run in a process of its own: ``python -m simplebot_navigation.scenarios.campaign_worker RUN OUT``.
+
+RUN is the run's record as JSON, OUT the file the result goes to. The process is started fresh for
+every run with its own ROS_DOMAIN_ID already in its environment, so rclpy and DDS never see another
+run's nodes, and a crash or a hang takes nothing else down.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import tempfile
+
+from .campaign_spec import Run
+from .report import finite
+from .runner import parse_goals, run_goal, time_budget, world_for_run
+from .session import NavigationSession
+
+READY_TIMEOUT_S = 300.0
+
+
+def execute(run: Run) -> dict:
+    """Start the stack in lockstep for the run's world, body and seed, send its goal, and measure it."""
+    with tempfile.TemporaryDirectory(prefix="simplebot_campaign_") as folder, \
+            NavigationSession(world_for_run(run.world, run.seed, folder), run.robot, rtf=0.0, seed=run.seed,
+                              overrides=run.params) as session:
+        (goal,) = parse_goals(run.goal, session.world)
+        session.wait_ready(wall_timeout_s=READY_TIMEOUT_S)
+        max_vel_x = session.controller_param("max_vel_x", 0.4)
+        result = run_goal(session, goal, time_budget(session.world, session.pose(), goal, max_vel_x))
+    record = result.to_dict()
+    del record["run"]
+    record["max_vel_x"] = max_vel_x
+    return record
+
+
+def main(argv: list[str]) -> int:
+    if len(argv) != 2:
+        print(__doc__.splitlines()[0], file=sys.stderr)
+        return 2
+    run = Run.from_dict(json.loads(argv[0]))
+    print(f"campaign run {run.key} in ROS domain {os.environ.get('ROS_DOMAIN_ID')}", flush=True)
+    record = finite(execute(run))
+    partial = argv[1] + ".partial"
+    with open(partial, "w", encoding="utf-8") as handle:
+        json.dump(record, handle, allow_nan=False)
+    os.replace(partial, argv[1])
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
