@@ -14,7 +14,6 @@ import os
 import signal
 import time
 
-from geometry_msgs.msg import Twist
 
 from simplebot_navigation.scenarios.process_session import ProcessSession
 from simplebot_navigation.sim.world import Pose2D
@@ -29,10 +28,7 @@ def main() -> None:
     rows = []
     with ProcessSession("lab", rtf=1.0, respawn=True) as session:
         session.wait_ready(wall_timeout_s=240.0)
-        commands: list[tuple[float, float, float]] = []
-        session.client.create_subscription(
-            Twist, "/simplebot_controller/cmd_vel",
-            lambda msg: commands.append((time.monotonic(), msg.linear.x, msg.angular.z)), 50)
+        commands = session.client.record_commands()
         spin = session.spin_wall
 
         for kill in range(1, args.kills + 1):

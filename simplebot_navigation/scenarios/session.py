@@ -24,7 +24,7 @@ import rclpy
 from action_msgs.msg import GoalStatus
 from actionlib_msgs.msg import GoalStatusArray
 from diagnostic_msgs.msg import DiagnosticStatus
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import PoseStamped, Twist
 from nav_msgs.msg import Odometry
 from rclpy.action import ActionClient
 from rclpy.executors import SingleThreadedExecutor
@@ -99,6 +99,14 @@ class ScenarioClient(Node):
 
     def _on_status(self, msg: GoalStatusArray) -> None:
         self.status = msg
+
+    def record_commands(self) -> list[tuple[float, float, float]]:
+        """From now on, (monotonic wall time, v, omega) of every cmd_vel the robot is sent: when it was told what,
+        for tests and benches that check how fast the stack stops it."""
+        commands: list[tuple[float, float, float]] = []
+        self.create_subscription(Twist, "/simplebot_controller/cmd_vel",
+                                 lambda msg: commands.append((time.monotonic(), msg.linear.x, msg.angular.z)), 50)
+        return commands
 
     def status_text(self, goal_id: str) -> str:
         """move_base's text for a goal in /move_base/status (why it aborted, say)."""

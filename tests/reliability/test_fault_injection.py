@@ -32,9 +32,7 @@ class Stack:
     def __init__(self, session: ProcessSession):
         self.session = session
         node = session.client
-        self.commands: list[tuple[float, float, float]] = []
-        node.create_subscription(Twist, "/simplebot_controller/cmd_vel",
-                                 lambda m: self.commands.append((time.monotonic(), m.linear.x, m.angular.z)), 50)
+        self.commands = session.client.record_commands()
         self.goal_pub = node.create_publisher(PoseStamped, "/move_base_simple/goal", 10)
         self.cancel_pub = node.create_publisher(GoalID, "/move_base/cancel", 10)
         self.cmd_pub = node.create_publisher(Twist, "/simplebot_controller/cmd_vel", 10)

@@ -7,7 +7,6 @@ import signal
 import time
 
 import pytest
-from geometry_msgs.msg import Twist
 
 from simplebot_navigation.scenarios.process_session import ProcessSession
 from simplebot_navigation.sim.world import Pose2D
@@ -17,10 +16,7 @@ from simplebot_navigation.sim.world import Pose2D
 def test_a_killed_and_respawned_simulator_stops_the_robot_then_the_next_goal_succeeds():
     with ProcessSession("lab", rtf=1.0, respawn=True) as session:
         session.wait_ready(wall_timeout_s=240.0)
-        commands: list[tuple[float, float, float]] = []
-        session.client.create_subscription(
-            Twist, "/simplebot_controller/cmd_vel",
-            lambda msg: commands.append((time.monotonic(), msg.linear.x, msg.angular.z)), 10)
+        commands = session.client.record_commands()
         goal = Pose2D(4.0, 0.0, 0.0, "corridor")
         first = session.send_goal(goal)
         session.spin_wall(6.0)

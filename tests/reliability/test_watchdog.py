@@ -3,7 +3,6 @@
 import time
 
 import pytest
-from geometry_msgs.msg import Twist
 
 from simplebot_navigation.scenarios.session import NavigationSession
 from simplebot_navigation.sim.world import Pose2D
@@ -13,10 +12,7 @@ from simplebot_navigation.sim.world import Pose2D
 def test_move_base_stops_the_robot_when_the_simulator_dies(capfd):
     with NavigationSession("lab", rtf=1.0) as session:
         session.wait_ready(wall_timeout_s=120.0)
-        commands: list[tuple[float, float, float]] = []
-        session.client.create_subscription(
-            Twist, "/simplebot_controller/cmd_vel",
-            lambda msg: commands.append((time.monotonic(), msg.linear.x, msg.angular.z)), 10)
+        commands = session.client.record_commands()
         session.send_goal(Pose2D(4.0, 0.0, 0.0, "corridor"))
         session.run_for(4.0, wall_timeout_s=60.0)
         assert any(abs(v) > 0.05 for _, v, _ in commands[-10:]), "the robot should be driving"
