@@ -1,10 +1,8 @@
 """navigation.launch: the simulated simplebot plus move_base_local.launch, all on simulated time."""
 
-from simplebot_navigation.launch.description import Arg, Group, Include, Node, Param, Remap, RosParam
+from simplebot_navigation.launch.description import Arg, Include, Node
 
-CONFIG = "$(find simplebot_navigation)/config"
-ROUND = "$(eval robot == 'round')"
-TIGHT = "$(arg tight)"
+LAUNCH_DIR = "$(find simplebot_navigation)/launch_py"
 
 LAUNCH = [
     Arg("world", default="lab",
@@ -18,33 +16,11 @@ LAUNCH = [
     Arg("respawn", default="true", choices=("true", "false"),
         doc="restart the simulator and move_base when they exit (roslaunch's respawn)"),
 
-    # Every node runs on the simulator's clock.
-    Param("/use_sim_time", True),
-
-    Node(pkg="simplebot_navigation", type="simulator", name="simulator", output="screen",
-         respawn="$(arg respawn)", params=[
-        Param("world", "$(arg world)"),
-        Param("robot", "$(arg robot)"),
-        Param("radius", "$(arg radius)"),
-        Param("real_time_factor", "$(arg rtf)"),
-    ]),
-
-    # The lab's TEB config reads odometry from /odom; the simulated diff-drive controller
-    # publishes it on /simplebot_controller/odom, as the lab's Gazebo controller did.
-    Group(remaps=[Remap("/odom", "/simplebot_controller/odom")], children=[
-        Include(file="$(find simplebot_navigation)/launch_py/move_base_local.py", args={"respawn": "$(arg respawn)"}),
-    ]),
-
-    # Narrow doors: no padding, a fine global costmap, TEB with the box outline and small margins.
-    RosParam(file=f"{CONFIG}/tight/costmap_common.yaml", ns="move_base/global_costmap", if_=TIGHT),
-    RosParam(file=f"{CONFIG}/tight/costmap_common.yaml", ns="move_base/local_costmap", if_=TIGHT),
-    RosParam(file=f"{CONFIG}/tight/costmap_global.yaml", ns="move_base/global_costmap", if_=TIGHT),
-    RosParam(file=f"{CONFIG}/tight/teb_local_planner.yaml", ns="move_base", if_=TIGHT),
-
-    # The round body: a circular footprint for both costmaps and TEB, loaded over the lab's files.
-    RosParam(file=f"{CONFIG}/round/costmap_common.yaml", ns="move_base/global_costmap", if_=ROUND),
-    RosParam(file=f"{CONFIG}/round/costmap_common.yaml", ns="move_base/local_costmap", if_=ROUND),
-    RosParam(file=f"{CONFIG}/round/teb_local_planner.yaml", ns="move_base", if_=ROUND),
+    Include(file=f"{LAUNCH_DIR}/simulator.py", args={
+        "world": "$(arg world)", "robot": "$(arg robot)", "radius": "$(arg radius)", "rtf": "$(arg rtf)",
+        "respawn": "$(arg respawn)"}),
+    Include(file=f"{LAUNCH_DIR}/move_base.py", args={
+        "robot": "$(arg robot)", "tight": "$(arg tight)", "respawn": "$(arg respawn)"}),
 
     Node(pkg="simplebot_navigation", type="viewer", name="viewer", output="screen", if_="$(arg viewer)"),
 ]

@@ -1,0 +1,27 @@
+"""The simulated simplebot alone: pybullet world, lidars, diff-drive, odometry, TF and /clock.
+
+Run it on its own where the simulation lives and ``move_base`` where the navigation runs (another
+process, or another host on the same ROS domain); ``navigation`` starts both.
+"""
+
+from simplebot_navigation.launch.description import Arg, Node, Param
+
+LAUNCH = [
+    Arg("world", default="lab",
+        doc="built-in world name (lab, doors, clutter, empty), forest:<seed> or a world/map YAML path"),
+    Arg("robot", default="box", choices=("box", "round"), doc="robot body: the lab's 0.9 x 0.6 m box, or round"),
+    Arg("radius", default="0.3", doc="radius of the round body in metres"),
+    Arg("rtf", default="1.0", doc="real-time factor of the simulation (0: as fast as the nodes allow)"),
+    Arg("respawn", default="true", choices=("true", "false"),
+        doc="restart the simulator when it exits (roslaunch's respawn)"),
+
+    Param("/use_sim_time", True),
+
+    Node(pkg="simplebot_navigation", type="simulator", name="simulator", output="screen",
+         respawn="$(arg respawn)", params=[
+        Param("world", "$(arg world)"),
+        Param("robot", "$(arg robot)"),
+        Param("radius", "$(arg radius)"),
+        Param("real_time_factor", "$(arg rtf)"),
+    ]),
+]
