@@ -4,11 +4,14 @@
     python bench/campaign.py --runs 8 --ray          (and on an embedded Ray instance)
 
 Every executor runs the same campaign; the per-run outcomes must be identical (lockstep), so the
-comparison is of wall time only. The load of the machine shows in the numbers: note it with them.
+comparison is of wall time only. The load of the machine shows in the numbers: note it with them. The
+CPU ceiling line is the speed-up plain Python processes get on the same CPUs at the same time; an
+executor's speed-up is judged against it.
 """
 
 import argparse
 import os
+import subprocess
 import sys
 import tempfile
 import time
@@ -21,6 +24,22 @@ from simplebot_navigation.scenarios.campaign_spec import spec_from_dict  # noqa:
 
 GOALS = ["1,0,0", "0.8,0.4,0.5"]
 OUTCOME = ("success", "status", "time_s", "path_length", "collisions", "final")
+SPIN = "s = 0\nfor i in range(25_000_000): s += i"
+
+
+def cpu_ceiling(jobs: int) -> float:
+    """The speed-up ``jobs`` processes of pure Python get on this machine: the most any executor can get.
+
+    On a virtual machine whose CPUs are hyperthreads, or share a host that is busy, it is well below ``jobs``.
+    """
+    def wall(n: int) -> float:
+        started = time.monotonic()
+        for process in [subprocess.Popen([sys.executable, "-c", SPIN]) for _ in range(n)]:
+            process.wait()
+        return time.monotonic() - started
+    alone = min(wall(1) for _ in range(2))
+    together = min(wall(jobs) for _ in range(2))
+    return jobs * alone / together
 
 
 def main() -> int:
@@ -36,6 +55,8 @@ def main() -> int:
         executors.append(("--ray local (all CPUs)", lambda: RayExecutor("local")))
     walls, outcomes = {}, {}
     print(f"{len(GOALS) * len(spec.seeds)} runs, load average {os.getloadavg()[0]:.1f} at the start", flush=True)
+    print(f"CPU ceiling: {args.jobs} processes of pure Python run {cpu_ceiling(args.jobs):.2f}x as fast as one",
+          flush=True)
     with tempfile.TemporaryDirectory(prefix="simplebot_bench_campaign_") as folder:
         for name, make in executors:
             started = time.monotonic()
