@@ -123,9 +123,10 @@ def _parser() -> argparse.ArgumentParser:
                    help="campaign spec (keys: worlds, seeds, robots, params, goals, run_timeout); flags override it")
     p.add_argument("--worlds", help="comma-separated built-in worlds, world files, or families 'forest:0-199'")
     p.add_argument("--seeds", help="seeds, e.g. 0-9 or 0,3,5 (default: 0)")
-    p.add_argument("--robots", help="comma-separated bodies: box, round (default: box)")
+    p.add_argument("--robots", help="comma-separated bodies: box, round, round:R (radius R m; default: box)")
     p.add_argument("--set", action="append", metavar="'K=V [K=V ...]'",
-                   help="a parameter set of overrides; repeat for more sets, 'default' for none (default: none)")
+                   help="a parameter set: K=V overrides and/or 'tight' (the shipped narrow-passage set); "
+                        "repeat for more sets, 'default' for none (default: none)")
     p.add_argument("--goals", help="goal names 'a,b' and/or 'x,y,yaw;x,y,yaw' (default: every goal of each world)")
     p.add_argument("--run-timeout", type=float, help="wall seconds a run may take before it counts as hung "
                                                      "(default: 900)")

@@ -1,7 +1,10 @@
 """What a campaign is: worlds x robot bodies x parameter sets x goals x seeds, and the runs it expands to.
 
 A run is a plain dict ``{world, seed, robot, params, goal}``; in lockstep it determines the whole run,
-so any record of a results file can be repeated exactly. The spec comes from a YAML file or from the
+so any record of a results file can be repeated exactly. A body is ``box``, ``round`` (radius 0.3 m)
+or ``round:R``; a parameter set is ``K=V`` overrides and, optionally, the name of a parameter set the
+navigation launch ships (``tight``: config/tight/ over the lab's files), so ``tight
+TebLocalPlannerROS.max_vel_x=1.0`` is the narrow-passage set at 1 m/s. The spec comes from a YAML file or from the
 command line flags; every error names the key (or flag) it is about.
 """
 
@@ -21,7 +24,9 @@ from simplebot_navigation.sim.world_loader import load_world
 from .runner import parse_goals
 from .session import launch_args
 
-ROBOTS = ("box", "round")
+ROBOT_BODY = re.compile(r"^(?P<name>box|round)(?::(?P<radius>\d+(?:\.\d+)?))?$")
+ROUND_RADIUS_RANGE = (0.1, 1.0)
+SHIPPED_SETS = ("tight",)          # launch arguments of the navigation launch that load config/<name>/
 SPEC_KEYS = ("worlds", "seeds", "robots", "params", "goals", "run_timeout")
 FAMILY_RANGE = re.compile(r"^(?P<family>[A-Za-z_][\w-]*):(?P<a>\d+)-(?P<b>\d+)$")
 DEFAULT_RUN_TIMEOUT_S = 900.0
@@ -76,8 +81,26 @@ def world_family(world: str) -> str:
     return name.split(":")[0] if ":" in name else re.sub(r"\.ya?ml$", "", name)
 
 
+def robot_body(robot: str, key: str = "robots") -> tuple[str, float]:
+    """'box' / 'round' / 'round:0.25' -> (body, radius of a round body); the radius is ignored for the box."""
+    match = ROBOT_BODY.match(robot)
+    if not match or (match["name"] == "box" and match["radius"]):
+        raise SpecError(f"{key}: unknown body {robot!r} (bodies: box, round, round:R with R in metres)")
+    radius = float(match["radius"] or 0.3)
+    if not ROUND_RADIUS_RANGE[0] <= radius <= ROUND_RADIUS_RANGE[1]:
+        raise SpecError(f"{key}: {robot!r}: the radius must lie in [{ROUND_RADIUS_RANGE[0]}, "
+                        f"{ROUND_RADIUS_RANGE[1]}] m")
+    return match["name"], radius
+
+
+def split_parameter_set(params) -> tuple[tuple[str, ...], list[str]]:
+    """(shipped sets named in it, its K=V overrides)."""
+    return tuple(p for p in params if p in SHIPPED_SETS), [p for p in params if p not in SHIPPED_SETS]
+
+
 def parameter_set(value, key: str) -> tuple[str, ...]:
-    """One parameter set from a list of 'K=V', a mapping {K: V}, 'K=V K=V' text, or 'default' / nothing."""
+    """One parameter set from a list of 'K=V' (and shipped set names), a mapping {K: V}, 'K=V K=V' text,
+    or 'default' / nothing."""
     if value is None or value == "default":
         return ()
     if isinstance(value, dict):
@@ -90,8 +113,8 @@ def parameter_set(value, key: str) -> tuple[str, ...]:
         raise SpecError(f"{key}: expected K=V overrides, got {value!r}")
     for item in items:
         name, sep, _ = item.partition("=")
-        if not sep or not name.strip():
-            raise SpecError(f"{key}: {item!r} is not K=V")
+        if item not in SHIPPED_SETS and (not sep or not name.strip()):
+            raise SpecError(f"{key}: {item!r} is not K=V nor a shipped parameter set ({', '.join(SHIPPED_SETS)})")
     return tuple(items)
 
 
@@ -150,8 +173,7 @@ def spec_from_dict(data, source: str = "spec") -> CampaignSpec:
         seeds = integer_range(str(seeds_value), "seeds")
     robots = [str(r) for r in _as_list(data.get("robots", "box"), "robots")]
     for robot in robots:
-        if robot not in ROBOTS:
-            raise SpecError(f"robots: unknown body {robot!r} (bodies: {', '.join(ROBOTS)})")
+        robot_body(robot)
     params_value = data.get("params", [None])
     if not isinstance(params_value, list) or not params_value:
         raise SpecError(f"params: expected a list of parameter sets, got {params_value!r}")
@@ -196,15 +218,16 @@ class Run:
 def plan(spec: CampaignSpec) -> list[Run]:
     """Every run of the campaign, worlds outermost; each world is loaded once here to check it and its goals."""
     for params in spec.params:     # each parameter set checked as move_base would take it
+        shipped, overrides = split_parameter_set(params)
         try:
-            apply_set(load_launch("navigation", launch_args("lab", "box", 0.3, 0.0, False)), list(params))
+            apply_set(load_launch("navigation", launch_args("lab", "box", 0.3, 0.0, "tight" in shipped)), overrides)
         except LaunchError as err:
             raise SpecError(f"params: {params_label(params)!r}: {err}") from err
     runs = []
     for world in spec.worlds:
         for robot in spec.robots:
             try:
-                loaded = load_world(world, robot_radius=robot_description(robot).inscribed_radius)
+                loaded = load_world(world, robot_radius=robot_description(*robot_body(robot)).inscribed_radius)
             except (ValueError, FileNotFoundError) as err:
                 raise SpecError(f"worlds: {world} ({robot} robot): {err}") from err
             try:

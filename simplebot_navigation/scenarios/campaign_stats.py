@@ -93,13 +93,13 @@ def summarize(records: list[dict]) -> list[GroupSummary]:
 
 
 def summary_table(summaries: list[GroupSummary]) -> str:
-    header = (f"{'family':<12} {'robot':<6} {'params':<20} {'runs':>5} {'success':>8} {'Wilson 95 %':>13} "
+    header = (f"{'family':<12} {'robot':<10} {'params':<34} {'runs':>5} {'success':>8} {'Wilson 95 %':>13} "
               f"{'coll':>5} {'mean s':>7} {'p95 s':>7} {'t/(L/v)':>7}  failures")
     lines = [header, "-" * len(header)]
     for s in summaries:
         low, high = s.interval
         reasons = ", ".join(f"{kind} x{n}" for kind, n in s.failures.most_common()) or "-"
-        lines.append(f"{s.family[:12]:<12} {s.robot:<6} {s.params[:20]:<20} {s.runs:>5} {100 * s.rate:>7.0f}% "
+        lines.append(f"{s.family[:12]:<12} {s.robot[:10]:<10} {s.params[:34]:<34} {s.runs:>5} {100 * s.rate:>7.0f}% "
                      f"{100 * low:>5.0f}-{100 * high:>3.0f} % {s.collisions:>5} {s.mean_time_s:>7.1f} "
                      f"{s.p95_time_s:>7.1f} {s.time_ratio:>7.2f}  {reasons}")
     return "\n".join(lines)
@@ -165,12 +165,12 @@ def comparison_table(comparisons: list[Comparison]) -> str:
     def mark(p: float) -> str:
         return " *" if p < ALPHA else "  "
 
-    header = (f"{'family':<12} {'robot':<6} {'params':<24} {'A ok/n':>8} {'B ok/n':>8} {'diff':>6} {'p':>7}   "
+    header = (f"{'family':<12} {'robot':<10} {'params':<34} {'A ok/n':>8} {'B ok/n':>8} {'diff':>6} {'p':>7}   "
               f"{'A mean s':>8} {'B mean s':>8} {'p':>7}")
     lines = [header, "-" * len(header)]
     for c in comparisons:
         family, robot, params = c.group
-        lines.append(f"{family[:12]:<12} {robot:<6} {params[:24]:<24} {f'{c.a[0]}/{c.a[1]}':>8} "
+        lines.append(f"{family[:12]:<12} {robot[:10]:<10} {params[:34]:<34} {f'{c.a[0]}/{c.a[1]}':>8} "
                      f"{f'{c.b[0]}/{c.b[1]}':>8} {100 * c.rate_difference:>+5.0f}% {c.rate_p:>7.3f}{mark(c.rate_p)} "
                      f"{c.mean_a:>8.1f} {c.mean_b:>8.1f} {c.time_p:>7.3f}{mark(c.time_p)}")
     lines.append(f"* significant at {ALPHA:g} (success: Fisher's exact test; time: Welch's t-test); "

@@ -12,7 +12,7 @@ import os
 import sys
 import tempfile
 
-from .campaign_spec import Run
+from .campaign_spec import Run, robot_body, split_parameter_set
 from .report import finite
 from .runner import parse_goals, run_goal, time_budget, world_for_run
 from .session import NavigationSession
@@ -22,9 +22,11 @@ READY_TIMEOUT_S = 300.0
 
 def execute(run: Run) -> dict:
     """Start the stack in lockstep for the run's world, body and seed, send its goal, and measure it."""
+    body, radius = robot_body(run.robot)
+    shipped, overrides = split_parameter_set(run.params)
     with tempfile.TemporaryDirectory(prefix="simplebot_campaign_") as folder, \
-            NavigationSession(world_for_run(run.world, run.seed, folder), run.robot, rtf=0.0, seed=run.seed,
-                              overrides=run.params) as session:
+            NavigationSession(world_for_run(run.world, run.seed, folder), body, radius, rtf=0.0, seed=run.seed,
+                              tight="tight" in shipped, overrides=overrides) as session:
         (goal,) = parse_goals(run.goal, session.world)
         session.wait_ready(wall_timeout_s=READY_TIMEOUT_S)
         max_vel_x = session.controller_param("max_vel_x", 0.4)

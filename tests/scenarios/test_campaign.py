@@ -16,7 +16,8 @@ from simplebot_navigation.scenarios.campaign import Progress, main, run_campaign
 from simplebot_navigation.scenarios.campaign_exec import CampaignError, LocalExecutor, RayExecutor, domain_lease
 from simplebot_navigation.scenarios.campaign_plot import hardest_runs, summary_figure
 from simplebot_navigation.scenarios.campaign_results import read_results
-from simplebot_navigation.scenarios.campaign_spec import SpecError, expand_worlds, plan, spec_from_dict
+from simplebot_navigation.scenarios.campaign_spec import (SpecError, expand_worlds, plan, robot_body, spec_from_dict,
+                                                          split_parameter_set)
 from simplebot_navigation.scenarios.campaign_stats import compare, fisher_p, summarize, welch_p, wilson_interval
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -45,12 +46,26 @@ def test_the_cross_product_and_generated_families():
     assert len(plan(spec_from_dict({"worlds": "lab", "goals": "all"}))) == 6  # every goal of the lab
 
 
+def test_a_round_body_of_any_radius_and_the_shipped_narrow_passage_set():
+    assert robot_body("round:0.25") == ("round", 0.25) and robot_body("box") == ("box", 0.3)
+    spec = spec_from_dict({"worlds": "forest:0", "robots": "round:0.25",
+                           "params": ["tight TebLocalPlannerROS.max_vel_x=1.0"]})
+    (run,) = plan(spec)
+    assert run.robot == "round:0.25" and run.params == ("tight", "TebLocalPlannerROS.max_vel_x=1.0")
+    assert split_parameter_set(run.params) == (("tight",), ["TebLocalPlannerROS.max_vel_x=1.0"])
+    with pytest.raises(SpecError, match="params: 'tight TebLocalPlannerROS.max_vel=1.0': --set: .*did you mean"):
+        plan(spec_from_dict({"worlds": "lab", "params": ["tight TebLocalPlannerROS.max_vel=1.0"]}))
+
+
 @pytest.mark.parametrize("data, message", [
     ({"seeds": 0}, "worlds: missing"),
     ({"worlds": "lab", "seed": 1}, "seed: unknown key"),
     ({"worlds": "lab", "seeds": "3-1"}, "seeds: range '3-1' runs backwards"),
     ({"worlds": "lab", "seeds": "x"}, "seeds: 'x' is not an integer"),
     ({"worlds": "lab", "robots": "tank"}, "robots: unknown body 'tank'"),
+    ({"worlds": "lab", "robots": "box:0.3"}, "robots: unknown body 'box:0.3'"),
+    ({"worlds": "lab", "robots": "round:5"}, r"robots: 'round:5': the radius must lie in \[0.1, 1.0\] m"),
+    ({"worlds": "lab", "params": ["narrow"]}, r"params\[0\]: 'narrow' is not K=V nor a shipped parameter set"),
     ({"worlds": "lab", "params": [["max_vel_x"]]}, r"params\[0\]: 'max_vel_x' is not K=V"),
     ({"worlds": "lab", "run_timeout": -1}, "run_timeout: expected a positive number"),
     ({"worlds": "lab,lab"}, "worlds: listed twice"),
