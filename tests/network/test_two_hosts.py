@@ -1,0 +1,200 @@
+"""The simulator on one host and move_base on another, talking DDS over a real (virtual) network.
+
+Two network namespaces stand for the workstation and the robot, joined by a veth pair and nothing
+else. The simulator launch runs on the workstation, the move_base launch on the robot, both with
+SUBNET discovery (multicast) and with Fast DDS's shared-memory transport off, so every sample
+crosses the veth as UDP. A goal sent from the workstation must be reached, and what the kernel
+shows (sockets, interfaces, the veth's counters, the processes' mappings) must agree that the veth
+was the only way. Needs root and iproute2; without them the test fails and says so.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+pytestmark = [pytest.mark.timeout(240), pytest.mark.e2e]
+
+DOMAIN_ID = "97"                  # private: nothing else is on these namespaces' network anyway
+SUBNET = "10.213.0.{}/24"
+DDS_MULTICAST = "239.255.0.1"     # the RTPS default discovery group
+WORLD = "empty"
+GOAL = (1.5, 0.5, 1.57)           # x, y, yaw: a short drive with a turn
+GOAL_CLIENT = Path(__file__).with_name("remote_goal.py")
+GOAL_BUDGET_S = 40.0              # sim time for the goal itself
+CLIENT_WALL_S = 100.0             # start-up of both launches (about 25 s here) plus the goal, wall time
+#: bytes the robot's veth must receive: /clock at 100 Hz, TF, odometry and two lidars at 10 Hz (about 100 kB/s;
+#: 1.5 MB in a run here, against tens of kB for discovery alone)
+MIN_ROBOT_RX_BYTES = 500_000
+#: and send: discovery, cmd_vel at 20 Hz, move_base's status and the goal's result
+MIN_ROBOT_TX_BYTES = 20_000
+
+
+@dataclass
+class Host:
+    """One network namespace: its name, its end of the veth and that end's address."""
+
+    netns: str
+    veth: str
+    address: str
+
+    def run(self, *command: str) -> str:
+        return ip_netns_exec(self, *command).stdout
+
+    def addresses(self) -> list[tuple[str, str]]:
+        """(interface, address) of every address in the namespace."""
+        return [(line.split()[1], line.split()[3].split("/")[0]) for line in self.run("ip", "-o", "addr").splitlines()]
+
+    def veth_bytes(self) -> tuple[int, int]:
+        stats = json.loads(self.run("ip", "-j", "-s", "link", "show", "dev", self.veth))[0]["stats64"]
+        return stats["rx"]["bytes"], stats["tx"]["bytes"]
+
+    def pids(self) -> list[int]:
+        return [int(pid) for pid in ip("netns", "pids", self.netns).stdout.split()]
+
+
+def ip(*args: str, check: bool = True) -> subprocess.CompletedProcess:
+    result = subprocess.run(["ip", *args], capture_output=True, text=True, timeout=30)
+    if check and result.returncode != 0:
+        raise RuntimeError(f"ip {' '.join(args)} failed: {result.stderr.strip()}")
+    return result
+
+
+def ip_netns_exec(host: Host, *command: str) -> subprocess.CompletedProcess:
+    return ip("netns", "exec", host.netns, *command)
+
+
+def require_netns() -> None:
+    """Fail, naming what is missing, where network namespaces cannot be made: this test must not vanish."""
+    if shutil.which("ip") is None:
+        pytest.fail("the two-host test needs iproute2: `ip` is not on PATH (apt-get install iproute2)")
+    if os.geteuid() != 0:
+        pytest.fail(f"the two-host test needs root to create network namespaces (running as uid {os.geteuid()})")
+
+
+@contextlib.contextmanager
+def two_hosts():
+    """Workstation and robot namespaces joined by a veth pair; on exit every process left in them is killed
+    and both namespaces are deleted (which deletes the veth)."""
+    require_netns()
+    tag = os.getpid()
+    workstation = Host(f"simplebot-ws-{tag}", f"sbws{tag}", SUBNET.format(1).split("/")[0])
+    robot = Host(f"simplebot-robot-{tag}", f"sbrb{tag}", SUBNET.format(2).split("/")[0])
+    created = []
+    try:
+        for host in (workstation, robot):
+            result = ip("netns", "add", host.netns, check=False)
+            if result.returncode != 0:
+                pytest.fail(f"the two-host test needs root and iproute2 (ip netns add failed: {result.stderr.strip()})")
+            created.append(host)
+        ip("link", "add", workstation.veth, "netns", workstation.netns, "type", "veth",
+           "peer", "name", robot.veth, "netns", robot.netns)
+        for number, host in enumerate((workstation, robot), start=1):
+            ip("-n", host.netns, "link", "set", "lo", "up")
+            ip("-n", host.netns, "addr", "add", SUBNET.format(number), "dev", host.veth)
+            ip("-n", host.netns, "link", "set", host.veth, "multicast", "on", "up")
+        yield workstation, robot
+    finally:
+        for host in created:
+            for pid in host.pids():
+                with contextlib.suppress(ProcessLookupError):
+                    os.kill(pid, signal.SIGKILL)
+        for host in created:
+            ip("netns", "del", host.netns, check=False)
+
+
+def dds_env() -> dict[str, str]:
+    """What a user sets on both hosts, plus UDP only: shared memory would carry the samples past the veth
+    (both namespaces share /dev/shm), and this Fast DDS (2.14) honours FASTDDS_BUILTIN_TRANSPORTS."""
+    env = {k: v for k, v in os.environ.items() if k not in ("ROS_STATIC_PEERS", "ROS_LOCALHOST_ONLY")}
+    env.update(ROS_DOMAIN_ID=DOMAIN_ID, ROS_AUTOMATIC_DISCOVERY_RANGE="SUBNET", FASTDDS_BUILTIN_TRANSPORTS="UDPv4",
+               PYTHONUNBUFFERED="1")
+    return env
+
+
+@contextlib.contextmanager
+def launch(host: Host, log: Path, *args: str):
+    """``python -m simplebot_navigation.launch ARGS`` inside a namespace; Ctrl-C'd (then killed) on exit."""
+    with open(log, "w", encoding="utf-8") as out:
+        process = subprocess.Popen(["ip", "netns", "exec", host.netns, sys.executable, "-m",
+                                    "simplebot_navigation.launch", *args],
+                                   stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                   env=dds_env(), start_new_session=True)
+    try:
+        yield process
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGINT)
+            try:
+                process.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                os.killpg(process.pid, signal.SIGKILL)
+                process.wait()
+
+
+def foreign_sockets(host: Host, allowed: set[str]) -> list[str]:
+    """Lines of `ss` in the namespace whose local or peer address is not one of ``allowed``."""
+    lines = host.run("ss", "-H", "-n", "-a", "-p", "-t", "-u").splitlines()
+    assert any("python" in line for line in lines), f"no DDS socket of the nodes in {host.netns}:\n" + "\n".join(lines)
+
+    def address(endpoint: str) -> str:
+        return endpoint.rpartition(":")[0].split("%")[0].strip("[]")
+    return [line for line in lines if not {address(line.split()[4]), address(line.split()[5])} <= allowed]
+
+
+def shared_memory_users(host: Host) -> list[str]:
+    """Processes in the namespace that map a Fast DDS shared-memory segment."""
+    users = []
+    for pid in host.pids():
+        with contextlib.suppress(FileNotFoundError, ProcessLookupError):
+            if "/dev/shm/fastrtps_" in Path(f"/proc/{pid}/maps").read_text():
+                users.append(f"pid {pid}: {Path(f'/proc/{pid}/cmdline').read_text().replace(chr(0), ' ')}")
+    return users
+
+
+def tail(path: Path, lines: int = 30) -> str:
+    return f"--- {path.name} ---\n" + "\n".join(path.read_text(errors="replace").splitlines()[-lines:])
+
+
+def test_simulator_and_move_base_on_two_hosts(tmp_path):
+    started = time.monotonic()
+    with two_hosts() as (workstation, robot):
+        for host in (workstation, robot):
+            interfaces = {name for name, _ in host.addresses()}
+            assert interfaces == {"lo", host.veth}, f"{host.netns} has {interfaces}, not only lo and the veth"
+        logs = tmp_path / "simulator.log", tmp_path / "move_base.log"
+        with launch(workstation, logs[0], "simulator", f"world:={WORLD}"), launch(robot, logs[1], "move_base"):
+            client = subprocess.run(
+                ["ip", "netns", "exec", workstation.netns, sys.executable, str(GOAL_CLIENT), WORLD,
+                 *map(str, (*GOAL, GOAL_BUDGET_S, CLIENT_WALL_S))],
+                capture_output=True, text=True, env=dds_env(), timeout=CLIENT_WALL_S + 30)
+            output = client.stdout.strip().splitlines()
+            context = "\n".join([client.stdout[-2000:], client.stderr[-2000:], *map(tail, logs)])
+            assert client.returncode == 0 and output, f"the goal client failed:\n{context}"
+            result = json.loads(output[-1])
+            assert result["success"], f"goal from the workstation not reached: {result['failures']}\n{context}"
+
+            # loopback, the wildcard, the veth ends and the discovery group; the IPv6 forms of the first two
+            allowed = {"127.0.0.1", "::1", "0.0.0.0", "::", "*", DDS_MULTICAST, workstation.address, robot.address}
+            for host in (workstation, robot):
+                assert not foreign_sockets(host, allowed), \
+                    f"sockets in {host.netns} on other addresses:\n" + "\n".join(foreign_sockets(host, allowed))
+                assert not shared_memory_users(host), \
+                    "Fast DDS shared memory in use, so samples need not cross the veth:\n" + \
+                    "\n".join(shared_memory_users(host))
+            rx, tx = robot.veth_bytes()
+            assert rx > MIN_ROBOT_RX_BYTES and tx > MIN_ROBOT_TX_BYTES, \
+                f"too little traffic crossed the veth: the robot received {rx} and sent {tx} bytes"
+    print(f"two hosts: goal {result['status']} in {result['time_s']:.1f} s sim, "
+          f"{result['position_error']:.3f} m off; robot veth rx {rx} B, tx {tx} B; "
+          f"test wall time {time.monotonic() - started:.0f} s")
