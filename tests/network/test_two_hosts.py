@@ -1,12 +1,13 @@
 """The simulator on one host and move_base on another, talking DDS over a real (virtual) network.
 
-Two network namespaces stand for the workstation and the robot, joined by a veth pair and nothing
-else. The simulator launch runs on the workstation, the move_base launch on the robot, both with
-SUBNET discovery (multicast) and with Fast DDS's shared-memory transport off, so every sample
-crosses the veth as UDP. A goal sent from the workstation must be reached, and what the kernel
-shows (sockets, interfaces, the veth's counters, the processes' mappings) must agree that the veth
-was the only way. Needs root and iproute2; without them the test fails and says so.
-"""
+Two network namespaces stand for the workstation and the robot, each with loopback and one veth end
+and nothing else: joined directly (one subnet, discovery by multicast), or through a third namespace
+that routes between two subnets, which multicast does not cross (discovery by ROS_STATIC_PEERS). The
+simulator launch runs on the workstation, the move_base launch on the robot, with SUBNET discovery and
+Fast DDS's shared-memory transport off, so every sample crosses the veth as UDP. A goal sent from the
+workstation must be reached, and what the kernel shows (interfaces, sockets, the veth's counters, the
+processes' mappings) must agree that the veth was the only way. Needs root and iproute2; without them
+the test fails and says so."""
 
 from __future__ import annotations
 
@@ -26,13 +27,12 @@ import pytest
 pytestmark = [pytest.mark.timeout(240), pytest.mark.e2e]
 
 DOMAIN_ID = "97"                  # private: nothing else is on these namespaces' network anyway
-SUBNET = "10.213.0.{}/24"
 DDS_MULTICAST = "239.255.0.1"     # the RTPS default discovery group
 WORLD = "empty"
 GOAL = (1.5, 0.5, 1.57)           # x, y, yaw: a short drive with a turn
 GOAL_CLIENT = Path(__file__).with_name("remote_goal.py")
 GOAL_BUDGET_S = 40.0              # sim time for the goal itself
-CLIENT_WALL_S = 100.0             # start-up of both launches (about 25 s here) plus the goal, wall time
+CLIENT_WALL_S = 100.0             # wall time for the start-up of both launches (5 to 25 s here) and the goal
 #: bytes the robot's veth must receive: /clock at 100 Hz, TF, odometry and two lidars at 10 Hz (about 100 kB/s;
 #: 1.5 MB in a run here, against tens of kB for discovery alone)
 MIN_ROBOT_RX_BYTES = 500_000
@@ -59,9 +59,6 @@ class Host:
         stats = json.loads(self.run("ip", "-j", "-s", "link", "show", "dev", self.veth))[0]["stats64"]
         return stats["rx"]["bytes"], stats["tx"]["bytes"]
 
-    def pids(self) -> list[int]:
-        return [int(pid) for pid in ip("netns", "pids", self.netns).stdout.split()]
-
 
 def ip(*args: str, check: bool = True) -> subprocess.CompletedProcess:
     result = subprocess.run(["ip", *args], capture_output=True, text=True, timeout=30)
@@ -82,54 +79,71 @@ def require_netns() -> None:
         pytest.fail(f"the two-host test needs root to create network namespaces (running as uid {os.geteuid()})")
 
 
+def netns_pids(netns: str) -> list[int]:
+    return [int(pid) for pid in ip("netns", "pids", netns).stdout.split()]
+
+
+def veth_pair(a: str, a_netns: str, a_address: str, b: str, b_netns: str, b_address: str) -> None:
+    """A veth pair from one namespace to another, both ends up, addressed (/24) and multicast-capable."""
+    ip("link", "add", a, "netns", a_netns, "type", "veth", "peer", "name", b, "netns", b_netns)
+    for name, netns, address in ((a, a_netns, a_address), (b, b_netns, b_address)):
+        ip("-n", netns, "addr", "add", f"{address}/24", "dev", name)
+        ip("-n", netns, "link", "set", name, "multicast", "on", "up")
+
+
 @contextlib.contextmanager
-def two_hosts():
-    """Workstation and robot namespaces joined by a veth pair; on exit every process left in them is killed
-    and both namespaces are deleted (which deletes the veth)."""
+def two_hosts(routed: bool):
+    """Workstation and robot namespaces, joined by one veth pair (one subnet) or, routed, each by a veth pair
+    to a router namespace (two subnets: multicast does not cross the router). On exit every process left in
+    them is killed and the namespaces are deleted, which deletes the veths."""
     require_netns()
     tag = os.getpid()
-    workstation = Host(f"simplebot-ws-{tag}", f"sbws{tag}", SUBNET.format(1).split("/")[0])
-    robot = Host(f"simplebot-robot-{tag}", f"sbrb{tag}", SUBNET.format(2).split("/")[0])
+    workstation = Host(f"simplebot-ws-{tag}", f"sbws{tag}", "10.213.1.2" if routed else "10.213.0.1")
+    robot = Host(f"simplebot-robot-{tag}", f"sbrb{tag}", "10.213.2.2" if routed else "10.213.0.2")
+    router = f"simplebot-router-{tag}"
     created = []
     try:
-        for host in (workstation, robot):
-            result = ip("netns", "add", host.netns, check=False)
+        for netns in (workstation.netns, robot.netns, *([router] if routed else [])):
+            result = ip("netns", "add", netns, check=False)
             if result.returncode != 0:
                 pytest.fail(f"the two-host test needs root and iproute2 (ip netns add failed: {result.stderr.strip()})")
-            created.append(host)
-        ip("link", "add", workstation.veth, "netns", workstation.netns, "type", "veth",
-           "peer", "name", robot.veth, "netns", robot.netns)
-        for number, host in enumerate((workstation, robot), start=1):
-            ip("-n", host.netns, "link", "set", "lo", "up")
-            ip("-n", host.netns, "addr", "add", SUBNET.format(number), "dev", host.veth)
-            ip("-n", host.netns, "link", "set", host.veth, "multicast", "on", "up")
+            created.append(netns)
+            ip("-n", netns, "link", "set", "lo", "up")
+        if not routed:
+            veth_pair(workstation.veth, workstation.netns, workstation.address, robot.veth, robot.netns, robot.address)
+        else:
+            for number, host in enumerate((workstation, robot), start=1):
+                gateway = f"10.213.{number}.1"
+                veth_pair(host.veth, host.netns, host.address, f"sbr{number}{tag}", router, gateway)
+                ip("-n", host.netns, "route", "add", "default", "via", gateway)
+            ip("netns", "exec", router, "sysctl", "-qw", "net.ipv4.ip_forward=1")
         yield workstation, robot
     finally:
-        for host in created:
-            for pid in host.pids():
+        for netns in created:
+            for pid in netns_pids(netns):
                 with contextlib.suppress(ProcessLookupError):
                     os.kill(pid, signal.SIGKILL)
-        for host in created:
-            ip("netns", "del", host.netns, check=False)
+        for netns in created:
+            ip("netns", "del", netns, check=False)
 
 
-def dds_env() -> dict[str, str]:
-    """What a user sets on both hosts, plus UDP only: shared memory would carry the samples past the veth
-    (both namespaces share /dev/shm), and this Fast DDS (2.14) honours FASTDDS_BUILTIN_TRANSPORTS."""
+def dds_env(static_peer: str | None) -> dict[str, str]:
+    """What a user sets on both hosts (README, "Two hosts"), plus UDP only: shared memory would carry the samples
+    past the veth (both namespaces share /dev/shm), and this Fast DDS (2.14) honours FASTDDS_BUILTIN_TRANSPORTS."""
     env = {k: v for k, v in os.environ.items() if k not in ("ROS_STATIC_PEERS", "ROS_LOCALHOST_ONLY")}
     env.update(ROS_DOMAIN_ID=DOMAIN_ID, ROS_AUTOMATIC_DISCOVERY_RANGE="SUBNET", FASTDDS_BUILTIN_TRANSPORTS="UDPv4",
-               PYTHONUNBUFFERED="1")
+               PYTHONUNBUFFERED="1", **({"ROS_STATIC_PEERS": static_peer} if static_peer else {}))
     return env
 
 
 @contextlib.contextmanager
-def launch(host: Host, log: Path, *args: str):
+def launch(host: Host, env: dict[str, str], log: Path, *args: str):
     """``python -m simplebot_navigation.launch ARGS`` inside a namespace; Ctrl-C'd (then killed) on exit."""
     with open(log, "w", encoding="utf-8") as out:
         process = subprocess.Popen(["ip", "netns", "exec", host.netns, sys.executable, "-m",
                                     "simplebot_navigation.launch", *args],
                                    stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                                   env=dds_env(), start_new_session=True)
+                                   env=env, start_new_session=True)
     try:
         yield process
     finally:
@@ -155,7 +169,7 @@ def foreign_sockets(host: Host, allowed: set[str]) -> list[str]:
 def shared_memory_users(host: Host) -> list[str]:
     """Processes in the namespace that map a Fast DDS shared-memory segment."""
     users = []
-    for pid in host.pids():
+    for pid in netns_pids(host.netns):
         with contextlib.suppress(FileNotFoundError, ProcessLookupError):
             if "/dev/shm/fastrtps_" in Path(f"/proc/{pid}/maps").read_text():
                 users.append(f"pid {pid}: {Path(f'/proc/{pid}/cmdline').read_text().replace(chr(0), ' ')}")
@@ -166,18 +180,25 @@ def tail(path: Path, lines: int = 30) -> str:
     return f"--- {path.name} ---\n" + "\n".join(path.read_text(errors="replace").splitlines()[-lines:])
 
 
-def test_simulator_and_move_base_on_two_hosts(tmp_path):
+@pytest.mark.parametrize("discovery", ["multicast", "static peers"])
+def test_simulator_and_move_base_on_two_hosts(tmp_path, discovery):
+    """On one subnet SUBNET discovery finds the other host by multicast; across a router, which multicast does
+    not cross, ROS_STATIC_PEERS names it (README, "Two hosts")."""
     started = time.monotonic()
-    with two_hosts() as (workstation, robot):
+    static = discovery == "static peers"
+    with two_hosts(routed=static) as (workstation, robot):
         for host in (workstation, robot):
             interfaces = {name for name, _ in host.addresses()}
             assert interfaces == {"lo", host.veth}, f"{host.netns} has {interfaces}, not only lo and the veth"
+        workstation_env = dds_env(robot.address if static else None)
+        robot_env = dds_env(workstation.address if static else None)
         logs = tmp_path / "simulator.log", tmp_path / "move_base.log"
-        with launch(workstation, logs[0], "simulator", f"world:={WORLD}"), launch(robot, logs[1], "move_base"):
+        with launch(workstation, workstation_env, logs[0], "simulator", f"world:={WORLD}"), \
+                launch(robot, robot_env, logs[1], "move_base"):
             client = subprocess.run(
                 ["ip", "netns", "exec", workstation.netns, sys.executable, str(GOAL_CLIENT), WORLD,
                  *map(str, (*GOAL, GOAL_BUDGET_S, CLIENT_WALL_S))],
-                capture_output=True, text=True, env=dds_env(), timeout=CLIENT_WALL_S + 30)
+                capture_output=True, text=True, env=workstation_env, timeout=CLIENT_WALL_S + 30)
             output = client.stdout.strip().splitlines()
             context = "\n".join([client.stdout[-2000:], client.stderr[-2000:], *map(tail, logs)])
             assert client.returncode == 0 and output, f"the goal client failed:\n{context}"
@@ -195,6 +216,6 @@ def test_simulator_and_move_base_on_two_hosts(tmp_path):
             rx, tx = robot.veth_bytes()
             assert rx > MIN_ROBOT_RX_BYTES and tx > MIN_ROBOT_TX_BYTES, \
                 f"too little traffic crossed the veth: the robot received {rx} and sent {tx} bytes"
-    print(f"two hosts: goal {result['status']} in {result['time_s']:.1f} s sim, "
+    print(f"two hosts, {discovery}: goal {result['status']} in {result['time_s']:.1f} s sim, "
           f"{result['position_error']:.3f} m off; robot veth rx {rx} B, tx {tx} B; "
           f"test wall time {time.monotonic() - started:.0f} s")
