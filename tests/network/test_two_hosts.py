@@ -73,8 +73,9 @@ def ip_netns_exec(host: Host, *command: str) -> subprocess.CompletedProcess:
 
 def require_netns() -> None:
     """Fail, naming what is missing, where network namespaces cannot be made: this test must not vanish."""
-    if shutil.which("ip") is None:
-        pytest.fail("the two-host test needs iproute2: `ip` is not on PATH (apt-get install iproute2)")
+    missing = [tool for tool in ("ip", "ss") if shutil.which(tool) is None]
+    if missing:
+        pytest.fail(f"the two-host test needs iproute2: {' and '.join(missing)} not on PATH (apt-get install iproute2)")
     if os.geteuid() != 0:
         pytest.fail(f"the two-host test needs root to create network namespaces (running as uid {os.geteuid()})")
 
@@ -116,7 +117,7 @@ def two_hosts(routed: bool):
                 gateway = f"10.213.{number}.1"
                 veth_pair(host.veth, host.netns, host.address, f"sbr{number}{tag}", router, gateway)
                 ip("-n", host.netns, "route", "add", "default", "via", gateway)
-            ip("netns", "exec", router, "sysctl", "-qw", "net.ipv4.ip_forward=1")
+            ip("netns", "exec", router, "sh", "-c", "echo 1 > /proc/sys/net/ipv4/ip_forward")
         yield workstation, robot
     finally:
         for netns in created:
