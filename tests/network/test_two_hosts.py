@@ -49,7 +49,7 @@ class Host:
     address: str
 
     def run(self, *command: str) -> str:
-        return ip_netns_exec(self, *command).stdout
+        return ip("netns", "exec", self.netns, *command).stdout
 
     def addresses(self) -> list[tuple[str, str]]:
         """(interface, address) of every address in the namespace."""
@@ -65,10 +65,6 @@ def ip(*args: str, check: bool = True) -> subprocess.CompletedProcess:
     if check and result.returncode != 0:
         raise RuntimeError(f"ip {' '.join(args)} failed: {result.stderr.strip()}")
     return result
-
-
-def ip_netns_exec(host: Host, *command: str) -> subprocess.CompletedProcess:
-    return ip("netns", "exec", host.netns, *command)
 
 
 def require_netns() -> None:
@@ -209,11 +205,9 @@ def test_simulator_and_move_base_on_two_hosts(tmp_path, discovery):
             # loopback, the wildcard, the veth ends and the discovery group; the IPv6 forms of the first two
             allowed = {"127.0.0.1", "::1", "0.0.0.0", "::", "*", DDS_MULTICAST, workstation.address, robot.address}
             for host in (workstation, robot):
-                assert not foreign_sockets(host, allowed), \
-                    f"sockets in {host.netns} on other addresses:\n" + "\n".join(foreign_sockets(host, allowed))
-                assert not shared_memory_users(host), \
-                    "Fast DDS shared memory in use, so samples need not cross the veth:\n" + \
-                    "\n".join(shared_memory_users(host))
+                foreign, shm = foreign_sockets(host, allowed), shared_memory_users(host)
+                assert not foreign, f"sockets in {host.netns} on other addresses:\n" + "\n".join(foreign)
+                assert not shm, "Fast DDS shared memory in use, so samples need not cross the veth:\n" + "\n".join(shm)
             rx, tx = robot.veth_bytes()
             assert rx > MIN_ROBOT_RX_BYTES and tx > MIN_ROBOT_TX_BYTES, \
                 f"too little traffic crossed the veth: the robot received {rx} and sent {tx} bytes"
