@@ -6,8 +6,8 @@
 """
 
 from .runner import GoalResult, ScenarioOptions, parse_goals, run_goal, run_scenarios, time_budget
-from .process_session import ProcessSession
+from .process_session import ProcessSession, RemoteSession
 from .session import GoalRun, NavigationSession
 
-__all__ = ["GoalResult", "GoalRun", "NavigationSession", "ProcessSession", "ScenarioOptions", "parse_goals", "run_goal",
-           "run_scenarios", "time_budget"]
+__all__ = ["GoalResult", "GoalRun", "NavigationSession", "ProcessSession", "RemoteSession", "ScenarioOptions",
+           "parse_goals", "run_goal", "run_scenarios", "time_budget"]

@@ -1,7 +1,8 @@
 """The launcher's processes as a scenario session: each node in its own process, at real time.
 
 Ground truth, collisions and status come over topics, like any other client's; the launcher's output
-(every node's log) goes to ``log_file``, where tests also find the nodes' process ids.
+(every node's log) goes to ``log_file``, where tests also find the nodes' process ids. RemoteSession is
+the same client without the launcher, for a stack that runs elsewhere (another shell or host).
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import rclpy
 from rclpy.executors import SingleThreadedExecutor
 
 from simplebot_description import robot_description
-from simplebot_navigation.launch.loader import load_launch
+from simplebot_navigation.launch.loader import LaunchConfig, load_launch
 from simplebot_navigation.launch.overrides import apply_set
 from simplebot_navigation.move_base.plugins import TEB_LOCAL_PLANNER, plugin_namespace
 from simplebot_navigation.sim.world import Pose2D
@@ -39,35 +40,16 @@ LAUNCH = [
 """
 
 
-class ProcessSession(_Session):
-    """The launcher's processes (``python -m simplebot_navigation.launch``), a client node here.
-
-    Ground truth, collisions and status come over topics; move_base's counters (replans,
-    recoveries, cycle times) are not visible from outside and stay empty. The launcher's output
-    goes to ``log_file``.
+class RemoteSession(_Session):
+    """A client node for a stack started elsewhere: by the launcher, in another shell, or on another host
+    on the same ROS domain (README, "Two hosts"). Goals and poses are in the world frame of ``world``;
+    ``launch`` is the configuration move_base was started from, for the goal tolerances.
     """
 
-    def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, rtf: float = 1.0,
-                 seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation", tight: bool = False,
-                 respawn: bool = False, overrides: tuple[str, ...] = ()):
-        if not (math.isfinite(rtf) and rtf > 0):
-            raise ValueError(f"separate processes need rtf > 0 (lockstep is single-process), got {rtf!r}")
+    def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, launch: LaunchConfig | None = None):
         self.description = robot_description(robot, radius)
         self.world = load_world(world, robot_radius=self.description.inscribed_radius)
-        args = launch_args(world, robot, radius, rtf, tight, respawn)
-        self.launch = load_launch(launch_file, args)
-        apply_set(self.launch, list(overrides))     # checked here, and read by controller_param
-        self.run_dir = run_dir = tempfile.mkdtemp(prefix="simplebot_scenario_")
-        wrapper = os.path.join(run_dir, "scenario_launch.py")
-        with open(wrapper, "w", encoding="utf-8") as handle:
-            handle.write(WRAPPER_LAUNCH.format(launch=self.launch.file, args=args, seed=seed,
-                                               noise=float(range_noise)))
-        self.log_file = os.path.join(run_dir, "launch.log")
-        with open(self.log_file, "w", encoding="utf-8") as log:
-            self.process = subprocess.Popen([sys.executable, "-u", "-m", "simplebot_navigation.launch", wrapper,
-                                             *(f"--set={assignment}" for assignment in overrides)],
-                                            stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                                            start_new_session=True)
+        self.launch = launch or load_launch("move_base", {"robot": robot})
         self.context = rclpy.Context()
         rclpy.init(context=self.context)
         self.client = ScenarioClient(self.context)
@@ -85,9 +67,53 @@ class ProcessSession(_Session):
         return Pose2D(x, y, yaw)
 
     def ready(self) -> bool:
+        return self.client.action.server_is_ready() and bool(self.client.truth)
+
+    def controller_param(self, name: str, default: float) -> float:
+        move_base = next(n for n in self.launch.nodes if n.name == "move_base")
+        planner = plugin_namespace(str(move_base.parameters.get("base_local_planner", TEB_LOCAL_PLANNER)))
+        return float(move_base.parameters.get(f"{planner}.{name}", default))
+
+    def close(self) -> None:
+        self.executor.shutdown()
+        self.client.destroy_node()
+        if self.context.ok():
+            rclpy.shutdown(context=self.context)
+
+
+class ProcessSession(RemoteSession):
+    """The launcher's processes (``python -m simplebot_navigation.launch``), a client node here.
+
+    Ground truth, collisions and status come over topics; move_base's counters (replans,
+    recoveries, cycle times) are not visible from outside and stay empty. The launcher's output
+    goes to ``log_file``.
+    """
+
+    def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, rtf: float = 1.0,
+                 seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation", tight: bool = False,
+                 respawn: bool = False, overrides: tuple[str, ...] = ()):
+        if not (math.isfinite(rtf) and rtf > 0):
+            raise ValueError(f"separate processes need rtf > 0 (lockstep is single-process), got {rtf!r}")
+        args = launch_args(world, robot, radius, rtf, tight, respawn)
+        launch = load_launch(launch_file, args)
+        apply_set(launch, list(overrides))     # checked here, and read by controller_param
+        super().__init__(world, robot, radius, launch)
+        self.run_dir = run_dir = tempfile.mkdtemp(prefix="simplebot_scenario_")
+        wrapper = os.path.join(run_dir, "scenario_launch.py")
+        with open(wrapper, "w", encoding="utf-8") as handle:
+            handle.write(WRAPPER_LAUNCH.format(launch=self.launch.file, args=args, seed=seed,
+                                               noise=float(range_noise)))
+        self.log_file = os.path.join(run_dir, "launch.log")
+        with open(self.log_file, "w", encoding="utf-8") as log:
+            self.process = subprocess.Popen([sys.executable, "-u", "-m", "simplebot_navigation.launch", wrapper,
+                                             *(f"--set={assignment}" for assignment in overrides)],
+                                            stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                            start_new_session=True)
+
+    def ready(self) -> bool:
         if self.process.poll() is not None:
             raise RuntimeError(f"the launcher ended with exit code {self.process.returncode}; see {self.log_file}")
-        return self.client.action.server_is_ready() and bool(self.client.truth)
+        return super().ready()
 
     def node_pid(self, name: str) -> int | None:
         """Process id of a node's latest start, from the launcher's "started /name (...) pid N" line."""
@@ -99,11 +125,6 @@ class ProcessSession(_Session):
         with open(self.log_file, encoding="utf-8") as log:
             return log.read()
 
-    def controller_param(self, name: str, default: float) -> float:
-        move_base = next(n for n in self.launch.nodes if n.name == "move_base")
-        planner = plugin_namespace(str(move_base.parameters.get("base_local_planner", TEB_LOCAL_PLANNER)))
-        return float(move_base.parameters.get(f"{planner}.{name}", default))
-
     def close(self) -> None:
         if self.process.poll() is None:
             os.killpg(self.process.pid, signal.SIGINT)
@@ -114,7 +135,4 @@ class ProcessSession(_Session):
                 self.process.wait()
         if self.process.returncode == 0:      # otherwise its log stays for the error message to point at
             shutil.rmtree(self.run_dir, ignore_errors=True)
-        self.executor.shutdown()
-        self.client.destroy_node()
-        if self.context.ok():
-            rclpy.shutdown(context=self.context)
+        super().close()

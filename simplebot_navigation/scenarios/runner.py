@@ -17,7 +17,7 @@ from simplebot_description import RobotDescription
 from simplebot_navigation.sim.world import Pose2D, World, write_world
 from simplebot_navigation.sim.world_gen import clutter_world
 
-from .process_session import ProcessSession
+from .process_session import ProcessSession, RemoteSession
 from .session import NavigationSession
 
 BUDGET_SLACK = 2.0        # budget = BUDGET_FIXED_S + BUDGET_SLACK * shortest path / max_vel_x
@@ -184,7 +184,7 @@ def min_clearance(world: World, description: RobotDescription, poses: np.ndarray
 
 
 # -- the loop --------------------------------------------------------------------------------------
-def run_goal(session: NavigationSession | ProcessSession, goal: Pose2D, budget_s: float, run_index: int = 0,
+def run_goal(session: NavigationSession | RemoteSession, goal: Pose2D, budget_s: float, run_index: int = 0,
              wall_timeout_s: float | None = None) -> GoalResult:
     """Send one goal, advance until its result or its budget (then cancel), and measure it."""
     start = session.pose()
