@@ -19,8 +19,9 @@ def test_a_killed_and_respawned_simulator_stops_the_robot_then_the_next_goal_suc
         commands = session.client.record_commands()
         goal = Pose2D(4.0, 0.0, 0.0, "corridor")
         first = session.send_goal(goal)
-        session.spin_wall(6.0)
-        assert any(abs(v) > 0.05 for _, v, _ in commands[-10:]), "the robot should be driving"
+        assert session.spin_wall(60.0, lambda: any(abs(v) > 0.05 for _, v, _ in commands[-10:])), \
+            "the robot should be driving"
+        session.spin_wall(2.0)
 
         old_pid = session.node_pid("simulator")
         seen, last_stamp = len(session.client.truth), session.client.truth[-1][0]
