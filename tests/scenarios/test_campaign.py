@@ -14,11 +14,12 @@ import pytest
 from simplebot_navigation.scenarios import campaign_exec
 from simplebot_navigation.scenarios.campaign import Progress, main, run_campaign
 from simplebot_navigation.scenarios.campaign_exec import CampaignError, LocalExecutor, RayExecutor, domain_lease
-from simplebot_navigation.scenarios.campaign_plot import hardest_runs, summary_figure
+from simplebot_navigation.scenarios.campaign_plot import hardest_runs, success_by_difficulty, summary_figure
 from simplebot_navigation.scenarios.campaign_results import read_results
 from simplebot_navigation.scenarios.campaign_spec import (SpecError, expand_worlds, plan, robot_body, spec_from_dict,
                                                           split_parameter_set)
 from simplebot_navigation.scenarios.campaign_stats import compare, fisher_p, summarize, welch_p, wilson_interval
+from simplebot_navigation.sim.world_loader import load_world
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 FAKE_WORKER = (sys.executable, os.path.join(os.path.dirname(os.path.abspath(__file__)), "campaign_fake_worker.py"))
@@ -265,6 +266,19 @@ def test_the_summary_figure_and_the_hardest_runs(tmp_path):
     files = hardest_runs(str(tmp_path / "fig.png"), records)
     assert files == [str(tmp_path / "fig_hardest_1.png"), str(tmp_path / "fig_hardest_2.png")]
     assert all(os.path.getsize(f) > 10_000 for f in files)
+
+
+def test_success_by_difficulty_bins_the_forest_worlds_by_their_narrowest_passage(tmp_path):
+    passages = {seed: load_world(f"forest:{seed}").extra["cspace"]["narrowest_passage"] for seed in range(8)}
+    narrow = sorted(passages, key=passages.get)[:2]   # the two hardest worlds fail
+    records = [record(0, seed not in narrow, 40.0, family="forest") | {"world": f"forest:{seed}", "robot": "round:0.25"}
+               for seed in range(8)] + [record(0, False, 20.0)]   # a lab run has no C-space difficulty
+    rows = success_by_difficulty(records)
+    assert sum(n for *_, n, _ in rows) == 8
+    assert rows[0][2:4] == (0, 2) and all(ok == n for _, _, ok, n, _ in rows[1:])
+    assert rows[0][0] == min(passages.values()) and rows[-1][1] == max(passages.values())
+    summary_figure(str(tmp_path / "fig.png"), records)
+    assert (tmp_path / "fig.png").read_bytes()[:4] == b"\x89PNG"
 
 
 def test_progress_goes_through_tqdm_when_it_is_installed(monkeypatch):
