@@ -92,8 +92,8 @@ class LiveParameters:
         """ParameterError when a new value changes no configuration: another parameter takes precedence
         (a footprint over robot_radius, a costmap-level key over its layer's, a nearer namespace over a
         farther one for searched keys), so accepting it would leave the server saying what is not so."""
-        old = _leaf(self.tree, name)
-        if old == _leaf(tree, name):
+        old, new = _leaf(self.tree, name), _leaf(tree, name)
+        if old == new or (old is _MISSING and new == lookup(self.table, name).default):
             return                                      # the value it has: nothing to do
         without = copy.deepcopy(tree)
         _set_leaf(without, name, old)

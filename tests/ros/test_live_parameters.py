@@ -275,6 +275,8 @@ def test_every_parameter_that_may_change_while_running_reaches_the_running_objec
         wrong = {name: (value, _running_value(node, name)) for name, value in changes.items()
                  if not np.all(_running_value(node, name) == value)}
         assert wrong == {}
+        local = node.local_costmap      # the local planner's feasibility check uses the new footprint too
+        np.testing.assert_array_equal(node.controller.planner.costmap_footprint, local.footprint)
     finally:
         assert node.set_parameters_atomically([Parameter(name, value=current[name]) for name in changes]).successful
     session.run_for(0.1, wall_timeout_s=WALL_GUARD_S)
