@@ -16,14 +16,14 @@ import time
 
 import numpy as np
 
+from simplebot_navigation.parameters import fields_of
+
 from .costmap_2d import Costmap2D
 from .footprint import pad_footprint, transform_footprint
 from .layer import CostmapLayer
 from .layered_costmap import LayeredCostmap
 from .obstacle_layer import (Observation, ObservationBuffer, ObservationSource, ObstacleLayer,
                              laser_scan_to_observation, point_cloud_to_observation)
-from simplebot_navigation.parameters import fields_of
-
 from .params import CostmapConfig, live_layer_params, resolve_costmap_params
 from .plugins import create_layer
 from .static_layer import StaticLayer

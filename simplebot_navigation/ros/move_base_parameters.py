@@ -81,8 +81,10 @@ class MoveBaseParameters:
         if MOVE_BASE in parts and "controller_frequency" in update_move_base_config(self.cfg, configs.move_base):
             self._set_controller_frequency(self.cfg.controller_frequency)
         for costmap in (self.global_costmap, self.local_costmap):
-            if costmap.name in parts and "footprint" in costmap.reconfigure(configs.costmaps[costmap.name]) \
-                    and costmap is self.local_costmap:
+            if costmap.name not in parts:
+                continue
+            changed = costmap.reconfigure(configs.costmaps[costmap.name])
+            if "footprint" in changed and costmap is self.local_costmap:
                 self.controller.set_costmap_footprint(costmap.footprint)
         if GLOBAL_PLANNER in parts:
             self.planner.reconfigure(configs.global_planner)
