@@ -77,11 +77,8 @@ class LiveParameters:
     def normalized(self, name: str, value: Any) -> Any:
         """``value`` as the parameter holds it (1 -> 1.0 for a float, 2.6 -> 3 for a rounded int), so the
         node stores what it runs with; unchanged when it does not fit, for change() to say why."""
-        try:
-            spec = lookup(self.table, name)
-        except ParameterError:
-            return value
-        if name not in self.table or spec.kind not in (int, float) or isinstance(value, bool):
+        spec = self.table.get(name)
+        if spec is None or spec.kind not in (int, float) or isinstance(value, bool):
             return value
         try:
             return spec.check(value, name)

@@ -120,6 +120,18 @@ def test_a_bad_value_is_refused_naming_the_parameter_and_the_value_and_the_old_v
     assert session.move_base.controller.planner.cfg.max_vel_x == 0.4
 
 
+@pytest.mark.parametrize("name, value, why", [
+    ("TebLocalPlannerROS.global_plan_viapoint_sep", math.nan, "expected a number (finite), got nan"),   # no range
+    ("TebLocalPlannerROS.min_samples", 3.5, "expected an integer, got 3.5"),
+    ("local_costmap.obstacles.front_laser.marking", "yes", "expected true or false, got 'yes'"),
+])
+def test_a_value_of_the_wrong_kind_is_refused_by_the_parameter_layer(session, name, value, why):
+    before = session.params.get(name)
+    result = session.params.set(name, value)
+    assert not result.successful and result.reason == f"{name}: {why}"
+    assert session.params.get(name) == before
+
+
 def test_a_change_that_breaks_a_relation_between_parameters_is_refused(session):
     result = session.params.set("TebLocalPlannerROS.max_samples", 2)
     assert not result.successful and "must be >= min_samples (3)" in result.reason
