@@ -3,8 +3,9 @@
 The node keeps the ROS 1 tree it runs with. A change (ROS 2 names and values, as ``ros2 param set``
 sends them) goes through the checks of ``--set`` with ``live=True`` (apply_move_base_overrides): a bad
 value, an unknown name, a restart-only parameter or one without effect here raises ParameterError,
-and nothing changes. An accepted change updates the tree and builds every configuration again from
-it; the node takes them at its next control cycle (``take``), and each running object copies what
+and nothing changes. An accepted change (``prepare``, then ``commit`` once the ROS side has stored it)
+updates the tree and builds every configuration again from it; the node takes them at its next control
+cycle (``take``), and each running object copies what
 may change from its own: MoveBaseConfig (update_move_base_config), Costmap.reconfigure,
 TebLocalPlanner.reconfigure, a new GlobalPlanner, the recoveries' configure, and the node's timers.
 """
@@ -40,6 +41,16 @@ class LiveChange:
         return ", ".join(f"{name} = {value!r}" for name, value in self.assignments)
 
 
+@dataclass
+class PreparedChange:
+    """A checked change, not yet kept: the tree it was checked against, and what it makes of it."""
+    assignments: list[tuple[str, Any]]
+    base: dict
+    tree: dict
+    configs: NodeConfigs
+    warnings: list[str]
+
+
 class LiveParameters:
     """The tree and configurations a running move_base has, and the changes it has yet to take."""
 
@@ -53,21 +64,31 @@ class LiveParameters:
         """Check (name, value) pairs as one change and keep it for the next take(). Raises ParameterError
         naming the parameter, the value and why; returns the warnings the change brings that were not
         there before (a parameter without effect, say)."""
+        return self.commit(self.prepare(assignments))
+
+    def prepare(self, assignments: Iterable[tuple[str, Any]]) -> PreparedChange:
+        """The checks of change() without keeping anything (ParameterError when refused)."""
         assignments = list(assignments)
         tree, warnings = apply_move_base_overrides(self.tree, assignments, live=True)
         configs = build_configs(tree)
         for name, value in assignments:
             self._refuse_without_effect(name, value, tree, configs)
         before = set(self.configs.warnings)
-        self.tree, self.configs = tree, configs
+        return PreparedChange(assignments, self.tree, tree, configs, [w for w in warnings if w not in before])
+
+    def commit(self, prepared: PreparedChange) -> list[str]:
+        """Keep a prepared change (checked again if another one was kept since); its new warnings."""
+        if prepared.base is not self.tree:
+            prepared = self.prepare(prepared.assignments)
+        self.tree, self.configs = prepared.tree, prepared.configs
         pending = self._pending or LiveChange()
-        pending.assignments += assignments
-        pending.parts |= {self._part(name) for name, _ in assignments}
+        pending.assignments += prepared.assignments
+        pending.parts |= {self._part(name) for name, _ in prepared.assignments}
         if MOVE_BASE in pending.parts:                 # footprint, robot_radius, ... are searched upwards
             pending.parts |= set(COSTMAPS)
-        pending.configs = configs
+        pending.configs = prepared.configs
         self._pending = pending
-        return [w for w in warnings if w not in before]
+        return prepared.warnings
 
     def take(self) -> LiveChange | None:
         """The changes accepted since the last call (None: none)."""

@@ -34,6 +34,10 @@ def ros1_value(value):
     return list(value) if isinstance(value, (array.array, tuple)) else value
 
 
+def _changes(params: list[Parameter]) -> list[tuple]:
+    return [(param.name, ros1_value(param.value)) for param in params if _ours(param.name)]
+
+
 class MoveBaseParameters:
     """Run-time parameter changes of MoveBaseNode (dynamic_reconfigure semantics)."""
 
@@ -43,8 +47,10 @@ class MoveBaseParameters:
         self._live = LiveParameters(given_parameter_tree(self))
         self._live_lock = threading.Lock()   # a set request may come from another thread than the cycle
         describe_declared(self, self._live.table)
+        self._prepared = None
         self.add_pre_set_parameters_callback(self._normalize_parameters)
         self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.add_post_set_parameters_callback(self._on_parameters_set)
 
     def _normalize_parameters(self, params: list[Parameter]) -> list[Parameter]:
         """Store what the node runs with: 1 for a float parameter becomes 1.0 (ROS 1 read it as 1.0)."""
@@ -58,18 +64,33 @@ class MoveBaseParameters:
         return out
 
     def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
-        changes = [(param.name, ros1_value(param.value)) for param in params if _ours(param.name)]
+        """Accept or refuse a change as a whole, with the reason; it is kept once rclpy has stored it."""
+        changes = _changes(params)
         if not changes:
             return SetParametersResult(successful=True)
         with self._live_lock:
             try:
-                warnings = self._live.change(changes)
+                self._prepared = self._live.prepare(changes)
             except ParameterError as err:
                 self.get_logger().warn(f"parameter change refused: {err}")
                 return SetParametersResult(successful=False, reason=str(err))
+        return SetParametersResult(successful=True)
+
+    def _on_parameters_set(self, params: list[Parameter]) -> None:
+        """The parameters are stored (every on-set callback accepted them): the next control cycle takes them."""
+        changes = _changes(params)
+        if not changes:
+            return
+        with self._live_lock:
+            prepared, self._prepared = self._prepared, None
+            try:
+                warnings = self._live.commit(prepared if prepared is not None and prepared.assignments == changes
+                                             else self._live.prepare(changes))
+            except ParameterError as err:     # only if another thread's change got in between: say so
+                self.get_logger().error(f"parameter change stored but not applied: {err}")
+                return
         for warning in warnings:
             self.get_logger().warn(warning)
-        return SetParametersResult(successful=True)
 
     def _apply_parameter_changes(self) -> None:
         """At the start of a control cycle: the changes accepted since the last one take effect."""
