@@ -5,9 +5,9 @@ sends them) goes through the checks of ``--set`` with ``live=True`` (apply_move_
 value, an unknown name, a restart-only parameter or one without effect here raises ParameterError,
 and nothing changes. An accepted change (``prepare``, then ``commit`` once the ROS side has stored it)
 updates the tree and builds every configuration again from it; the node takes them at its next control
-cycle (``take``), and each running object copies what
-may change from its own: MoveBaseConfig (update_move_base_config), Costmap.reconfigure,
-TebLocalPlanner.reconfigure, a new GlobalPlanner, the recoveries' configure, and the node's timers.
+cycle (``take``), and each running object copies what may change from its own: MoveBaseConfig
+(update_move_base_config), Costmap.reconfigure, TebLocalPlanner.reconfigure, a new GlobalPlanner, the
+recoveries' configure, and the node's timers.
 """
 
 from __future__ import annotations
