@@ -16,13 +16,15 @@ import time
 
 import numpy as np
 
+from simplebot_navigation.parameters import fields_of
+
 from .costmap_2d import Costmap2D
 from .footprint import pad_footprint, transform_footprint
 from .layer import CostmapLayer
 from .layered_costmap import LayeredCostmap
 from .obstacle_layer import (Observation, ObservationBuffer, ObservationSource, ObstacleLayer,
                              laser_scan_to_observation, point_cloud_to_observation)
-from .params import CostmapConfig, resolve_costmap_params
+from .params import CostmapConfig, live_layer_params, resolve_costmap_params
 from .plugins import create_layer
 from .static_layer import StaticLayer
 
@@ -165,6 +167,31 @@ class Costmap:
             layer.add_extra_bounds(layer.origin_x, layer.origin_y, layer.origin_x + layer.size_in_meters_x,
                                    layer.origin_y + layer.size_in_meters_y)
         return [layer.name for layer in layers]
+
+    # -- run-time changes ---------------------------------------------------------
+    def reconfigure(self, new: CostmapConfig) -> list[str]:
+        """Take a configuration resolved from a changed tree: the costmap's and each layer's parameters that
+        may change while running (the rest must be as before; the parameter layer refuses changing them).
+        Returns the costmap-level names that changed ('footprint' for the footprint, robot_radius or
+        padding), for the ROS shell to apply what it owns (its timers)."""
+        c = self.config
+        changed = [key for key, spec in fields_of(CostmapConfig).items()
+                   if spec.dynamic and getattr(new, key) != getattr(c, key)]
+        for key in changed:
+            setattr(c, key, getattr(new, key))
+        self.layered.update_period = 1.0 / c.update_frequency if c.update_frequency > 0 else 0.0
+        if c.robot_radius != new.robot_radius or not np.array_equal(c.footprint, new.footprint):
+            c.footprint, c.robot_radius = new.footprint, new.robot_radius
+            self.set_unpadded_footprint(new.footprint)
+            changed.append("footprint")
+        elif "footprint_padding" in changed:    # a footprint from the footprint topic keeps its outline
+            self.set_unpadded_footprint(self.unpadded_footprint)
+            changed.append("footprint")
+        for plugin, running in zip(new.plugins, c.plugins):
+            live = live_layer_params(plugin)
+            self.layered.layer(plugin.name).reconfigure(**live)
+            running.params.update({key: value for key, value in live.items() if key != "sources"})
+        return changed
 
     # -- footprint ----------------------------------------------------------------
     def set_unpadded_footprint(self, points) -> None:

@@ -152,6 +152,12 @@ class InflationLayer(Layer):
             self.need_reinflation = True
             self._compute_caches()
 
+    def reconfigure(self, inflation_radius: float, cost_scaling_factor: float, inflate_unknown: bool,
+                    enabled: bool) -> None:
+        """A run-time change, as the layer's dynamic_reconfigure: the next update reinflates the whole map."""
+        self.set_inflation_parameters(inflation_radius, cost_scaling_factor)
+        self.set_enabled(enabled, inflate_unknown)
+
     def set_enabled(self, enabled: bool, inflate_unknown: bool | None = None) -> None:
         """Toggling either flag reinflates the whole map on the next cycle."""
         inflate_unknown = self.inflate_unknown if inflate_unknown is None else bool(inflate_unknown)

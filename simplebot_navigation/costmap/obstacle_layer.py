@@ -199,6 +199,17 @@ class ObstacleLayer(CostmapLayer):
         self.transformed_footprint = np.empty((0, 2))
         self.stale_sources: list[str] = []
 
+    def reconfigure(self, sources: dict[str, dict] | None = None, **params) -> None:
+        """A run-time change: the layer's own flags (max_obstacle_height, combination_method,
+        footprint_clearing_enabled, enabled) and, by source name, fields of its observation sources
+        (ranges, marking, clearing, heights, rates). Later scans and updates use them; the sources
+        themselves (names, topics, frames, data types) stay."""
+        for key, value in params.items():
+            setattr(self, key, type(getattr(self, key))(value))
+        for name, values in (sources or {}).items():
+            for key, value in values.items():
+                setattr(self.buffers[name].source, key, value)
+
     def on_initialize(self) -> None:
         layered = self.layered_costmap
         track = layered.track_unknown_space if self._track_unknown is None else self._track_unknown

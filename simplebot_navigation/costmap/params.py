@@ -67,11 +67,11 @@ class CostmapConfig:
     transform_tolerance: float = param(0.3, "s", "tolerated age of the robot pose transform", ge=0)
     update_frequency: float = param(5.0, "Hz", "map update rate (0: never)", ge=0)
     publish_frequency: float = param(0.0, "Hz", "map publish rate (0: never)", ge=0)
-    width: int = param(10, "m", "map width (an int, rounded like ROS 1)", ge=0, rounds=True)
-    height: int = param(10, "m", "map height (an int, rounded like ROS 1)", ge=0, rounds=True)
-    resolution: float = param(0.05, "m/cell", "cell size", gt=0)
-    origin_x: float = param(0.0, "m", "x of the map's lower left corner in global_frame")
-    origin_y: float = param(0.0, "m", "y of the map's lower left corner in global_frame")
+    width: int = param(10, "m", "map width (an int, rounded like ROS 1)", ge=0, rounds=True, restart=True)
+    height: int = param(10, "m", "map height (an int, rounded like ROS 1)", ge=0, rounds=True, restart=True)
+    resolution: float = param(0.05, "m/cell", "cell size", gt=0, restart=True)
+    origin_x: float = param(0.0, "m", "x of the map's lower left corner in global_frame", restart=True)
+    origin_y: float = param(0.0, "m", "y of the map's lower left corner in global_frame", restart=True)
     footprint_padding: float = param(0.01, "m", "added around the footprint")
     static_map: bool = param(False, "", "pre-Hydro: add a static layer (used only without plugins)", restart=True)
     map_type: str = param("costmap", "", "pre-Hydro: costmap or voxel (used only without plugins)", restart=True)
@@ -146,6 +146,18 @@ class StaticLayerParams:
 
 LAYER_PARAMS = {"ObstacleLayer": ObstacleLayerParams, "InflationLayer": InflationLayerParams,
                 "StaticLayer": StaticLayerParams}
+
+
+def live_layer_params(plugin: PluginConfig) -> dict:
+    """The parameters of a layer that may change while it runs (not restart-only in their spec), as the
+    layer's ``reconfigure`` takes them; an obstacle layer's sources come as {source name: {field: value}}."""
+    specs = fields_of(LAYER_PARAMS[plugin.kind])
+    live = {key: value for key, value in plugin.params.items() if key in specs and specs[key].dynamic}
+    if plugin.kind == "ObstacleLayer":
+        source_specs = fields_of(ObservationSourceParams)
+        live["sources"] = {source.name: {key: getattr(source, key) for key, spec in source_specs.items()
+                                         if spec.dynamic} for source in plugin.params["sources"]}
+    return live
 
 
 def parameter_specs(cfg: CostmapConfig) -> dict[str, Param]:

@@ -34,10 +34,30 @@ class StaticLayer(CostmapLayer):
         self.trinary_costmap = bool(trinary_costmap)
         self.enabled = bool(enabled)
         self.map_received = False
+        self._values = np.zeros((0, 0), np.int8)   # the map as received (OccupancyGrid values), for reconfigure
         self.has_updated_data = False
         self.map_frame = ""
         self.global_to_map: tuple[float, float, float] | None = None
         self._window = (0, 0, 0, 0)
+
+    def reconfigure(self, first_map_only: bool, track_unknown_space: bool, use_maximum: bool,
+                    lethal_cost_threshold: int, unknown_cost_value: int, trinary_costmap: bool, enabled: bool) -> None:
+        """A run-time change: the map held is read again with the new rules and applied in full next update."""
+        before = (self.track_unknown_space, self.lethal_threshold, self.unknown_cost_value, self.trinary_costmap,
+                  self.use_maximum, self.enabled)
+        self.first_map_only = bool(first_map_only)
+        self.track_unknown_space = bool(track_unknown_space)
+        self.use_maximum = bool(use_maximum)
+        self.lethal_threshold = max(min(int(lethal_cost_threshold), 100), 0)
+        self.unknown_cost_value = int(unknown_cost_value) & 0xFF
+        self.trinary_costmap = bool(trinary_costmap)
+        self.enabled = bool(enabled)
+        after = (self.track_unknown_space, self.lethal_threshold, self.unknown_cost_value, self.trinary_costmap,
+                 self.use_maximum, self.enabled)
+        if after != before and self.map_received:
+            self.costmap[:, :] = self.interpret_values(self._values)
+            self._window = (0, 0, self.size_x, self.size_y)
+            self.has_updated_data = True
 
     def match_size(self) -> None:
         if not self.layered_costmap.rolling_window:
@@ -69,6 +89,7 @@ class StaticLayer(CostmapLayer):
             layered.resize_map(*geometry, size_locked=True)
         elif geometry != (self.size_x, self.size_y, self.resolution, self.origin_x, self.origin_y):
             self.resize_map(*geometry)
+        self._values = grid.astype(np.int8, copy=True)
         self.costmap[:, :] = self.interpret_values(grid)
         self.map_frame = frame_id.lstrip("/")
         self._window = (0, 0, self.size_x, self.size_y)
@@ -82,6 +103,7 @@ class StaticLayer(CostmapLayer):
         if x < 0 or y < 0 or x + w > self.size_x or y + h > self.size_y:
             raise ValueError(f"static layer {self.name!r}: update {w}x{h} at ({x}, {y}) does not fit "
                              f"the {self.size_x}x{self.size_y} map")
+        self._values[y:y + h, x:x + w] = patch
         self.costmap[y:y + h, x:x + w] = self.interpret_values(patch)
         self._window = (x, y, w, h)
         self.has_updated_data = True

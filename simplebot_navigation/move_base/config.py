@@ -26,7 +26,7 @@ class MoveBaseConfig:
     base_local_planner: str = param(TEB_LOCAL_PLANNER, "", "local planner plugin",
                                     restart=True)
     planner_frequency: float = param(0.0, "Hz", "replanning rate while driving (0: only when needed)", ge=0)
-    controller_frequency: float = param(20.0, "Hz", "control loop rate", gt=0, restart=True)
+    controller_frequency: float = param(20.0, "Hz", "control loop rate", gt=0)
     planner_patience: float = param(5.0, "s", "time to find a plan before recovering", ge=0)
     controller_patience: float = param(15.0, "s", "time without a valid command before recovering", ge=0)
     max_planning_retries: int = param(-1, "", "failed plans before recovering (-1: use planner_patience)", ge=-1)
@@ -36,14 +36,16 @@ class MoveBaseConfig:
     # ours, not ROS 1 (0 disables): see state_machine
     progress_timeout: float = param(30.0, "s", "abort after this long without getting closer (0: off)", ge=0)
     watchdog_timeout: float = param(0.3, "s", "wall time without a control cycle before stopping the robot "
-                                    "(0: off)", ge=0, restart=True)
+                                    "(0: off)", ge=0)
     max_wait: float = param(30.0, "s", "time a goal may wait for its pose, sensors or clock (0: off)", ge=0)
     recovery_behavior_enabled: bool = param(True, "", "run recovery behaviours")
     clearing_rotation_allowed: bool = param(True, "", "include in-place rotations in the default recoveries",
                                             restart=True)
     shutdown_costmaps: bool = param(False, "", "stop the costmaps while there is no goal",
                                     not_implemented="the costmaps keep updating while idle")
-    conservative_reset_dist: float = param(3.0, "m", "side of the square conservative_reset keeps", ge=0)
+    conservative_reset_dist: float = param(3.0, "m", "side of the square conservative_reset keeps (its "
+                                           "reset_distance at start-up; change that one while running)", ge=0,
+                                           restart=True)
     make_plan_clear_costmap: bool = param(True, "", "make_plan clears the robot's footprint first",
                                           not_implemented="make_plan plans on the costmap as it is")
     make_plan_add_unreachable_goal: bool = param(True, "", "make_plan appends the goal when only a nearby "

@@ -67,6 +67,11 @@ class ControlLoopStats:
         self._recent: list[float] = []        # since the last take_recent(), bounded
         self._recent_cap = max(16, int(4.0 / period_s))
 
+    def set_period(self, period_s: float) -> None:
+        """A new controller_frequency: later cycles are judged against this period."""
+        self.period_s = period_s
+        self._recent_cap = max(16, int(4.0 / period_s))
+
     def add(self, seconds: float) -> bool:
         """Record one cycle; True when it missed the period."""
         index = min(int(seconds / BIN_S), len(self._histogram) - 1)

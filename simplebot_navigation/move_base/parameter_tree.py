@@ -1,19 +1,23 @@
 """Every parameter of a move_base node, by its ROS 2 name, from the node's ROS 1 tree.
 
 Which namespaces exist depends on the tree itself (the selected planners, each costmap's plugin
-list and observation sources, the recovery list), so the table is built from it. ``check_tree``
-builds every configuration the node would build at start-up; overrides (``--set``) and run-time
-changes go through both (simplebot_navigation.parameters.overrides).
+list and observation sources, the recovery list), so the table is built from it. ``build_configs``
+builds every configuration the node would build at start-up (``check_tree``: its warnings); overrides
+(``--set``) and run-time changes go through both (simplebot_navigation.parameters.overrides), and a
+running node takes the configurations of a change (move_base/live_parameters.py).
 """
 
 from __future__ import annotations
 
-from simplebot_navigation.costmap.params import SearchedParams, parameter_specs, resolve_costmap_params
-from simplebot_navigation.parameters import PLUGIN_TYPE_KEY, build, fields_of
+import dataclasses
+from dataclasses import dataclass, field
+
+from simplebot_navigation.costmap.params import CostmapConfig, SearchedParams, parameter_specs, resolve_costmap_params
+from simplebot_navigation.parameters import PLUGIN_TYPE_KEY, Param, build, fields_of
 from simplebot_navigation.parameters.overrides import ParameterTable, apply_overrides
 from simplebot_navigation.planning.config import GlobalPlannerConfig, NavfnParams
 from simplebot_navigation.teb.config import TebConfig
-from simplebot_navigation.teb.footprint import FootprintModel
+from simplebot_navigation.teb.footprint import FootprintModel, FootprintModelParams
 
 from .config import MoveBaseConfig
 from .plugins import CLEAR_COSTMAP_RECOVERY, ROTATE_RECOVERY, plugin_namespace
@@ -45,26 +49,69 @@ def parameter_table(tree: dict) -> ParameterTable:
     return table
 
 
-def check_tree(tree: dict) -> list[str]:
-    """Build every configuration of the node from the tree (raising ParameterError on a bad value) and
-    return the warnings the node would log."""
+def live_parameter_table(tree: dict) -> ParameterTable:
+    """parameter_table plus what a running node declares beyond it, all restart-only: each plugin's type
+    (``local_costmap.obstacles.plugin``) and the keys of TEB's footprint model."""
+    table = parameter_table(tree)
+    for name in COSTMAPS:
+        for plugin in resolve_costmap_params(tree.get(name, {}), name, [("move_base", tree)]).plugins:
+            table[f"{name}.{plugin.name}.{PLUGIN_TYPE_KEY}"] = _plugin_type(f"layer {plugin.name}")
+    for behavior in MoveBaseConfig.from_params(tree).recovery_behaviors:
+        table[f"{behavior['name']}.{PLUGIN_TYPE_KEY}"] = _plugin_type(f"recovery behaviour {behavior['name']}")
+    if "TebLocalPlannerROS.footprint_model" in table:
+        table.update({f"TebLocalPlannerROS.footprint_model.{key}": dataclasses.replace(spec, dynamic=False)
+                      for key, spec in fields_of(FootprintModelParams).items()})
+    return table
+
+
+def _plugin_type(what: str) -> Param:
+    return Param(str, "", "", f"plugin type of {what}", dynamic=False, name=PLUGIN_TYPE_KEY)
+
+
+@dataclass
+class NodeConfigs:
+    """Every configuration a move_base node builds from its tree, and the warnings it would log."""
+    move_base: MoveBaseConfig
+    costmaps: dict[str, CostmapConfig]
+    global_planner: GlobalPlannerConfig | None          # None: a planner without parameters here
+    local_planner: TebConfig | None
+    recoveries: dict[str, dict] = field(default_factory=dict)   # behaviour name -> its (checked) namespace
+    warnings: list[str] = field(default_factory=list)
+
+
+def build_configs(tree: dict) -> NodeConfigs:
+    """Build every configuration of the node from the tree, raising ParameterError on a bad value."""
     cfg = MoveBaseConfig.from_params(tree)
     warnings = list(cfg.warnings)
+    costmaps = {}
     for name in COSTMAPS:
-        warnings += resolve_costmap_params(tree.get(name, {}), name, [("move_base", tree)]).warnings
+        costmaps[name] = resolve_costmap_params(tree.get(name, {}), name, [("move_base", tree)])
+        warnings += costmaps[name].warnings
+    planner = None
     namespace = plugin_namespace(cfg.base_global_planner)
     if namespace == "GlobalPlanner":
-        warnings += GlobalPlannerConfig.from_params(tree.get(namespace)).warnings
+        planner = GlobalPlannerConfig.from_params(tree.get(namespace))
     elif namespace == "NavfnROS":
-        warnings += GlobalPlannerConfig.from_navfn_params(tree.get(namespace)).warnings
+        planner = GlobalPlannerConfig.from_navfn_params(tree.get(namespace))
+    warnings += planner.warnings if planner is not None else []
+    teb = None
     namespace = plugin_namespace(cfg.base_local_planner)
     if namespace == "TebLocalPlannerROS":
         teb = TebConfig.from_params(tree.get(namespace))
         warnings += teb.warnings + FootprintModel.from_params(teb.footprint_model).warnings
+    recoveries = {}
     for behavior in cfg.recovery_behaviors:
-        warnings += build(_RECOVERY_PARAMS[behavior["type"]], tree.get(behavior["name"]),
-                          f"move_base/{behavior['name']}", also_known=[PLUGIN_TYPE_KEY])[1]
-    return warnings
+        given = tree.get(behavior["name"])
+        warnings += build(_RECOVERY_PARAMS[behavior["type"]], given, f"move_base/{behavior['name']}",
+                          also_known=[PLUGIN_TYPE_KEY])[1]
+        recoveries[behavior["name"]] = dict(given) if isinstance(given, dict) else {}
+    return NodeConfigs(cfg, costmaps, planner, teb, recoveries, warnings)
+
+
+def check_tree(tree: dict) -> list[str]:
+    """Build every configuration of the node from the tree (raising ParameterError on a bad value) and
+    return the warnings the node would log."""
+    return build_configs(tree).warnings
 
 
 def describe_parameters(tree: dict) -> list[str]:
@@ -81,6 +128,7 @@ def describe_parameters(tree: dict) -> list[str]:
 
 
 def apply_move_base_overrides(tree: dict, assignments, live: bool = False) -> tuple[dict, list[str]]:
-    """``--set`` for move_base (``live``: a change while running, which refuses restart-only parameters):
-    the new tree and the warnings the node would log with it."""
-    return apply_overrides(tree, assignments, parameter_table, check_tree, live=live)
+    """``--set`` for move_base (``live``: a change while running, which refuses restart-only parameters and
+    those without effect): the new tree and the warnings the node would log with it."""
+    return apply_overrides(tree, assignments, live_parameter_table if live else parameter_table, check_tree,
+                           live=live)

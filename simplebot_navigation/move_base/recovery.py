@@ -14,7 +14,7 @@ from typing import Callable, Protocol
 import numpy as np
 
 from simplebot_navigation.geometry import normalize_theta
-from simplebot_navigation.parameters import PLUGIN_TYPE_KEY, ParameterError, build, param
+from simplebot_navigation.parameters import PLUGIN_TYPE_KEY, ParameterError, build, fields_of, param
 
 
 @dataclass
@@ -65,22 +65,35 @@ class ClearCostmapRecovery:
     def __init__(self, name: str, params: dict, costmaps: dict[str, object],
                  clear: Callable[..., list[str]], default_reset_distance: float):
         self.name = name
-        p, self.warnings = build(ClearCostmapParams, params, f"move_base/{name}", also_known=[PLUGIN_TYPE_KEY])
-        self.reset_distance = p.reset_distance if "reset_distance" in params else default_reset_distance
-        self.invert_area = p.invert_area_to_clear
-        self.force_updating = p.force_updating
-        affected = p.affected_maps
-        if affected not in ("local", "global", "both"):
-            self.warnings.append(f"move_base/{name}/affected_maps: {affected!r} is not local, global or both; "
-                                 "using both")
-            affected = "both"
-        self.costmaps = [cm for key, cm in costmaps.items() if affected == "both" or key == affected]
-        if p.layer_names is not None and not all(isinstance(n, str) for n in p.layer_names):
-            raise ParameterError(f"move_base/{name}/layer_names: expected a list of layer names, "
-                                 f"got {p.layer_names!r}")
-        self.layer_names = p.layer_names
+        self._all_costmaps = costmaps
+        self._default_reset_distance = default_reset_distance
         self._clear = clear
         self.cleared: list[str] = []
+        self.warnings = self.configure(params)
+
+    def configure(self, params: dict) -> list[str]:
+        """Take the behaviour's parameters (at start-up, and when they change while running); the warnings."""
+        p, warnings = build(ClearCostmapParams, params, f"move_base/{self.name}", also_known=[PLUGIN_TYPE_KEY])
+        if p.layer_names is not None and not all(isinstance(n, str) for n in p.layer_names):
+            raise ParameterError(f"move_base/{self.name}/layer_names: expected a list of layer names, "
+                                 f"got {p.layer_names!r}")
+        self.reset_distance = p.reset_distance if "reset_distance" in params else self._default_reset_distance
+        self.invert_area = p.invert_area_to_clear
+        self.force_updating = p.force_updating
+        self.affected_maps = affected = p.affected_maps
+        if affected not in ("local", "global", "both"):
+            warnings.append(f"move_base/{self.name}/affected_maps: {affected!r} is not local, global or both; "
+                            "using both")
+            affected = "both"
+        self.costmaps = [cm for key, cm in self._all_costmaps.items() if affected == "both" or key == affected]
+        self.layer_names = p.layer_names
+        return warnings
+
+    def parameters(self) -> dict:
+        """The parameters it runs with, under their names (to declare on the node)."""
+        values = {"reset_distance": self.reset_distance, "invert_area_to_clear": self.invert_area,
+                  "force_updating": self.force_updating, "affected_maps": self.affected_maps}
+        return values if self.layer_names is None else {**values, "layer_names": list(self.layer_names)}
 
     def start(self, now: float, pose) -> None:
         self.cleared = []
@@ -103,16 +116,22 @@ class RotateRecovery:
 
     def __init__(self, name: str, params: dict, footprint_free: Callable[[np.ndarray], bool]):
         self.name = name
-        p, self.warnings = build(RotateParams, params, f"move_base/{name}", also_known=[PLUGIN_TYPE_KEY])
-        self.sim_granularity = p.sim_granularity
-        self.acc_lim_theta = p.acc_lim_theta
-        self.max_vel_theta = p.max_vel_theta
-        self.min_in_place_vel_theta = p.min_in_place_vel_theta
-        self.yaw_goal_tolerance = p.yaw_goal_tolerance
         self._free = footprint_free
         self._start_yaw = 0.0
         self._turned = 0.0
         self._last_yaw = 0.0
+        self.warnings = self.configure(params)
+
+    def configure(self, params: dict) -> list[str]:
+        """Take the behaviour's parameters (at start-up, and when they change while running); the warnings."""
+        p, warnings = build(RotateParams, params, f"move_base/{self.name}", also_known=[PLUGIN_TYPE_KEY])
+        for key in fields_of(RotateParams):
+            setattr(self, key, getattr(p, key))
+        return warnings
+
+    def parameters(self) -> dict:
+        """The parameters it runs with, under their names (to declare on the node)."""
+        return {key: getattr(self, key) for key in fields_of(RotateParams)}
 
     def start(self, now: float, pose) -> None:
         self._start_yaw = self._last_yaw = pose[2]

@@ -62,18 +62,28 @@ def set_in_tree(tree: dict, name: str, value: Any) -> None:
     node[leaf] = value
 
 
+def refuse_live_change(spec: Param, name: str, value: Any) -> None:
+    """ParameterError when ``name`` must not change while the node runs: it is read only at start-up
+    (restart-only in its spec), or it is accepted but has no effect here, so a change would do nothing."""
+    if not spec.dynamic:
+        raise ParameterError(f"{name}: requires restart (it is read only when the node starts); "
+                             f"not set to {value!r}")
+    if not spec.implemented:
+        raise ParameterError(f"{name}: not set to {value!r}, since it has no effect here: {spec.reason}")
+
+
 def apply_overrides(tree: dict, assignments, table: Callable[[dict], ParameterTable],
                     check_tree: Callable[[dict], list[str]], live: bool = False) -> tuple[dict, list[str]]:
     """A copy of ``tree`` with every ``NAME=VALUE`` (or (name, value) pair) applied, and the warnings of
     the whole-tree check. Raises ParameterError naming the override on an unknown name, a bad value,
-    or (``live``) a parameter that cannot change while the node runs."""
+    or (``live``) a parameter that cannot change while the node runs (refuse_live_change)."""
     result = copy.deepcopy(tree)
     for item in assignments:
         name, value = parse_assignment(item) if isinstance(item, str) else item
         names = table(result)
         spec = lookup(names, name)
-        if live and not spec.dynamic:
-            raise ParameterError(f"{name}: requires restart")
+        if live:
+            refuse_live_change(spec, name, value)
         if name in names:                 # below a dict-valued parameter, check_tree judges the value
             value = spec.check(value, name)
         set_in_tree(result, name, value)

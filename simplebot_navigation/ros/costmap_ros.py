@@ -88,11 +88,8 @@ class Costmap2DROS:
         self.input = CostmapInput(self)
         self._tf_wait_timer = node.create_timer(TF_WAIT_POLL_S, self._wait_for_tf, callback_group=callback_group,
                                                 clock=Clock(clock_type=ClockType.STEADY_TIME))
-        self._update_period = 1.0 / c.update_frequency if c.update_frequency > 0 else 0.0
-        self._update_timer = (node.create_timer(self._update_period, self._update_cycle,
-                                                callback_group=callback_group)
-                              if self._update_period > 0 else None)
-        self._publish_period = 1.0 / c.publish_frequency if c.publish_frequency > 0 else 0.0
+        self._update_timer = None
+        self._set_rates()
         # Subscribing now lets discovery run while TF is awaited; messages wait in the filter queues.
         self._activate()
 
@@ -121,6 +118,32 @@ class Costmap2DROS:
             tree[plugin.name] = params
         return tree
 
+    def reconfigure(self, config) -> list[str]:
+        """A run-time change (Costmap.reconfigure): the layers take theirs, this shell its rates and
+        tolerance. Returns the costmap-level names that changed."""
+        with self.lock:
+            changed = self.cm.reconfigure(config)
+        self.transform_tolerance = self.config.transform_tolerance
+        if {"update_frequency", "publish_frequency"} & set(changed):
+            self._set_rates()
+        return changed
+
+    def _set_rates(self) -> None:
+        """Update and publish periods from the configuration; update_frequency 0 stops the update timer."""
+        c = self.config
+        self._update_period = 1.0 / c.update_frequency if c.update_frequency > 0 else 0.0
+        self._publish_period = 1.0 / c.publish_frequency if c.publish_frequency > 0 else 0.0
+        timer = self._update_timer
+        if self._update_period == 0:
+            if timer is not None:
+                timer.cancel()
+        elif timer is None:
+            self._update_timer = self.node.create_timer(self._update_period, self._update_cycle,
+                                                        callback_group=self.callback_group)
+        else:
+            timer.timer_period_ns = round(self._update_period * 1e9)
+            timer.reset()          # the next update one new period from now
+
     def _topic(self, topic: str) -> str:
         """A costmap-private topic: relative names live under /<name>/ (docs/design.md §5)."""
         return topic if topic.startswith("/") else f"/{self.name}/{topic}"
@@ -147,7 +170,7 @@ class Costmap2DROS:
         self._tf_wait_timer.cancel()
         self.node.destroy_timer(self._tf_wait_timer)
         self._tf_wait_timer = None
-        if self._update_timer is None:  # nothing else would start the costmap
+        if self._update_period == 0:  # no update cycle would start the costmap
             self.tf_ready = True
 
     def _activate(self) -> None:

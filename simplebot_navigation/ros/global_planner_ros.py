@@ -25,8 +25,8 @@ from rclpy.node import Node
 
 from simplebot_navigation.costmap.costmap_2d import Costmap2D
 from simplebot_navigation.move_base.plugins import plugin_namespace
-from simplebot_navigation.planning import (PlanFailure, PlanResult, make_global_planner,
-                                           potential_to_occupancy, warm_up)
+from simplebot_navigation.planning import (GlobalPlanner, GlobalPlannerConfig, PlanFailure, PlanResult,
+                                           make_global_planner, potential_to_occupancy, warm_up)
 from simplebot_navigation.planning.config import parameter_specs, resolved_parameters
 from simplebot_navigation.ros.conversions import occupancy_grid_msg, path_msg, pose_to_xyyaw
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
@@ -80,6 +80,12 @@ class GlobalPlannerROS:
         self.potential_pub = create_publisher(node, OccupancyGrid, f"~/{self.name}/potential", 1)
         self.make_plan_srv = node.create_service(GetPlan, f"~/{self.name}/make_plan", self._on_make_plan,
                                                  callback_group=callback_group)
+
+    def reconfigure(self, config: GlobalPlannerConfig) -> None:
+        """New planner parameters (global_planner's dynamic_reconfigure): the next plan is made with them.
+        A planner keeps nothing between plans but its cost tables, which are rebuilt here."""
+        self.planner = GlobalPlanner(config)
+        self.config = config
 
     @property
     def global_frame(self) -> str:

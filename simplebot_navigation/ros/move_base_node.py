@@ -31,6 +31,7 @@ from simplebot_navigation.parameters import fields_of
 from simplebot_navigation.ros.conversions import path_msg, pose_to_xyyaw, xyyaw_to_pose
 from simplebot_navigation.ros.costmap_ros import Costmap2DROS
 from simplebot_navigation.ros.move_base_goal import MoveBaseGoal, validate_goal
+from simplebot_navigation.ros.move_base_parameters import MoveBaseParameters
 from simplebot_navigation.ros.move_base_stats import OUTCOMES, control_loop_status, navigation_status
 from simplebot_navigation.ros.move_base_supervision import MoveBaseSupervision
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
@@ -52,7 +53,7 @@ ACTION_SERVICE_QOS = QoSProfile(depth=50, history=HistoryPolicy.KEEP_LAST, relia
                                 durability=DurabilityPolicy.VOLATILE)
 
 
-class MoveBaseNode(MoveBaseSupervision, Node):
+class MoveBaseNode(MoveBaseSupervision, MoveBaseParameters, Node):
     def __init__(self, **kwargs):
         started = time.perf_counter()
         kwargs.setdefault("automatically_declare_parameters_from_overrides", True)
@@ -92,7 +93,7 @@ class MoveBaseNode(MoveBaseSupervision, Node):
         self.period = 1.0 / self.cfg.controller_frequency
         self.cycle_stats = ControlLoopStats(self.period)
         self._last_missed_warning = -math.inf
-        self.create_timer(self.period, self._control_cycle)
+        self._control_timer = self.create_timer(self.period, self._control_cycle)
         self._last_cycle_wall = time.monotonic()
         self._watchdog_tripped = False
         self._waiting_since: float | None = None   # node time since when the goal lacks its pose or sensors
@@ -103,6 +104,7 @@ class MoveBaseNode(MoveBaseSupervision, Node):
         self._housekeeping_ticks = 0
         self.create_timer(HOUSEKEEPING_PERIOD_S, self._housekeeping, clock=Clock(clock_type=ClockType.STEADY_TIME))
         drop_event_handlers_of_best_effort_subscriptions(self)
+        self._start_live_parameters()
         self.get_logger().info(f"move_base ready: {self.cfg.base_global_planner} + {self.cfg.base_local_planner}, "
                                f"controller {self.cfg.controller_frequency:g} Hz, "
                                f"{len(self.core.recoveries)} recovery behaviours "
@@ -132,14 +134,17 @@ class MoveBaseNode(MoveBaseSupervision, Node):
         declare_defaults(self, own, specs=fields_of(MoveBaseConfig))
 
     def _build_recoveries(self) -> list:
-        """One instance per behaviour name (a name listed twice runs the same instance twice)."""
+        """One instance per behaviour name (a name listed twice runs the same instance twice), its parameters
+        declared as it runs with them (as ROS 1's move_base sets reset_distance)."""
         tree = given_parameter_tree(self)
         behaviors, instances = [], {}
+        self.recovery_instances = instances
         for entry in self.cfg.recovery_behaviors:
             name = entry["name"]
             if name not in instances:
                 params = tree.get(name) if isinstance(tree.get(name), dict) else {}
                 instances[name] = RECOVERY_BEHAVIORS.resolve(entry["type"])(self, name, params)
+                declare_defaults(self, instances[name].parameters(), prefix=name)
                 for warning in instances[name].warnings:
                     self.get_logger().warn(warning)
             behaviors.append(instances[name])
@@ -254,6 +259,7 @@ class MoveBaseNode(MoveBaseSupervision, Node):
 
     def _control_cycle(self) -> None:
         self._last_cycle_wall = time.monotonic()
+        self._apply_parameter_changes()
         if self._watchdog_tripped:
             self._watchdog_tripped = False
             self.get_logger().info("control loop running again")

@@ -3,19 +3,22 @@
 Nodes are created with ``automatically_declare_parameters_from_overrides``, so
 what the launcher gave them is declared with the given types; the pure modules
 resolve defaults on the ROS 1 tree, and ``declare_defaults`` then declares the
-rest with their ROS 1 defaults, each with the description and range of its spec,
-so that ``ros2 param list`` and ``ros2 param describe`` tell the truth.
+rest with their ROS 1 defaults, each with the description and range of its spec
+(``describe_declared`` gives them to the given ones afterwards), so that ``ros2 param list``
+and ``ros2 param describe`` tell the truth.
 """
 
 from __future__ import annotations
 
-import sys
+import math
 from typing import Any
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 
-from simplebot_navigation.parameters import Param
+from simplebot_navigation.parameters import Param, ParameterError
+from simplebot_navigation.parameters.overrides import lookup
 from simplebot_navigation.parameters.ros2 import from_ros2_overrides, to_ros2_overrides
 
 _NODE_LEVEL = {"use_sim_time", "start_type_description_service"}
@@ -31,14 +34,16 @@ def given_parameter_tree(node: Node, prefix: str = "") -> dict:
 
 def descriptor(spec: Param | None) -> ParameterDescriptor:
     """The description and range of a declared parameter (ROS 2 ranges are closed: '> 0' shows as from 0;
-    the parameter layer still rejects 0)."""
+    the parameter layer still rejects 0; an open end shows as inf, which the layer rejects too). Typing is
+    dynamic: the spec judges a value's type when it is set (an int is fine for a float), with a reason
+    naming the parameter and the value."""
     if spec is None:
         return ParameterDescriptor()
-    out = ParameterDescriptor(description=spec.describe(), read_only=False)
+    out = ParameterDescriptor(description=spec.describe(), read_only=False, dynamic_typing=True)
     if spec.low is None and spec.high is None:
         return out
     if spec.kind is float:
-        big = sys.float_info.max
+        big = math.inf
         out.floating_point_range = [FloatingPointRange(
             from_value=-big if spec.low is None else float(spec.low),
             to_value=big if spec.high is None else float(spec.high), step=0.0)]
@@ -57,6 +62,22 @@ def declare_defaults(node: Node, defaults: dict[str, Any], prefix: str = "",
         full = f"{prefix}.{name}" if prefix else name
         if not node.has_parameter(full) and value is not None:
             node.declare_parameter(full, value, descriptor((specs or {}).get(name)))
+
+
+def describe_declared(node: Node, table: dict[str, Param]) -> None:
+    """Give every declared parameter in ``table`` (by ROS 2 name) the description and range of its spec:
+    the parameters the launcher gave were declared from the overrides, without either. A whole number
+    given for a float parameter becomes a float (and 30.0 for an int 30), as the node runs with it."""
+    for name, param in node.get_parameters_by_prefix("").items():
+        try:
+            spec = lookup(table, name)
+        except ParameterError:
+            continue                     # node-level (use_sim_time) or not ours
+        node.set_descriptor(name, descriptor(spec))
+        if name in table and spec.kind in (int, float) and not isinstance(param.value, bool):
+            value = spec.check(param.value, name)
+            if type(value) is not type(param.value):
+                node.set_parameters([Parameter(name, value=value)])
 
 
 def declare_checked(node: Node, defaults: dict[str, Any], label: str = "parameter",

@@ -58,7 +58,21 @@ class TebLocalPlannerROS:
         self._odom_time: float | None = None  # node clock (sim time), so lockstep runs do not depend on wall speed
         node.create_subscription(Odometry, self.odom_topic, self._on_odom, 10)
         self._unpublished = False
-        node.create_timer(1.0 / controller_frequency, self._publish)
+        self._publish_timer = node.create_timer(1.0 / controller_frequency, self._publish)
+
+    # -- run-time changes (move_base's live parameters) ---------------------------------------------
+    def reconfigure(self, config: TebConfig) -> None:
+        """New TebLocalPlannerROS parameters, used from the next control cycle."""
+        self.planner.reconfigure(config)
+
+    def set_controller_frequency(self, controller_frequency: float) -> None:
+        self.planner.set_controller_period(1.0 / controller_frequency)
+        self._publish_timer.timer_period_ns = round(1e9 / controller_frequency)
+        self._publish_timer.reset()
+
+    def set_costmap_footprint(self, footprint) -> None:
+        """The local costmap's footprint changed (its footprint, robot_radius or padding)."""
+        self.planner.set_costmap_footprint(footprint)
 
     # -- odometry -------------------------------------------------------------------------------
     def _on_odom(self, msg: Odometry) -> None:

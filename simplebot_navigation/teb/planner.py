@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from simplebot_navigation.geometry import normalize_theta
+from simplebot_navigation.parameters import fields_of
 from simplebot_navigation.teb.config import TebConfig
 from simplebot_navigation.teb.feasibility import footprint_inscribed_radius, is_trajectory_feasible
 from simplebot_navigation.teb.footprint import FootprintModel
@@ -62,6 +63,26 @@ class TebLocalPlanner:
         self.goal_reached = False
         self._notices: list[str] = []
         self._budget_reported = False
+
+    # -- run-time changes -----------------------------------------------------------------------
+    def reconfigure(self, config: TebConfig) -> None:
+        """TEB's dynamic_reconfigure: every parameter its spec lets change while running is read from
+        ``self.cfg`` where it is used, so copying it over takes effect in the next cycle; the bands
+        are kept. The footprint model and the topics stay (restart-only)."""
+        for name, spec in fields_of(TebConfig).items():
+            if spec.dynamic:
+                setattr(self.cfg, name, getattr(config, name))
+
+    def set_controller_period(self, controller_period: float) -> None:
+        """A new controller_frequency: the acceleration window and the cycle budget follow it."""
+        if not controller_period > 0:
+            raise ValueError(f"controller_period must be > 0, got {controller_period}")
+        self.controller_period = float(controller_period)
+
+    def set_costmap_footprint(self, costmap_footprint) -> None:
+        """The local costmap's padded footprint changed: the feasibility check uses the new one."""
+        self.costmap_footprint = np.asarray(costmap_footprint, dtype=float).reshape(-1, 2)
+        self.costmap_inscribed_radius = footprint_inscribed_radius(self.costmap_footprint)
 
     # -- inputs -------------------------------------------------------------------------------
     def set_plan(self, global_plan_xyyaw) -> None:

@@ -17,6 +17,16 @@ def move_base_tree() -> dict:
     return server.get("/move_base")
 
 
+def navigation_tree() -> dict:
+    """move_base's whole tree as move_base_local.launch loads it: both costmaps and both planners."""
+    server = ParamServer()
+    for ns in ("/move_base/global_costmap", "/move_base/local_costmap"):
+        server.load(str(CONFIG / "costmap_common.yaml"), ns)
+    for name in ("costmap_global_odom.yaml", "costmap_local.yaml", "teb_local_planner.yaml", "global_planner.yaml"):
+        server.load(str(CONFIG / name), "/move_base")
+    return server.get("/move_base")
+
+
 def global_costmap_params() -> dict:
     return move_base_tree()["global_costmap"]
 

@@ -54,3 +54,20 @@ def test_rolling_window_copies_through_the_map_transform():
     lc.update_map(5.05, 5.05, 0.0)
     mx, my = lc.costmap.world_to_map(5.05, 5.05)
     assert lc.costmap.get_cost(mx, my) == 254
+
+
+def test_a_run_time_change_reads_the_held_map_again_and_applies_it_in_full():
+    lc, layer = make()
+    grid = np.zeros((20, 30), np.int8)
+    grid[5, 7], grid[6, 7] = 50, -1
+    layer.incoming_map(grid, 0.1, -1.0, -2.0, "map")
+    lc.update_map(0, 0, 0)
+    layer.incoming_update(2, 3, np.full((1, 1), 60, np.int8))
+    lc.update_map(0, 0, 0)
+    assert (lc.costmap.get_cost(7, 5), lc.costmap.get_cost(2, 3), lc.costmap.get_cost(7, 6)) == (0, 0, 255)
+    layer.reconfigure(first_map_only=False, track_unknown_space=False, use_maximum=False, lethal_cost_threshold=50,
+                      unknown_cost_value=-1, trinary_costmap=True, enabled=True)
+    lc.update_map(0, 0, 0)
+    assert lc.update_window == (0, 0, 30, 20)                # the whole map, not only what changed last
+    # the map cell at 50 and the updated one at 60 are lethal now; unknown became free
+    assert (lc.costmap.get_cost(7, 5), lc.costmap.get_cost(2, 3), lc.costmap.get_cost(7, 6)) == (254, 254, 0)

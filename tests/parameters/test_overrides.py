@@ -1,28 +1,18 @@
 """NAME=VALUE overrides (--set) and run-time changes go through the same checks as the lab's files."""
 
-from pathlib import Path
-
 import pytest
 
-from simplebot_navigation.launch.rosparam import ParamServer
 from simplebot_navigation.move_base.parameter_tree import (apply_move_base_overrides, check_tree, describe_parameters,
                                                            parameter_table)
 from simplebot_navigation.parameters import ParameterError
 from simplebot_navigation.parameters.overrides import parse_assignment
-
-CONFIG = Path(__file__).resolve().parents[2] / "config"
+from simplebot_navigation.testing.lab_params import navigation_tree
 
 
 @pytest.fixture
 def lab():
     """The lab's move_base tree, loaded as move_base_local.launch loads it."""
-    server = ParamServer()
-    for ns in ("/move_base/global_costmap", "/move_base/local_costmap"):
-        server.load(str(CONFIG / "costmap_common.yaml"), ns)
-    for name in ("costmap_global_odom.yaml", "costmap_local.yaml", "teb_local_planner.yaml",
-                 "global_planner.yaml"):
-        server.load(str(CONFIG / name), "/move_base")
-    return server.get("/move_base")
+    return navigation_tree()
 
 
 def _lab_warnings(tree):
@@ -77,9 +67,18 @@ def test_a_dict_valued_parameter_takes_overrides_below_it(lab):
 def test_live_changes_refuse_parameters_that_need_a_restart(lab):
     apply_move_base_overrides(lab, [("TebLocalPlannerROS.max_vel_x", 0.2)], live=True)
     for name, value in (("local_costmap.global_frame", "map"), ("TebLocalPlannerROS.footprint_model", {}),
-                        ("local_costmap.plugins", []), ("base_local_planner", "x/Y")):
+                        ("TebLocalPlannerROS.footprint_model.front_radius", 0.3), ("local_costmap.plugins", []),
+                        ("local_costmap.obstacles.plugin", "costmap_2d::StaticLayer"), ("base_local_planner", "x/Y"),
+                        ("local_costmap.resolution", 0.1), ("conservative_reset_dist", 2.0)):
         with pytest.raises(ParameterError, match=f"{name}: requires restart"):
             apply_move_base_overrides(lab, [(name, value)], live=True)
+
+
+def test_live_changes_refuse_parameters_without_effect_but_overrides_take_them(lab):
+    with pytest.raises(ParameterError, match="weight_shortest_path: not set to 1.0, since it has no effect here: "
+                                             "the shortest-path edge is not added"):
+        apply_move_base_overrides(lab, [("TebLocalPlannerROS.weight_shortest_path", 1.0)], live=True)
+    apply_move_base_overrides(lab, [("TebLocalPlannerROS.weight_shortest_path", 1.0)])
 
 
 def test_the_table_follows_the_tree(lab):

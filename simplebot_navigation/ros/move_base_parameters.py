@@ -1,0 +1,126 @@
+"""move_base's parameters while it runs: what ``ros2 param set`` accepts takes effect, and what it refuses
+it refuses with the reason; ``ros2 param describe`` gives each parameter its description and range.
+
+A mixin of MoveBaseNode. The checks and the configurations come from move_base/live_parameters.py (no
+rclpy); this shell converts ROS 2 parameters, answers the set request at once, and applies an accepted
+change at the start of the next control cycle, on the executor's thread: TEB, the costmaps and their
+layers, the global planner and the recoveries take their new configurations, and the control, update
+and publish timers their new periods.
+"""
+
+from __future__ import annotations
+
+import array
+import threading
+
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.parameter import Parameter
+
+from simplebot_navigation.move_base.live_parameters import (GLOBAL_PLANNER, LOCAL_PLANNER, MOVE_BASE,
+                                                            LiveParameters, update_move_base_config)
+from simplebot_navigation.parameters import ParameterError
+from simplebot_navigation.ros.params import describe_declared, given_parameter_tree
+
+#: parameters of every rclpy node, handled by rclpy itself
+NODE_LEVEL = ("use_sim_time", "start_type_description_service")
+
+
+def _ours(name: str) -> bool:
+    return name not in NODE_LEVEL and not name.startswith("qos_overrides.")
+
+
+def ros1_value(value):
+    """A ROS 2 parameter value as the ROS 1 tree holds it (arrays as lists)."""
+    return list(value) if isinstance(value, (array.array, tuple)) else value
+
+
+def _changes(params: list[Parameter]) -> list[tuple]:
+    return [(param.name, ros1_value(param.value)) for param in params if _ours(param.name)]
+
+
+class MoveBaseParameters:
+    """Run-time parameter changes of MoveBaseNode (dynamic_reconfigure semantics)."""
+
+    def _start_live_parameters(self) -> None:
+        """After every part has declared its parameters: describe those the launcher gave, then take
+        every change through the parameter layer's checks."""
+        self._live = LiveParameters(given_parameter_tree(self))
+        self._live_lock = threading.Lock()   # a set request may come from another thread than the cycle
+        describe_declared(self, self._live.table)
+        self._prepared = None
+        self.add_pre_set_parameters_callback(self._normalize_parameters)
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.add_post_set_parameters_callback(self._on_parameters_set)
+
+    def _normalize_parameters(self, params: list[Parameter]) -> list[Parameter]:
+        """Store what the node runs with: 1 for a float parameter becomes 1.0 (ROS 1 read it as 1.0)."""
+        out = []
+        with self._live_lock:
+            for param in params:
+                value = ros1_value(param.value)
+                normal = self._live.normalized(param.name, value) if _ours(param.name) else value
+                same = type(normal) is type(value) and normal == value
+                out.append(param if same else Parameter(param.name, value=normal))
+        return out
+
+    def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
+        """Accept or refuse a change as a whole, with the reason; it is kept once rclpy has stored it."""
+        changes = _changes(params)
+        if not changes:
+            return SetParametersResult(successful=True)
+        with self._live_lock:
+            try:
+                self._prepared = self._live.prepare(changes)
+            except ParameterError as err:
+                self.get_logger().warn(f"parameter change refused: {err}")
+                return SetParametersResult(successful=False, reason=str(err))
+        return SetParametersResult(successful=True)
+
+    def _on_parameters_set(self, params: list[Parameter]) -> None:
+        """The parameters are stored (every on-set callback accepted them): the next control cycle takes them."""
+        changes = _changes(params)
+        if not changes:
+            return
+        with self._live_lock:
+            prepared, self._prepared = self._prepared, None
+            try:
+                warnings = self._live.commit(prepared if prepared is not None and prepared.assignments == changes
+                                             else self._live.prepare(changes))
+            except ParameterError as err:     # only if another thread's change got in between: say so
+                self.get_logger().error(f"parameter change stored but not applied: {err}")
+                return
+        for warning in warnings:
+            self.get_logger().warn(warning)
+
+    def _apply_parameter_changes(self) -> None:
+        """At the start of a control cycle: the changes accepted since the last one take effect."""
+        with self._live_lock:
+            change = self._live.take()
+        if change is None:
+            return
+        configs, parts = change.configs, change.parts
+        if MOVE_BASE in parts and "controller_frequency" in update_move_base_config(self.cfg, configs.move_base):
+            self._set_controller_frequency(self.cfg.controller_frequency)
+        for costmap in (self.global_costmap, self.local_costmap):
+            if costmap.name not in parts:
+                continue
+            changed = costmap.reconfigure(configs.costmaps[costmap.name])
+            if "footprint" in changed and costmap is self.local_costmap:
+                self.controller.set_costmap_footprint(costmap.footprint)
+        if GLOBAL_PLANNER in parts:
+            self.planner.reconfigure(configs.global_planner)
+        if LOCAL_PLANNER in parts:
+            self.controller.reconfigure(configs.local_planner)
+        for name, recovery in self.recovery_instances.items():
+            if name in parts:
+                for warning in recovery.configure(configs.recoveries[name]):
+                    self.get_logger().warn(warning)
+        self.get_logger().info(f"parameters changed: {change.describe()}")
+
+    def _set_controller_frequency(self, hz: float) -> None:
+        """The control timer, its statistics and the local planner follow the new rate from now on."""
+        self.period = 1.0 / hz
+        self._control_timer.timer_period_ns = round(self.period * 1e9)
+        self._control_timer.reset()          # the next cycle one new period from now
+        self.cycle_stats.set_period(self.period)
+        self.controller.set_controller_frequency(hz)
