@@ -49,12 +49,12 @@ class ProcessSession(_Session):
 
     def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, rtf: float = 1.0,
                  seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation", tight: bool = False,
-                 respawn: bool = False, overrides: tuple[str, ...] = ()):
+                 respawn: bool = False, overrides: tuple[str, ...] = (), foxglove_port: int | None = None):
         if not (math.isfinite(rtf) and rtf > 0):
             raise ValueError(f"separate processes need rtf > 0 (lockstep is single-process), got {rtf!r}")
         self.description = robot_description(robot, radius)
         self.world = load_world(world, robot_radius=self.description.inscribed_radius)
-        args = launch_args(world, robot, radius, rtf, tight, respawn)
+        args = launch_args(world, robot, radius, rtf, tight, respawn, foxglove_port)
         self.launch = load_launch(launch_file, args)
         apply_set(self.launch, list(overrides))     # checked here, and read by controller_param
         self.run_dir = run_dir = tempfile.mkdtemp(prefix="simplebot_scenario_")
