@@ -9,6 +9,7 @@ import sys
 import time
 from collections import defaultdict
 from contextlib import ExitStack
+from pathlib import Path
 
 import pytest
 from actionlib_msgs.msg import GoalStatus
@@ -19,10 +20,12 @@ from tf2_msgs.msg import TFMessage
 from websockets.sync.client import connect
 
 from simplebot_navigation.launch.loader import load_launch
-from simplebot_navigation.ros.foxglove_bridge import FoxgloveBridge
+from simplebot_navigation.ros.foxglove_bridge import CLIENT_TOPICS, FoxgloveBridge
+from simplebot_navigation.ros.message_json import message_from_json
 from simplebot_navigation.ros.raw_topics import message_definition
 from simplebot_navigation.scenarios.session import NavigationSession
 
+LAYOUT = Path(__file__).resolve().parents[2] / "config" / "simplebot.foxglove.json"
 SUBPROTOCOL = "foxglove.sdk.v1"   # what foxglove-sdk 0.30 accepts (the app offers it too)
 GOAL = "/move_base_simple/goal"
 SHOWN = {"/tf": "tf2_msgs/msg/TFMessage", "/tf_static": "tf2_msgs/msg/TFMessage",
@@ -218,6 +221,30 @@ def test_hostile_clients_are_refused_with_a_warning_and_the_bridge_carries_on(se
     client.publish(cdr, serialize_message(goal_message(0.0, 0.0)))
     client.pump(lambda: goals, "the good goal on /move_base_simple/goal")
     assert (goals[0].pose.position.x, goals[0].header.frame_id) == (0.0, "odom")
+
+
+def test_the_layout_shows_topics_of_the_run_and_publishes_where_the_bridge_listens(client):
+    layout = json.loads(LAYOUT.read_text())
+    panels = layout["configById"]
+
+    def placed(node):
+        return {node} if isinstance(node, str) else placed(node["first"]) | placed(node["second"])
+    assert placed(layout["layout"]) == set(panels)
+    scene = panels["3D!simplebot"]
+    assert (scene["fixedFrame"], scene["followTf"]) == ("odom", "base_link")
+    shown = {topic for topic, settings in scene["topics"].items() if settings["visible"]}
+    assert shown <= set(client.channels)
+    assert set(SHOWN) - {"/tf", "/tf_static", GOAL} | {"/back_laser/back_scan", "/robot_description"} <= shown
+    assert {"/global_costmap/costmap", "/local_costmap/costmap"} == {
+        topic for topic, settings in scene["topics"].items() if settings.get("colorMode") == "costmap"}
+    tools = scene["publish"]
+    assert {tools["poseTopic"], tools["pointTopic"], tools["poseEstimateTopic"]} == set(CLIENT_TOPICS)
+    publish = panels["Publish!goal"]
+    assert (publish["topicName"], publish["datatype"]) == (GOAL, client.channels[GOAL]["schemaName"])
+    goal = message_from_json(PoseStamped, publish["value"].encode())
+    assert (goal.header.frame_id, goal.pose.orientation.w) == ("odom", 1.0)
+    plotted = {series["value"].split(".")[0] for series in panels["Plot!cmd_vel"]["paths"]}
+    assert plotted == {"/simplebot_controller/cmd_vel"} and plotted <= set(client.channels)
 
 
 def test_the_launch_file_starts_the_bridge_on_request():
