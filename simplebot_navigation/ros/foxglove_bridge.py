@@ -28,11 +28,12 @@ from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy
 from rclpy.serialization import deserialize_message
+from rclpy.subscription import Subscription
 
 from simplebot_navigation.ros.message_json import message_from_json
 from simplebot_navigation.ros.node_main import run_node
 from simplebot_navigation.ros.params import declare_checked
-from simplebot_navigation.ros.raw_topics import TopicDiscovery, publisher_qos
+from simplebot_navigation.ros.raw_topics import RawTopic, TopicDiscovery, publisher_qos
 
 PARAMETERS = {"host": "127.0.0.1", "port": 8766}
 #: the only topics clients may publish on, with their types
@@ -47,10 +48,10 @@ WARN_EVERY_S = 5.0            # per kind of bad client message
 class _Channel:
     """A topic served to clients: its Foxglove channel and, while clients subscribe, its ROS subscription."""
 
-    topic: object                   # raw_topics.RawTopic
+    topic: RawTopic
     channel: foxglove.Channel
     clients: set[int] = field(default_factory=set)
-    subscription: object | None = None
+    subscription: Subscription | None = None
     latched: bool = False
 
 
@@ -79,7 +80,7 @@ class _Listener:
         self._post(("unadvertise", client.id, client_channel_id))
 
     def on_message_data(self, client, client_channel_id, data) -> None:
-        self._post(("data", client.id, (client_channel_id, bytes(data))))
+        self._post(("data", client.id, (client_channel_id, data)))
 
 
 class FoxgloveBridge(Node):
@@ -101,7 +102,8 @@ class FoxgloveBridge(Node):
         self._events: queue.SimpleQueue = queue.SimpleQueue()
         self._wake = self.create_guard_condition(self._handle_events)
         self._client_channels: dict[tuple[int, int], _ClientChannel] = {}
-        self._client_publishers = {topic: self.create_publisher(cls, topic, 10) for topic, cls in CLIENT_TOPICS.items()}
+        self._client_publishers = {topic: self.create_publisher(cls, topic, 10)
+                                   for topic, cls in CLIENT_TOPICS.items()}
         self._time_sent: int | None = None
         self.discovery = TopicDiscovery(self, self._skip)
         try:

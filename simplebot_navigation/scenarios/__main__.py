@@ -49,7 +49,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="a move_base parameter by its ROS 2 name, e.g. TebLocalPlannerROS.max_vel_x=1.0 (repeatable)")
     p.add_argument("--foxglove", action="store_true",
-                   help="serve every topic to the Foxglove app (ws://127.0.0.1:PORT, layout config/simplebot.foxglove.json)")
+                   help="serve every topic to the Foxglove app on ws://127.0.0.1:PORT "
+                        "(layout: config/simplebot.foxglove.json)")
     p.add_argument("--foxglove-port", type=int, default=8766, metavar="PORT",
                    help="port of the Foxglove WebSocket server (default: 8766; 0: a free one)")
     p.add_argument("--json", metavar="OUT.json", help="write the results as JSON")

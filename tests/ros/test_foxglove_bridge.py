@@ -29,7 +29,8 @@ LAYOUT = Path(__file__).resolve().parents[2] / "config" / "simplebot.foxglove.js
 SUBPROTOCOL = "foxglove.sdk.v1"   # what foxglove-sdk 0.30 accepts (the app offers it too)
 GOAL = "/move_base_simple/goal"
 SHOWN = {"/tf": "tf2_msgs/msg/TFMessage", "/tf_static": "tf2_msgs/msg/TFMessage",
-         "/global_costmap/costmap": "nav_msgs/msg/OccupancyGrid", "/local_costmap/costmap": "nav_msgs/msg/OccupancyGrid",
+         "/global_costmap/costmap": "nav_msgs/msg/OccupancyGrid",
+         "/local_costmap/costmap": "nav_msgs/msg/OccupancyGrid",
          "/move_base/GlobalPlanner/plan": "nav_msgs/msg/Path", "/front_laser/front_scan": "sensor_msgs/msg/LaserScan",
          "/local_costmap/footprint": "geometry_msgs/msg/PolygonStamped", GOAL: "geometry_msgs/msg/PoseStamped"}
 
