@@ -1,6 +1,6 @@
 """navigation.launch: the simulated simplebot plus move_base_local.launch, all on simulated time."""
 
-from simplebot_navigation.launch.description import Arg, Include, Node
+from simplebot_navigation.launch.description import Arg, Include, Node, Param
 
 LAUNCH_DIR = "$(find simplebot_navigation)/launch_py"
 
@@ -11,6 +11,9 @@ LAUNCH = [
     Arg("radius", default="0.3", doc="radius of the round body in metres"),
     Arg("rtf", default="1.0", doc="real-time factor of the simulation (0: as fast as the nodes allow)"),
     Arg("viewer", default="false", doc="also start the browser viewer on http://127.0.0.1:8765"),
+    Arg("foxglove", default="false", doc="also serve every topic to the Foxglove app over WebSocket"),
+    Arg("foxglove_host", default="127.0.0.1", doc="address of the Foxglove WebSocket server (0.0.0.0: every one)"),
+    Arg("foxglove_port", default="8766", doc="port of the Foxglove WebSocket server (0: a free one)"),
     Arg("tight", default="false", choices=("true", "false"),
         doc="the narrow-door parameter set (config/tight/) over the lab's files"),
     Arg("respawn", default="true", choices=("true", "false"),
@@ -23,4 +26,9 @@ LAUNCH = [
         "robot": "$(arg robot)", "tight": "$(arg tight)", "respawn": "$(arg respawn)"}),
 
     Node(pkg="simplebot_navigation", type="viewer", name="viewer", output="screen", if_="$(arg viewer)"),
+    Node(pkg="simplebot_navigation", type="foxglove_bridge", name="foxglove_bridge", output="screen",
+         if_="$(arg foxglove)", params=[
+        Param("host", "$(arg foxglove_host)"),
+        Param("port", "$(arg foxglove_port)"),
+    ]),
 ]

@@ -48,6 +48,11 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--wall-timeout", type=float, help="wall-clock seconds per goal before giving up on a hang")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="a move_base parameter by its ROS 2 name, e.g. TebLocalPlannerROS.max_vel_x=1.0 (repeatable)")
+    p.add_argument("--foxglove", action="store_true",
+                   help="serve every topic to the Foxglove app on ws://127.0.0.1:PORT "
+                        "(layout: config/simplebot.foxglove.json)")
+    p.add_argument("--foxglove-port", type=int, default=8766, metavar="PORT",
+                   help="port of the Foxglove WebSocket server (default: 8766; 0: a free one)")
     p.add_argument("--json", metavar="OUT.json", help="write the results as JSON")
     p.add_argument("--plot", metavar="OUT.png", help="draw the trajectories over the world (matplotlib PNG)")
     return p
@@ -66,6 +71,8 @@ def _check(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Scenari
         parser.error("--processes needs --rtf > 0 (lockstep runs the nodes in this process)")
     if args.repeat < 1:
         parser.error(f"--repeat must be >= 1, got {args.repeat}")
+    if not 0 <= args.foxglove_port <= 65535:
+        parser.error(f"--foxglove-port must be 0..65535, got {args.foxglove_port}")
     for option, path in (("--json", args.json), ("--plot", args.plot)):
         folder = os.path.dirname(os.path.abspath(path)) if path else None
         if folder and not os.path.isdir(folder):
@@ -79,7 +86,8 @@ def _check(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Scenari
     return ScenarioOptions(world=args.world, robot=args.robot, radius=args.radius, goals=args.goals, rtf=args.rtf,
                            repeat=args.repeat, seed=args.seed, range_noise=args.range_noise,
                            time_budget=args.time_budget, processes=args.processes, tight=args.tight,
-                           wall_timeout_s=args.wall_timeout, overrides=tuple(args.set))
+                           wall_timeout_s=args.wall_timeout, overrides=tuple(args.set),
+                           foxglove_port=args.foxglove_port if args.foxglove else None)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -91,10 +91,10 @@ class ProcessSession(RemoteSession):
 
     def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, rtf: float = 1.0,
                  seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation", tight: bool = False,
-                 respawn: bool = False, overrides: tuple[str, ...] = ()):
+                 respawn: bool = False, overrides: tuple[str, ...] = (), foxglove_port: int | None = None):
         if not (math.isfinite(rtf) and rtf > 0):
             raise ValueError(f"separate processes need rtf > 0 (lockstep is single-process), got {rtf!r}")
-        args = launch_args(world, robot, radius, rtf, tight, respawn)
+        args = launch_args(world, robot, radius, rtf, tight, respawn, foxglove_port)
         launch = load_launch(launch_file, args)
         apply_set(launch, list(overrides))     # checked here, and read by controller_param
         super().__init__(world, robot, radius, launch)

@@ -107,12 +107,15 @@ def test_bad_arguments_exit_2_with_the_option_named():
     assert "error: lab.yaml: no goal named 'kitchen'" in proc.stderr
     proc = run_cli("--processes")
     assert proc.returncode == 2 and "--processes needs --rtf > 0" in proc.stderr
+    proc = run_cli("--foxglove", "--foxglove-port", "70000")
+    assert proc.returncode == 2 and "--foxglove-port must be 0..65535, got 70000" in proc.stderr
 
 
-def test_the_command_drives_a_short_scenario_and_writes_json_and_png(tmp_path):
+def test_the_command_drives_a_short_scenario_writes_json_and_png_and_serves_foxglove(tmp_path):
     proc = run_cli("--world", "empty", "--goals", "1.5,0,0", "--json", str(tmp_path / "r.json"),
-                   "--plot", str(tmp_path / "r.png"), "--wall-timeout", "240")
+                   "--plot", str(tmp_path / "r.png"), "--wall-timeout", "240", "--foxglove", "--foxglove-port", "0")
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    assert "Foxglove WebSocket server on ws://127.0.0.1:" in proc.stderr
     assert "[run 1/1 seed 0] goal 1/1 (1.5, 0): ok   SUCCEEDED" in proc.stdout
     data = json.loads((tmp_path / "r.json").read_text())
     (goal,) = data["results"]

@@ -16,7 +16,8 @@ from rclpy.parameter import Parameter
 from simplebot_navigation.costmap.cost_values import OCCUPANCY_GRID_TABLE
 from simplebot_navigation.launch.loader import LaunchError
 from simplebot_navigation.launch.record import recorder_spec
-from simplebot_navigation.ros.recorder import Recorder, message_definition
+from simplebot_navigation.ros.raw_topics import message_definition
+from simplebot_navigation.ros.recorder import Recorder
 from simplebot_navigation.scenarios.recording_plot import plot_recording
 from simplebot_navigation.ros.simulator_node import SimulatorNode
 from tests.viewer.conftest import FakeMoveBase, costmap_array

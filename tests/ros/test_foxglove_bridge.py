@@ -1,0 +1,269 @@
+"""The Foxglove bridge in a lockstep run of the empty world, seen from a Foxglove WebSocket client:
+channels with ros2msg schemas, TF that decodes, goals published from the app that move_base drives to,
+and hostile clients refused without harm."""
+
+import json
+import struct
+import subprocess
+import sys
+import time
+from collections import defaultdict
+from contextlib import ExitStack
+from pathlib import Path
+
+import pytest
+from actionlib_msgs.msg import GoalStatus
+from geometry_msgs.msg import PoseStamped
+from rclpy.parameter import Parameter
+from rclpy.serialization import deserialize_message, serialize_message
+from tf2_msgs.msg import TFMessage
+from websockets.sync.client import connect
+
+from simplebot_navigation.launch.loader import load_launch
+from simplebot_navigation.ros.foxglove_bridge import CLIENT_TOPICS, FoxgloveBridge
+from simplebot_navigation.ros.message_json import message_from_json
+from simplebot_navigation.ros.raw_topics import message_definition
+from simplebot_navigation.scenarios.session import NavigationSession
+
+LAYOUT = Path(__file__).resolve().parents[2] / "config" / "simplebot.foxglove.json"
+SUBPROTOCOL = "foxglove.sdk.v1"   # what foxglove-sdk 0.30 accepts (the app offers it too)
+GOAL = "/move_base_simple/goal"
+SHOWN = {"/tf": "tf2_msgs/msg/TFMessage", "/tf_static": "tf2_msgs/msg/TFMessage",
+         "/global_costmap/costmap": "nav_msgs/msg/OccupancyGrid",
+         "/local_costmap/costmap": "nav_msgs/msg/OccupancyGrid",
+         "/move_base/GlobalPlanner/plan": "nav_msgs/msg/Path", "/front_laser/front_scan": "sensor_msgs/msg/LaserScan",
+         "/local_costmap/footprint": "geometry_msgs/msg/PolygonStamped", GOAL: "geometry_msgs/msg/PoseStamped"}
+
+
+class FoxgloveClient:
+    """The app's side of the Foxglove WebSocket protocol, as much as the tests need. Lockstep time advances
+    only while the client waits (pump), so the bridge's executor handles what the client sent."""
+
+    def __init__(self, session: NavigationSession, url: str):
+        self.session = session
+        self._stack = ExitStack()
+        self.ws = self._stack.enter_context(connect(url, subprotocols=[SUBPROTOCOL], open_timeout=10))
+        self.info = json.loads(self.ws.recv(timeout=10))
+        self.channels: dict[str, dict] = {}
+        self.messages: dict[int, list[tuple[int, bytes]]] = defaultdict(list)  # subscription -> (log time, data)
+        self.times: list[int] = []
+        self._next_id = 0
+        self.pump(lambda: GOAL in self.channels, "the server's channels")
+
+    def _read(self) -> None:
+        while True:
+            try:
+                frame = self.ws.recv(timeout=0)
+            except TimeoutError:
+                return
+            if isinstance(frame, str):
+                message = json.loads(frame)
+                if message["op"] == "advertise":
+                    self.channels.update({c["topic"]: c for c in message["channels"]})
+            elif frame[0] == 1:   # message data: subscription id, log time, payload
+                subscription, log_time = struct.unpack_from("<IQ", frame, 1)
+                self.messages[subscription].append((log_time, frame[13:]))
+            elif frame[0] == 2:   # time
+                self.times.append(struct.unpack_from("<Q", frame, 1)[0])
+
+    def pump(self, done, what: str, wall_s: float = 20.0) -> None:
+        deadline = time.monotonic() + wall_s
+        self._read()
+        while not done():
+            assert time.monotonic() < deadline, f"timed out waiting for {what}"
+            self.session.run_for(0.05)
+            self._read()
+
+    def _id(self) -> int:
+        self._next_id += 1
+        return self._next_id
+
+    def subscribe(self, topic: str) -> int:
+        subscription = self._id()
+        self.ws.send(json.dumps({"op": "subscribe", "subscriptions": [
+            {"id": subscription, "channelId": self.channels[topic]["id"]}]}))
+        return subscription
+
+    def unsubscribe(self, subscription: int) -> None:
+        self.ws.send(json.dumps({"op": "unsubscribe", "subscriptionIds": [subscription]}))
+
+    def advertise(self, topic: str, encoding: str, schema_name: str) -> int:
+        channel = self._id()
+        self.ws.send(json.dumps({"op": "advertise", "channels": [
+            {"id": channel, "topic": topic, "encoding": encoding, "schemaName": schema_name}]}))
+        return channel
+
+    def publish(self, channel: int, payload: bytes) -> None:
+        self.ws.send(b"\x01" + struct.pack("<I", channel) + payload)
+
+    def close(self) -> None:
+        self._stack.close()
+
+
+@pytest.fixture(scope="module")
+def session():
+    with NavigationSession("empty", foxglove_port=0) as run:
+        run.wait_ready()
+        yield run
+
+
+@pytest.fixture(scope="module")
+def bridge(session):
+    return next(n for n in session.nodes if isinstance(n, FoxgloveBridge))
+
+
+@pytest.fixture
+def client(session, bridge):
+    app = FoxgloveClient(session, bridge.url)
+    yield app
+    app.close()
+
+
+def bridge_subscriptions(bridge) -> set[str]:
+    return {name for name, _ in bridge.get_subscriber_names_and_types_by_node(bridge.get_name(), "/")}
+
+
+def goal_message(x: float, y: float) -> PoseStamped:
+    goal = PoseStamped()
+    goal.header.frame_id = "odom"
+    goal.pose.position.x, goal.pose.position.y = x, y
+    goal.pose.orientation.w = 1.0
+    return goal
+
+
+def drive_to(session, x: float, y: float) -> None:
+    """Run until move_base reports the simple goal at (x, y) reached; the robot must be there."""
+    def reached():
+        status = session.client.status
+        return bool(status and status.status_list) and status.status_list[-1].status == GoalStatus.SUCCEEDED \
+            and abs(session.pose().x - x) < 0.25 and abs(session.pose().y - y) < 0.25
+    assert session.run_for(30.0, reached, wall_timeout_s=40.0), \
+        f"robot at {session.pose()} did not reach ({x}, {y}); status {session.client.status}"
+
+
+def test_every_topic_is_a_cdr_channel_with_its_ros2msg_schema(client):
+    assert client.info["capabilities"] == ["clientPublish", "time"]
+    assert client.info["supportedEncodings"] == ["cdr", "json"]
+    for topic, type_name in SHOWN.items():
+        channel = client.channels[topic]
+        assert (channel["encoding"], channel["schemaEncoding"], channel["schemaName"]) == ("cdr", "ros2msg", type_name)
+        assert channel["schema"] == message_definition(type_name)
+    assert not any(part.startswith("_") for topic in client.channels for part in topic.split("/"))
+
+
+def test_tf_arrives_as_cdr_stamped_with_sim_time_and_only_while_subscribed(session, bridge, client):
+    assert "/tf" not in bridge_subscriptions(bridge)   # nobody looks: no ROS subscription
+    tf, static = client.subscribe("/tf"), client.subscribe("/tf_static")
+    client.pump(lambda: client.messages[tf] and client.messages[static], "/tf and /tf_static")
+    log_time, data = client.messages[tf][-1]
+    moving = deserialize_message(data, TFMessage)
+    assert ("odom", "base_link") in {(t.header.frame_id, t.child_frame_id) for t in moving.transforms}
+    stamp = moving.transforms[0].header.stamp
+    assert abs(log_time - (stamp.sec * 10**9 + stamp.nanosec)) < 50_000_000   # sim time, as the header
+    assert client.times and abs(client.times[-1] - log_time) < 50_000_000     # the app's clock: sim time
+    fixed = deserialize_message(client.messages[static][0][1], TFMessage)
+    assert ("base_link", "front_laser_link") in {(t.header.frame_id, t.child_frame_id) for t in fixed.transforms}
+    assert {"/tf", "/tf_static"} <= bridge_subscriptions(bridge)
+    client.unsubscribe(tf)
+    client.pump(lambda: "/tf" not in bridge_subscriptions(bridge), "the bridge to drop its /tf subscription")
+
+
+def test_a_second_app_also_gets_the_latched_transforms(session, bridge, client):
+    first = client.subscribe("/tf_static")
+    client.pump(lambda: client.messages[first], "/tf_static for the first client")
+    second = FoxgloveClient(session, bridge.url)
+    try:
+        late = second.subscribe("/tf_static")
+        second.pump(lambda: second.messages[late], "/tf_static for the second client")
+        fixed = deserialize_message(second.messages[late][0][1], TFMessage)
+        assert len(fixed.transforms) == len(deserialize_message(client.messages[first][0][1], TFMessage).transforms)
+    finally:
+        second.close()
+
+
+def test_goals_published_from_the_app_are_driven_to(session, client):
+    # The app publishes CDR when the server lists it first, and JSON (the Publish panel's text) otherwise.
+    start = session.pose()
+    cdr = client.advertise(GOAL, "cdr", "geometry_msgs/msg/PoseStamped")
+    client.publish(cdr, serialize_message(goal_message(start.x + 1.5, start.y)))
+    drive_to(session, start.x + 1.5, start.y)
+    as_json = client.advertise(GOAL, "json", "geometry_msgs/PoseStamped")
+    client.publish(as_json, json.dumps({"header": {"stamp": {"sec": 0, "nsec": 0}, "frame_id": "odom"},
+                                        "pose": {"position": {"x": start.x + 2.5, "y": start.y},
+                                                 "orientation": {"w": 1.0}}}).encode())
+    drive_to(session, start.x + 2.5, start.y)
+
+
+def test_hostile_clients_are_refused_with_a_warning_and_the_bridge_carries_on(session, bridge, client, monkeypatch):
+    warnings: list[str] = []
+    logger = bridge.get_logger()
+    monkeypatch.setattr(logger, "warn", lambda message, **kwargs: warnings.append(message))
+    goals: list[PoseStamped] = []
+    session.client.create_subscription(PoseStamped, GOAL, goals.append, 10)
+
+    def warned(*words):
+        client.pump(lambda: any(all(w in m for w in words) for m in warnings), f"a warning with {words}")
+
+    client.advertise("/simplebot_controller/cmd_vel", "json", "geometry_msgs/msg/Twist")
+    warned("may not publish on /simplebot_controller/cmd_vel")
+    client.advertise(GOAL, "json", "geometry_msgs/msg/Twist")
+    warned(GOAL, "'geometry_msgs/msg/Twist'", "it takes geometry_msgs/msg/PoseStamped")
+    client.advertise(GOAL, "protobuf", "geometry_msgs/msg/PoseStamped")
+    warned(GOAL, "encoding 'protobuf'")
+    cdr = client.advertise(GOAL, "cdr", "geometry_msgs/msg/PoseStamped")
+    client.publish(cdr, b"\x00\x01\x00\x00" + b"\xff" * 40)
+    warned("cdr message on /move_base_simple/goal does not decode")
+    as_json = client.advertise(GOAL, "json", "geometry_msgs/msg/PoseStamped")
+    client.publish(as_json, b'{"pose": {"position": {"x": "far"}}}')
+    warned("json message on /move_base_simple/goal", "pose.position.x must be of type double, got str")
+    client.publish(999, b"{}")
+    assert not goals   # nothing reached ROS
+    # the next good goal still goes through
+    client.publish(cdr, serialize_message(goal_message(0.0, 0.0)))
+    client.pump(lambda: goals, "the good goal on /move_base_simple/goal")
+    assert (goals[0].pose.position.x, goals[0].header.frame_id) == (0.0, "odom")
+
+
+def test_the_layout_shows_topics_of_the_run_and_publishes_where_the_bridge_listens(client):
+    layout = json.loads(LAYOUT.read_text())
+    panels = layout["configById"]
+
+    def placed(node):
+        return {node} if isinstance(node, str) else placed(node["first"]) | placed(node["second"])
+    assert placed(layout["layout"]) == set(panels)
+    scene = panels["3D!simplebot"]
+    assert (scene["fixedFrame"], scene["followTf"]) == ("odom", "base_link")
+    shown = {topic for topic, settings in scene["topics"].items() if settings["visible"]}
+    assert shown <= set(client.channels)
+    assert set(SHOWN) - {"/tf", "/tf_static", GOAL} | {"/back_laser/back_scan", "/robot_description"} <= shown
+    assert {"/global_costmap/costmap", "/local_costmap/costmap"} == {
+        topic for topic, settings in scene["topics"].items() if settings.get("colorMode") == "costmap"}
+    tools = scene["publish"]
+    assert {tools["poseTopic"], tools["pointTopic"], tools["poseEstimateTopic"]} == set(CLIENT_TOPICS)
+    publish = panels["Publish!goal"]
+    assert (publish["topicName"], publish["datatype"]) == (GOAL, client.channels[GOAL]["schemaName"])
+    goal = message_from_json(PoseStamped, publish["value"].encode())
+    assert (goal.header.frame_id, goal.pose.orientation.w) == ("odom", 1.0)
+    plotted = {series["value"].split(".")[0] for series in panels["Plot!cmd_vel"]["paths"]}
+    assert plotted == {"/simplebot_controller/cmd_vel"} and plotted <= set(client.channels)
+
+
+def test_the_launch_file_starts_the_bridge_on_request():
+    nodes = {n.name: n for n in load_launch("navigation", {"foxglove": "true", "foxglove_port": "9001"}).nodes}
+    assert (nodes["foxglove_bridge"].type, nodes["foxglove_bridge"].parameters["port"]) == ("foxglove_bridge", 9001)
+    assert nodes["foxglove_bridge"].parameters["host"] == "127.0.0.1"
+    assert "foxglove_bridge" not in {n.name for n in load_launch("navigation", {}).nodes}
+
+
+def test_a_bad_or_busy_port_is_named(context, bridge):
+    with pytest.raises(ValueError, match="foxglove_bridge parameter 'port' must be 0..65535, got 70000"):
+        FoxgloveBridge(context=context, parameter_overrides=[Parameter("port", value=70000)])
+    with pytest.raises(OSError, match=f"cannot listen on 127.0.0.1:{bridge.port}: .*Address already in use"):
+        FoxgloveBridge(context=context, parameter_overrides=[Parameter("port", value=bridge.port)])
+
+
+def test_the_node_process_reports_a_bad_parameter_in_one_line():
+    result = subprocess.run([sys.executable, "-m", "simplebot_navigation.ros.foxglove_bridge", "--ros-args",
+                             "-p", "port:=-1"], capture_output=True, text=True, timeout=60)
+    assert result.returncode == 2
+    assert result.stderr.strip() == "foxglove_bridge: foxglove_bridge parameter 'port' must be 0..65535, got -1"
