@@ -13,6 +13,7 @@ TIGHT = "$(arg tight)"
 LAUNCH = [
     Arg("robot", default="box", choices=("box", "round"),
         doc="robot body the parameters are for: the lab's 0.9 x 0.6 m box, or round"),
+    Arg("radius", default="0.3", doc="radius of the round body in metres (robot:=round)"),
     Arg("tight", default="false", choices=("true", "false"),
         doc="the narrow-door parameter set (config/tight/) over the lab's files"),
     Arg("respawn", default="true", choices=("true", "false"),
@@ -36,4 +37,8 @@ LAUNCH = [
     RosParam(file=f"{CONFIG}/round/costmap_common.yaml", ns="move_base/global_costmap", if_=ROUND),
     RosParam(file=f"{CONFIG}/round/costmap_common.yaml", ns="move_base/local_costmap", if_=ROUND),
     RosParam(file=f"{CONFIG}/round/teb_local_planner.yaml", ns="move_base", if_=ROUND),
+    # ... with the radius of the body the simulator drives (those files hold the default, 0.3 m).
+    Param("move_base/global_costmap/robot_radius", "$(arg radius)", if_=ROUND),
+    Param("move_base/local_costmap/robot_radius", "$(arg radius)", if_=ROUND),
+    Param("move_base/TebLocalPlannerROS/footprint_model/radius", "$(arg radius)", if_=ROUND),
 ]

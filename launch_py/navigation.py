@@ -23,7 +23,7 @@ LAUNCH = [
         "world": "$(arg world)", "robot": "$(arg robot)", "radius": "$(arg radius)", "rtf": "$(arg rtf)",
         "respawn": "$(arg respawn)"}),
     Include(file=f"{LAUNCH_DIR}/move_base.py", args={
-        "robot": "$(arg robot)", "tight": "$(arg tight)", "respawn": "$(arg respawn)"}),
+        "robot": "$(arg robot)", "radius": "$(arg radius)", "tight": "$(arg tight)", "respawn": "$(arg respawn)"}),
 
     Node(pkg="simplebot_navigation", type="viewer", name="viewer", output="screen", if_="$(arg viewer)"),
     Node(pkg="simplebot_navigation", type="foxglove_bridge", name="foxglove_bridge", output="screen",

@@ -61,6 +61,18 @@ def test_round_robot_overrides_are_loaded_after_the_lab_files():
     assert p.get("/move_base/local_costmap/inflation_layer/inflation_radius") == 1.5
 
 
+def test_the_round_body_radius_reaches_both_costmaps_and_teb():
+    p = load_launch("navigation", {"robot": "round", "radius": "0.25", "tight": "true"}).params
+    assert p.get("/simulator/radius") == 0.25
+    assert p.get("/move_base/global_costmap/robot_radius") == 0.25
+    assert p.get("/move_base/local_costmap/robot_radius") == 0.25
+    assert p.get("/move_base/TebLocalPlannerROS/footprint_model/radius") == 0.25
+    box = load_launch("navigation", {"radius": "0.25"}).params    # the box keeps its outline
+    assert len(box.get("/move_base/local_costmap/footprint")) == 4
+    with pytest.raises(KeyError):
+        box.get("/move_base/local_costmap/robot_radius")
+
+
 def test_tight_set_goes_under_the_round_body():
     box = load_launch("navigation", {"tight": "true"}).params
     assert box.get("/move_base/global_costmap/resolution") == 0.05
