@@ -2,16 +2,20 @@
 
     python bench/door_sweep.py                       # box and round, 7 ratios, 5 repeats
     python bench/door_sweep.py --bodies round --ratios 1.1,1.2 --repeat 3
+    python bench/door_sweep.py --bodies box --ratios 1.25 --approach along-wall --tight
 
 For every body and door ratio (door width / robot width 0.6 m) the `doors` world generator builds a
 single-door world (hall, door, bay); the robot starts 1.5 m in front of the door and the goal is
-2 m behind it. Each repeat uses its own seed, so the Gaussian range noise makes the runs differ. The
+2 m behind it. With --approach along-wall the hall is 5 m wide and the robot starts 2 m to the side of
+the door, parallel to its wall with 0.25 m to spare, so it has to turn 90 degrees into the door: a box
+must swing out first. Each repeat uses its own seed, so the Gaussian range noise makes the runs differ. The
 box body runs the lab's files unchanged, the round body adds ``config/round/``, --tight adds
 ``config/tight/`` (the narrow-door parameter set) to either. The tightest reliable
 ratio of a body is the smallest ratio from which on every wider door succeeded in every repeat.
 """
 
 import argparse
+import dataclasses
 import json
 import os
 import sys
@@ -21,10 +25,18 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from simplebot_navigation.scenarios.report import summary  # noqa: E402
 from simplebot_navigation.scenarios.runner import ScenarioOptions, run_scenarios  # noqa: E402
-from simplebot_navigation.sim.world import write_world  # noqa: E402
+from simplebot_navigation.sim.world import Pose2D, write_world  # noqa: E402
 from simplebot_navigation.sim.world_gen import door_goal_name, doors_world  # noqa: E402
 
 ROBOT_WIDTH = 0.6
+ALONG_WALL_START = Pose2D(-2.0, -0.6, 0.0)       # 0.25 m between its side and the 0.1 m door wall
+
+
+def door_world(ratio: float, approach: str):
+    """The one-door world of a sweep row; along-wall: a wider hall and a start beside the door, parallel to it."""
+    if approach == "head-on":
+        return doors_world(ROBOT_WIDTH, ratios=(ratio,))
+    return dataclasses.replace(doors_world(ROBOT_WIDTH, ratios=(ratio,), bay_width=5.0), start=ALONG_WALL_START)
 
 
 def tightest_reliable(rows: list[dict]) -> float | None:
@@ -44,6 +56,8 @@ def main() -> int:
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--range-noise", type=float, default=0.01, help="lidar range noise std (m)")
     parser.add_argument("--tight", action="store_true", help="the narrow-door parameter set (config/tight/)")
+    parser.add_argument("--approach", choices=("head-on", "along-wall"), default="head-on",
+                        help="start in front of the door, or beside it along its wall (a 90 degree turn in)")
     parser.add_argument("--json", help="write the table as JSON here")
     args = parser.parse_args()
     bodies = args.bodies.split(",")
@@ -53,11 +67,12 @@ def main() -> int:
     for body in bodies:
         for ratio in ratios:
             path = os.path.join(folder, f"door_{ratio:g}.yaml")
-            write_world(doors_world(ROBOT_WIDTH, ratios=(ratio,)), path, f"one door, {ratio:g} x {ROBOT_WIDTH} m")
+            write_world(door_world(ratio, args.approach), path,
+                        f"one door, {ratio:g} x {ROBOT_WIDTH} m, approach {args.approach}")
             options = ScenarioOptions(world=path, robot=body, goals=door_goal_name(ratio), repeat=args.repeat,
                                       range_noise=args.range_noise, wall_timeout_s=600.0, tight=args.tight)
             results, _ = run_scenarios(options, progress=lambda line: print("  " + line, flush=True))
-            row = {"body": body, "ratio": ratio, "width_m": round(ratio * ROBOT_WIDTH, 3), **summary(results)}
+            row = {"body": body, "approach": args.approach, "ratio": ratio, "width_m": round(ratio * ROBOT_WIDTH, 3), **summary(results)}
             rows.append(row)
             print(f"{body:>5} {ratio:>5.2f}x {row['width_m']:.3f} m: {row['succeeded']}/{row['goals']}", flush=True)
     print()

@@ -33,7 +33,6 @@ def execute(run: Run) -> dict:
         result = run_goal(session, goal, time_budget(session.world, session.pose(), goal, max_vel_x))
     record = result.to_dict()
     del record["run"]
-    record["max_vel_x"] = max_vel_x
     return record
 
 

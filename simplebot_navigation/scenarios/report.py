@@ -22,6 +22,7 @@ COLUMNS = [  # header, width, cell
     ("path m", 6, lambda r: f"{r.path_length:.1f}"),
     ("line m", 6, lambda r: f"{r.straight_line:.1f}"),
     ("ratio", 5, lambda r: f"{r.path_length / r.straight_line:.2f}" if r.straight_line > 1e-6 else "-"),
+    ("t/(L/v)", 7, lambda r: f"{r.time_ratio:.2f}" if math.isfinite(r.time_ratio) else "-"),
     ("coll", 4, lambda r: f"{r.collisions}"),
     ("clear m", 7, lambda r: f"{r.min_clearance:.2f}"),
     ("replans", 7, lambda r: "-" if r.replans is None else f"{r.replans}"),
@@ -38,6 +39,7 @@ def summary(results: list[GoalResult]) -> dict:
         "succeeded": len(ok),
         "success_rate": len(ok) / len(results) if results else math.nan,
         "mean_time_s": float(np.mean([r.time_s for r in ok])) if ok else math.nan,
+        "mean_time_ratio": float(np.mean([r.time_ratio for r in ok])) if ok else math.nan,
         "collisions": sum(r.collisions for r in results),
         "min_clearance": min((r.min_clearance for r in results), default=math.nan),
         "recoveries": sum(r.recoveries or 0 for r in results),
@@ -53,7 +55,8 @@ def table(results: list[GoalResult]) -> str:
             lines.append(f"{'':5}-> {'; '.join(r.failures)}")
     s = summary(results)
     lines.append(f"success {s['succeeded']}/{s['goals']} ({100 * s['success_rate']:.0f} %), "
-                 f"mean time to goal {s['mean_time_s']:.1f} s sim, collisions {s['collisions']}, "
+                 f"mean time to goal {s['mean_time_s']:.1f} s sim ({s['mean_time_ratio']:.2f} x path / max_vel_x), "
+                 f"collisions {s['collisions']}, "
                  f"min clearance {s['min_clearance']:.2f} m, recoveries {s['recoveries']}")
     return "\n".join(lines)
 

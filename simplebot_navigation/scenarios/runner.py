@@ -54,7 +54,15 @@ class GoalResult:
     position_error: float
     yaw_error: float
     wall_s: float                # wall-clock seconds the goal took to simulate
+    max_vel_x: float             # the local planner's top speed during the goal
     trajectory: list[tuple[float, float, float, float]] = field(repr=False)
+
+    @property
+    def time_ratio(self) -> float:
+        """Time to goal over the time the driven path takes at top speed (1.0: never slower than max_vel_x)."""
+        if not self.success or self.path_length <= 1e-6:
+            return math.nan
+        return self.time_s / (self.path_length / self.max_vel_x)
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -237,7 +245,8 @@ def run_goal(session: NavigationSession | RemoteSession, goal: Pose2D, budget_s:
         cycle_p95_ms=cycles.percentile_s(95) * 1e3 if cycles and cycles.cycles else None,
         cycles_missed=cycles.missed if cycles else None,
         final=final, position_error=position_error, yaw_error=yaw_error,
-        wall_s=time.monotonic() - wall_start, trajectory=_thinned(truth))
+        wall_s=time.monotonic() - wall_start, max_vel_x=session.controller_param("max_vel_x", 0.4),
+        trajectory=_thinned(truth))
 
 
 def _thinned(truth: np.ndarray) -> list[tuple[float, ...]]:

@@ -74,7 +74,7 @@ def result(goal="library", success=True, clearance=0.4, **kw) -> GoalResult:
                   success=success, failures=[] if success else ["aborted: no plan"], reason="", time_s=31.5,
                   budget_s=80.0, path_length=12.6, straight_line=9.9, collisions=0, min_clearance=clearance,
                   replans=3, recoveries=0, cycle_p95_ms=41.2, cycles_missed=0, final=(8.5, 5.0, 0.0),
-                  position_error=0.05, yaw_error=0.02, wall_s=20.0, trajectory=[(0.0, 0.0, 0.0, 0.0), (31.5, 8.5, 5.0, 0.0)])
+                  position_error=0.05, yaw_error=0.02, wall_s=20.0, max_vel_x=0.4, trajectory=[(0.0, 0.0, 0.0, 0.0), (31.5, 8.5, 5.0, 0.0)])
     values.update(kw)
     return GoalResult(**values)
 
@@ -82,10 +82,11 @@ def result(goal="library", success=True, clearance=0.4, **kw) -> GoalResult:
 def test_table_json_and_plot(tmp_path):
     results = [result(), result("lab", success=False, clearance=math.inf, time_s=10.0)]
     text = table(results)
-    assert "library  SUCCEEDED   yes     31.5      80    12.6     9.9   1.27     0     0.40" in text
+    # 31.5 s for 12.6 m at 0.4 m/s: 1.0 would be top speed all the way
+    assert "library  SUCCEEDED   yes     31.5      80    12.6     9.9   1.27     1.00     0     0.40" in text
     assert "-> aborted: no plan" in text
-    assert text.splitlines()[-1] == ("success 1/2 (50 %), mean time to goal 31.5 s sim, collisions 0, "
-                                     "min clearance 0.40 m, recoveries 0")
+    assert text.splitlines()[-1] == ("success 1/2 (50 %), mean time to goal 31.5 s sim (1.00 x path / max_vel_x), "
+                                     "collisions 0, min clearance 0.40 m, recoveries 0")
     write_json(tmp_path / "out.json", ScenarioOptions(), results)
     data = json.loads((tmp_path / "out.json").read_text())
     assert data["summary"]["success_rate"] == 0.5
