@@ -27,17 +27,20 @@ LAUNCH = [
         Include(file="$(find simplebot_navigation)/launch_py/move_base_local.py", args={"respawn": "$(arg respawn)"}),
     ]),
 
-    # Narrow doors: no padding, a fine global costmap, TEB with the box outline and small margins.
+    # The round body: a circular footprint for both costmaps, loaded over the lab's files ...
+    RosParam(file=f"{CONFIG}/round/costmap_common.yaml", ns="move_base/global_costmap", if_=ROUND),
+    RosParam(file=f"{CONFIG}/round/costmap_common.yaml", ns="move_base/local_costmap", if_=ROUND),
+
+    # Narrow doors: no padding (for either body), a fine global costmap, TEB with the box outline and
+    # small margins.
     RosParam(file=f"{CONFIG}/tight/costmap_common.yaml", ns="move_base/global_costmap", if_=TIGHT),
     RosParam(file=f"{CONFIG}/tight/costmap_common.yaml", ns="move_base/local_costmap", if_=TIGHT),
     RosParam(file=f"{CONFIG}/tight/costmap_global.yaml", ns="move_base/global_costmap", if_=TIGHT),
     RosParam(file=f"{CONFIG}/tight/teb_local_planner.yaml", ns="move_base", if_=TIGHT),
 
-    # The round body: a circular footprint for both costmaps and TEB, loaded over the lab's files.
-    RosParam(file=f"{CONFIG}/round/costmap_common.yaml", ns="move_base/global_costmap", if_=ROUND),
-    RosParam(file=f"{CONFIG}/round/costmap_common.yaml", ns="move_base/local_costmap", if_=ROUND),
+    # ... and TEB's circle in place of the lab's two circles or the tight set's box outline.
     RosParam(file=f"{CONFIG}/round/teb_local_planner.yaml", ns="move_base", if_=ROUND),
-    # ... with the radius of the body the simulator drives (those files hold the default, 0.3 m).
+    # The radius of the body the simulator drives (the round files hold the default, 0.3 m).
     Param("move_base/global_costmap/robot_radius", "$(arg radius)", if_=ROUND),
     Param("move_base/local_costmap/robot_radius", "$(arg radius)", if_=ROUND),
     Param("move_base/TebLocalPlannerROS/footprint_model/radius", "$(arg radius)", if_=ROUND),

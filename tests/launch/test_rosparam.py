@@ -82,6 +82,9 @@ def test_tight_set_goes_under_the_round_body():
     round_body = load_launch("navigation", {"tight": "true", "robot": "round"}).params
     assert round_body.get("/move_base/TebLocalPlannerROS/footprint_model/type") == "circular"
     assert round_body.get("/move_base/global_costmap/resolution") == 0.05
+    assert round_body.get("/move_base/local_costmap/footprint_padding") == 0.0      # the tight set's, not round's
+    assert round_body.get("/move_base/local_costmap/footprint") == []
+    assert load_launch("navigation", {"robot": "round"}).params.get("/move_base/local_costmap/footprint_padding") == 0.02
     assert load_launch("navigation", {}).params.get("/move_base/global_costmap/resolution") == 0.2
 
 
