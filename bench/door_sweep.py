@@ -6,7 +6,7 @@
 
 For every body and door ratio (door width / robot width 0.6 m) the `doors` world generator builds a
 single-door world (hall, door, bay); the robot starts 1.5 m in front of the door and the goal is
-2 m behind it. With --approach along-wall the hall is 5 m wide and the robot starts 2 m to the side of
+2 m behind it. With --approach along-wall the hall is 5 m wide and the robot starts 1.8 m to the side of
 the door, parallel to its wall with 0.25 m to spare, so it has to turn 90 degrees into the door: a box
 must swing out first. Each repeat uses its own seed, so the Gaussian range noise makes the runs differ. The
 box body runs the lab's files unchanged, the round body adds ``config/round/``, --tight adds
@@ -29,7 +29,7 @@ from simplebot_navigation.sim.world import Pose2D, write_world  # noqa: E402
 from simplebot_navigation.sim.world_gen import door_goal_name, doors_world  # noqa: E402
 
 ROBOT_WIDTH = 0.6
-ALONG_WALL_START = Pose2D(-2.0, -0.6, 0.0)       # 0.25 m between its side and the 0.1 m door wall
+ALONG_WALL_START = Pose2D(-1.8, -0.6, 0.0)       # 0.25 m from its side to the door wall, 0.35 m behind it
 
 
 def door_world(ratio: float, approach: str):
