@@ -29,7 +29,7 @@ from simplebot_navigation.sim.world import Pose2D, write_world  # noqa: E402
 from simplebot_navigation.sim.world_gen import door_goal_name, doors_world  # noqa: E402
 
 ROBOT_WIDTH = 0.6
-ALONG_WALL_START = Pose2D(-1.8, -0.6, 0.0)       # 0.25 m from its side to the door wall, 0.35 m behind it
+ALONG_WALL_START = Pose2D(-1.8, -0.6, 0.0)       # 0.25 m from its side to the door wall, 0.15 m behind it
 
 
 def door_world(ratio: float, approach: str):
