@@ -25,13 +25,12 @@ import foxglove
 from foxglove.websocket import Capability
 from geometry_msgs.msg import PointStamped, PoseStamped, PoseWithCovarianceStamped
 from rclpy.clock import Clock, ClockType
-from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy
 from rclpy.serialization import deserialize_message
 from rclpy.subscription import Subscription
 
 from simplebot_navigation.ros.message_json import message_from_json
-from simplebot_navigation.ros.node_main import run_node
+from simplebot_navigation.ros.node_main import SetUpNode, run_node
 from simplebot_navigation.ros.params import declare_checked
 from simplebot_navigation.ros.raw_topics import RawTopic, TopicDiscovery, publisher_qos
 
@@ -83,18 +82,13 @@ class _Listener:
         self._post(("data", client.id, (client_channel_id, data)))
 
 
-class FoxgloveBridge(Node):
+class FoxgloveBridge(SetUpNode):
     def __init__(self, **kwargs):
-        super().__init__("foxglove_bridge", **kwargs)
         self.server = None
         self._channels: dict[int, _Channel] = {}              # by Foxglove channel id
-        try:
-            self._setup()
-        except BaseException:
-            self.destroy_node()
-            raise
+        super().__init__("foxglove_bridge", **kwargs)
 
-    def _setup(self) -> None:
+    def _set_up(self) -> None:
         p = declare_checked(self, PARAMETERS, label="foxglove_bridge parameter")
         if not 0 <= p["port"] <= 65535:
             raise ValueError(f"foxglove_bridge parameter 'port' must be 0..65535, got {p['port']}")

@@ -39,6 +39,22 @@ def run_node(label: str, build: Callable[[], Node], args=None,
     return 0
 
 
+class SetUpNode(Node):
+    """A node whose ``_set_up`` (parameters, publishers, servers) may fail on bad input: the half-built node
+    is destroyed before the error goes on, so nothing of it stays in the graph or holds a port."""
+
+    def __init__(self, name: str, **kwargs):
+        super().__init__(name, **kwargs)
+        try:
+            self._set_up()
+        except BaseException:
+            self.destroy_node()
+            raise
+
+    def _set_up(self) -> None:
+        raise NotImplementedError
+
+
 @contextmanager
 def stopped_by_ctrl_c():
     """Ctrl-C and SIGTERM end a spin cleanly, and so does an exception from a callback that was taking its

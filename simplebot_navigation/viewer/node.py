@@ -25,7 +25,6 @@ from map_msgs.msg import OccupancyGridUpdate
 from nav_msgs.msg import OccupancyGrid, Odometry, Path
 from rcl_interfaces.msg import Log
 from rclpy.clock import Clock, ClockType
-from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from rclpy.time import Time
 from scipy.spatial import ConvexHull
@@ -34,7 +33,7 @@ from std_msgs.msg import String
 
 from simplebot_navigation.ros.conversions import path_to_array, pose_to_xyyaw, transform_to_xyyaw, xyyaw_to_pose
 from simplebot_navigation.ros.move_base_stats import NAVIGATION_STATUS
-from simplebot_navigation.ros.node_main import run_node
+from simplebot_navigation.ros.node_main import SetUpNode, run_node
 from simplebot_navigation.ros.params import declare_checked
 from simplebot_navigation.ros.tf import Buffer, TransformException, TransformListener, strip_frame
 from simplebot_navigation.viewer.scene import Scene
@@ -106,16 +105,11 @@ def body_outlines(urdf: str, base_frame: str = "base_link") -> list[np.ndarray]:
     return [outline for _, outline in sorted(shapes, key=lambda s: s[0])]
 
 
-class ViewerNode(Node):
+class ViewerNode(SetUpNode):
     def __init__(self, **kwargs):
         super().__init__("viewer", **kwargs)
-        try:
-            self._setup()
-        except BaseException:
-            self.destroy_node()
-            raise
 
-    def _setup(self) -> None:
+    def _set_up(self) -> None:
         p = self._checked_parameters()
         self.fixed_frame = strip_frame(p["fixed_frame"])
         self.base_frame = strip_frame(p["base_frame"])
