@@ -22,7 +22,8 @@ LAUNCH = [
         "world": "$(arg world)", "robot": "$(arg robot)", "radius": "$(arg radius)", "rtf": "$(arg rtf)",
         "respawn": "$(arg respawn)", "namespaces": "$(arg namespace)"}),
     Include(file=f"{LAUNCH_DIR}/move_base.py", args={
-        "robot": "$(arg robot)", "tight": "$(arg tight)", "respawn": "$(arg respawn)", "namespace": "$(arg namespace)"}),
+        "robot": "$(arg robot)", "tight": "$(arg tight)", "respawn": "$(arg respawn)",
+        "namespace": "$(arg namespace)"}),
 
     Node(pkg="simplebot_navigation", type="viewer", name="viewer", output="screen", if_="$(arg viewer)"),
 ]

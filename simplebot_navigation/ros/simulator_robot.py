@@ -46,6 +46,13 @@ def set_transform(tf: TransformStamped, value) -> None:
     t.x, t.y, t.z, r.x, r.y, r.z, r.w = (float(v) for v in value)
 
 
+def _odometry_msg(frame_id: str, child_frame_id: str) -> Odometry:
+    msg = Odometry()
+    msg.header.frame_id = frame_id
+    msg.child_frame_id = child_frame_id
+    return msg
+
+
 class SimulatedRobotIO:
     """Publishers, the cmd_vel subscription and reusable messages of robot ``index`` of the simulation.
 
@@ -68,8 +75,9 @@ class SimulatedRobotIO:
 
         # Messages are built once and refilled: constructing them costs more than a physics step.
         odom, truth = sim.odometry(index), sim.ground_truth(index)
-        self._odom_msgs = [(self.odom_pub, self._odometry_msg(odom.frame_id, odom.child_frame_id)),
-                           (self.truth_pub, self._odometry_msg(truth.frame_id, truth.child_frame_id))]
+        # Ground truth is in the world frame, which belongs to no robot.
+        self._odom_msgs = [(self.odom_pub, _odometry_msg(self.frame(odom.frame_id), self.frame(odom.child_frame_id))),
+                           (self.truth_pub, _odometry_msg(truth.frame_id, self.frame(truth.child_frame_id)))]
         self._odom_tf = transform(self.frame(odom.frame_id), self.frame(odom.child_frame_id))
         self._wheel_joints = wheel_joints
         self._wheel_tfs = {name: transform(self.frame(parent), self.frame(child))
@@ -82,8 +90,7 @@ class SimulatedRobotIO:
         return "/" + "/".join(part for part in (self.namespace, name.lstrip("/")) if part)
 
     def frame(self, name: str) -> str:
-        """A frame of this robot (a world frame such as ground truth's 'world' is not the robot's)."""
-        return name if name == "world" else self.prefix + name
+        return self.prefix + name
 
     def static_transforms(self) -> list[TransformStamped]:
         """The URDF's fixed joints and, for a namespaced robot, map -> its odom at the start pose."""
@@ -94,12 +101,6 @@ class SimulatedRobotIO:
         start = self.sim.robots[self.index].start
         return joints + [transform(MAP_FRAME, self._odom_tf.header.frame_id, (start.x, start.y, 0.0),
                                    yaw_to_quaternion(start.yaw))]
-
-    def _odometry_msg(self, frame_id: str, child_frame_id: str) -> Odometry:
-        msg = Odometry()
-        msg.header.frame_id = self.frame(frame_id)
-        msg.child_frame_id = self.frame(child_frame_id)
-        return msg
 
     # -- publishing -----------------------------------------------------------------------------
     def publish_odometry(self, stamp, dropout: bool) -> list[TransformStamped]:

@@ -93,7 +93,8 @@ def test_lab_world_has_three_starts_that_pass_the_checks():
 
 def test_starts_from_the_argument_win_over_the_world_and_one_robot_uses_the_world_start():
     world = load_world("lab")
-    assert robot_starts(world, ["a", "b"], "1,0,0.5; 3,0", BOX) == (Pose2D(1.0, 0.0, 0.5, "a"), Pose2D(3.0, 0.0, 0.0, "b"))
+    assert robot_starts(world, ["a", "b"], "1,0,0.5; 3,0", BOX) == (Pose2D(1.0, 0.0, 0.5, "a"),
+                                                                    Pose2D(3.0, 0.0, 0.0, "b"))
     assert robot_starts(world, ["simplebot"], "", BOX) == (Pose2D(0.0, 0.0, 0.0, "simplebot"),)
 
 
