@@ -44,17 +44,20 @@ class ProcessSession(_Session):
 
     Ground truth, collisions and status come over topics; move_base's counters (replans,
     recoveries, cycle times) are not visible from outside and stay empty. The launcher's output
-    goes to ``log_file``.
+    goes to ``log_file``. With ``namespace`` the robot runs under it (the launch file's ``namespace``
+    argument) and the client drives it there.
     """
 
     def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, rtf: float = 1.0,
                  seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation", tight: bool = False,
-                 respawn: bool = False, overrides: tuple[str, ...] = ()):
+                 respawn: bool = False, overrides: tuple[str, ...] = (), namespace: str = ""):
         if not (math.isfinite(rtf) and rtf > 0):
             raise ValueError(f"separate processes need rtf > 0 (lockstep is single-process), got {rtf!r}")
         self.description = robot_description(robot, radius)
         self.world = load_world(world, robot_radius=self.description.inscribed_radius)
         args = launch_args(world, robot, radius, rtf, tight, respawn)
+        if namespace:  # the launch file's namespace argument: the robot's topics and frames under it
+            args["namespace"] = namespace
         self.launch = load_launch(launch_file, args)
         apply_set(self.launch, list(overrides))     # checked here, and read by controller_param
         self.run_dir = run_dir = tempfile.mkdtemp(prefix="simplebot_scenario_")
@@ -70,7 +73,7 @@ class ProcessSession(_Session):
                                             start_new_session=True)
         self.context = rclpy.Context()
         rclpy.init(context=self.context)
-        self.client = ScenarioClient(self.context)
+        self.client = ScenarioClient(self.context, namespace)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.client)
 

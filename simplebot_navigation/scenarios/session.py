@@ -82,6 +82,7 @@ class ScenarioClient(Node):
     def __init__(self, context, namespace: str = ""):
         super().__init__("scenario_runner", namespace=namespace, context=context,
                          parameter_overrides=[Parameter("use_sim_time", value=True)])
+        self.frame_prefix = f"{namespace}/" if namespace else ""  # the robot's frames, as the simulator names them
         self.action = ActionClient(self, MoveBase, "move_base", goal_service_qos_profile=ACTION_SERVICE_QOS,
                                    result_service_qos_profile=ACTION_SERVICE_QOS,
                                    cancel_service_qos_profile=ACTION_SERVICE_QOS)
@@ -202,7 +203,7 @@ class _Session(abc.ABC):
         x, y, yaw = self.to_odom(goal.x, goal.y, goal.yaw)
         msg = MoveBase.Goal()
         pose: PoseStamped = msg.target_pose
-        pose.header.frame_id = "odom"
+        pose.header.frame_id = self.client.frame_prefix + "odom"
         pose.header.stamp = self.client.get_clock().now().to_msg()
         pose.pose.position.x, pose.pose.position.y = x, y
         pose.pose.orientation = quaternion_msg(yaw)

@@ -21,6 +21,7 @@ from move_base_msgs.action import MoveBase
 from simplebot_navigation.ros.conversions import quaternion_msg
 from simplebot_navigation.scenarios.process_session import ProcessSession
 from simplebot_navigation.scenarios.session import ScenarioClient
+from simplebot_navigation.sim.world import Pose2D
 from simplebot_navigation.sim.world_loader import load_world
 
 pytestmark = [pytest.mark.timeout(600), pytest.mark.e2e]
@@ -115,3 +116,18 @@ def test_three_robots_swap_places_without_touching():
             assert client.collisions == 0, f"{name} touched something {client.collisions} time(s)"
         for client in clients:
             client.destroy_node()
+
+
+def test_one_robot_in_a_namespace_takes_goals_there():
+    with ProcessSession("lab", rtf=RTF, namespace="robot1") as session:
+        session.wait_ready(wall_timeout_s=240.0)
+        graph = topic_graph()
+        assert "/robot1/move_base" in graph["/robot1/simplebot_controller/cmd_vel"]
+        assert "/simplebot_controller/cmd_vel" not in graph and "/move_base/status" not in graph
+        goal = Pose2D(1.5, 3.5, math.pi / 2)  # the north meeting room; sent in robot1/odom
+        run = session.send_goal(goal)
+        assert session.spin_wall(DRIVE_WALL_S, lambda: run.done), "the goal did not finish"
+        assert run.status == "SUCCEEDED", (run.status, run.reason)
+        final = session.pose()
+        assert math.hypot(final.x - goal.x, final.y - goal.y) < 0.5, final
+        assert session.client.collisions == 0
