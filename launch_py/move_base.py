@@ -2,6 +2,9 @@
 remap to the diff-drive controller's odometry and the round-body and narrow-door parameter sets.
 
 It needs a simulator (or a robot) publishing /clock, TF, the scans and odometry on the same ROS domain.
+With ``namespace:=robot1`` everything is under /robot1 and the frames are robot1/odom, robot1/base_link,
+... (docs/design.md §5): the lab's files stay as they are, the frames and laser topics they name are
+overridden below.
 """
 
 from simplebot_navigation.launch.description import Arg, Group, Include, Param, Remap, RosParam
@@ -9,6 +12,13 @@ from simplebot_navigation.launch.description import Arg, Group, Include, Param, 
 CONFIG = "$(find simplebot_navigation)/config"
 ROUND = "$(eval robot == 'round')"
 TIGHT = "$(arg tight)"
+NAMESPACED = "$(eval namespace != '')"
+PREFIX = "$(arg namespace)/"
+# The frames the lab's files name, per parameter of move_base; the laser sources of both costmaps.
+FRAMES = {f"{costmap}/{key}": frame for costmap in ("global_costmap", "local_costmap")
+          for key, frame in (("global_frame", "odom"), ("robot_base_frame", "base_link"))}
+FRAMES["TebLocalPlannerROS/map_frame"] = "odom"
+LASERS = {"front_laser": "front_scan", "back_laser": "back_scan"}
 
 LAUNCH = [
     Arg("robot", default="box", choices=("box", "round"),
@@ -18,30 +28,41 @@ LAUNCH = [
         doc="the narrow-door parameter set (config/tight/) over the lab's files"),
     Arg("respawn", default="true", choices=("true", "false"),
         doc="restart move_base when it exits (roslaunch's respawn)"),
+    Arg("namespace", default="",
+        doc="the robot's namespace (e.g. robot1): topics under it, frames prefixed with it; empty: none"),
 
     Param("/use_sim_time", True),
 
-    # The lab's TEB config reads odometry from /odom; the simulated diff-drive controller
-    # publishes it on /simplebot_controller/odom, as the lab's Gazebo controller did.
-    Group(remaps=[Remap("/odom", "/simplebot_controller/odom")], children=[
-        Include(file="$(find simplebot_navigation)/launch_py/move_base_local.py", args={"respawn": "$(arg respawn)"}),
+    Group(ns="$(arg namespace)", children=[
+        # The lab's TEB config reads odometry from /odom; the simulated diff-drive controller
+        # publishes it on simplebot_controller/odom, as the lab's Gazebo controller did.
+        Group(remaps=[Remap("/odom", "simplebot_controller/odom")], children=[
+            Include(file="$(find simplebot_navigation)/launch_py/move_base_local.py",
+                    args={"respawn": "$(arg respawn)"}),
+        ]),
+
+        # The round body: a circular footprint for both costmaps, loaded over the lab's files ...
+        RosParam(file=f"{CONFIG}/round/costmap_common.yaml", ns="move_base/global_costmap", if_=ROUND),
+        RosParam(file=f"{CONFIG}/round/costmap_common.yaml", ns="move_base/local_costmap", if_=ROUND),
+
+        # Narrow doors: no padding (for either body), a fine global costmap, TEB with the box outline and
+        # small margins.
+        RosParam(file=f"{CONFIG}/tight/costmap_common.yaml", ns="move_base/global_costmap", if_=TIGHT),
+        RosParam(file=f"{CONFIG}/tight/costmap_common.yaml", ns="move_base/local_costmap", if_=TIGHT),
+        RosParam(file=f"{CONFIG}/tight/costmap_global.yaml", ns="move_base/global_costmap", if_=TIGHT),
+        RosParam(file=f"{CONFIG}/tight/teb_local_planner.yaml", ns="move_base", if_=TIGHT),
+
+        # ... and TEB's circle in place of the lab's two circles or the tight set's box outline.
+        RosParam(file=f"{CONFIG}/round/teb_local_planner.yaml", ns="move_base", if_=ROUND),
+        # The radius of the body the simulator drives (the round files hold the default, 0.3 m).
+        Param("move_base/global_costmap/robot_radius", "$(arg radius)", if_=ROUND),
+        Param("move_base/local_costmap/robot_radius", "$(arg radius)", if_=ROUND),
+        Param("move_base/TebLocalPlannerROS/footprint_model/radius", "$(arg radius)", if_=ROUND),
+
+        # In a namespace: the robot's own frames, and its lasers' topics relative to the namespace.
+        *(Param(f"move_base/{name}", PREFIX + frame, if_=NAMESPACED) for name, frame in FRAMES.items()),
+        *(Param(f"move_base/{costmap}/obstacles/{laser}/{key}", value, if_=NAMESPACED)
+          for costmap in ("global_costmap", "local_costmap") for laser, scan in LASERS.items()
+          for key, value in (("sensor_frame", f"{PREFIX}{laser}_link"), ("topic", f"{laser}/{scan}"))),
     ]),
-
-    # The round body: a circular footprint for both costmaps, loaded over the lab's files ...
-    RosParam(file=f"{CONFIG}/round/costmap_common.yaml", ns="move_base/global_costmap", if_=ROUND),
-    RosParam(file=f"{CONFIG}/round/costmap_common.yaml", ns="move_base/local_costmap", if_=ROUND),
-
-    # Narrow doors: no padding (for either body), a fine global costmap, TEB with the box outline and
-    # small margins.
-    RosParam(file=f"{CONFIG}/tight/costmap_common.yaml", ns="move_base/global_costmap", if_=TIGHT),
-    RosParam(file=f"{CONFIG}/tight/costmap_common.yaml", ns="move_base/local_costmap", if_=TIGHT),
-    RosParam(file=f"{CONFIG}/tight/costmap_global.yaml", ns="move_base/global_costmap", if_=TIGHT),
-    RosParam(file=f"{CONFIG}/tight/teb_local_planner.yaml", ns="move_base", if_=TIGHT),
-
-    # ... and TEB's circle in place of the lab's two circles or the tight set's box outline.
-    RosParam(file=f"{CONFIG}/round/teb_local_planner.yaml", ns="move_base", if_=ROUND),
-    # The radius of the body the simulator drives (the round files hold the default, 0.3 m).
-    Param("move_base/global_costmap/robot_radius", "$(arg radius)", if_=ROUND),
-    Param("move_base/local_costmap/robot_radius", "$(arg radius)", if_=ROUND),
-    Param("move_base/TebLocalPlannerROS/footprint_model/radius", "$(arg radius)", if_=ROUND),
 ]

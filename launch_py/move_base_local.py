@@ -20,7 +20,8 @@ LAUNCH = [
         RosParam(file=f"{CONFIG}/teb_local_planner.yaml", command="load"),
         RosParam(file=f"{CONFIG}/global_planner.yaml", command="load"),
     ], remaps=[
-        # The velocity command that is sent to the robot controller
-        Remap("cmd_vel", "/simplebot_controller/cmd_vel"),
+        # The velocity command that is sent to the robot controller (relative: /simplebot_controller/cmd_vel
+        # at the root, /robot1/simplebot_controller/cmd_vel for a move_base in namespace robot1)
+        Remap("cmd_vel", "simplebot_controller/cmd_vel"),
     ]),
 ]

@@ -18,12 +18,15 @@ LAUNCH = [
         doc="the narrow-door parameter set (config/tight/) over the lab's files"),
     Arg("respawn", default="true", choices=("true", "false"),
         doc="restart the simulator and move_base when they exit (roslaunch's respawn)"),
+    Arg("namespace", default="",
+        doc="the robot's namespace (e.g. robot1): topics under it, frames prefixed with it; empty: none"),
 
     Include(file=f"{LAUNCH_DIR}/simulator.py", args={
         "world": "$(arg world)", "robot": "$(arg robot)", "radius": "$(arg radius)", "rtf": "$(arg rtf)",
-        "respawn": "$(arg respawn)"}),
+        "respawn": "$(arg respawn)", "namespaces": "$(arg namespace)"}),
     Include(file=f"{LAUNCH_DIR}/move_base.py", args={
-        "robot": "$(arg robot)", "radius": "$(arg radius)", "tight": "$(arg tight)", "respawn": "$(arg respawn)"}),
+        "robot": "$(arg robot)", "radius": "$(arg radius)", "tight": "$(arg tight)", "respawn": "$(arg respawn)",
+        "namespace": "$(arg namespace)"}),
 
     Node(pkg="simplebot_navigation", type="viewer", name="viewer", output="screen", if_="$(arg viewer)"),
     Node(pkg="simplebot_navigation", type="foxglove_bridge", name="foxglove_bridge", output="screen",

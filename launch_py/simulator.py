@@ -1,7 +1,8 @@
 """The simulated simplebot alone: pybullet world, lidars, diff-drive, odometry, TF and /clock.
 
 Run it on its own where the simulation lives and ``move_base`` where the navigation runs (another
-process, or another host on the same ROS domain); ``navigation`` starts both.
+process, or another host on the same ROS domain); ``navigation`` starts both. With ``namespaces``
+it simulates one robot per name in the same world (``multi_navigation``).
 """
 
 from simplebot_navigation.launch.description import Arg, Node, Param
@@ -14,6 +15,9 @@ LAUNCH = [
     Arg("rtf", default="1.0", doc="real-time factor of the simulation (0: as fast as the nodes allow)"),
     Arg("respawn", default="true", choices=("true", "false"),
         doc="restart the simulator when it exits (roslaunch's respawn)"),
+    Arg("namespaces", default="",
+        doc="one robot per space-separated namespace (robot1 robot2); empty: one robot without a namespace"),
+    Arg("starts", default="", doc="x,y,yaw;x,y,yaw;... per robot (empty: the world's starts, or its start)"),
 
     Param("/use_sim_time", True),
 
@@ -23,5 +27,7 @@ LAUNCH = [
         Param("robot", "$(arg robot)"),
         Param("radius", "$(arg radius)"),
         Param("real_time_factor", "$(arg rtf)"),
+        Param("namespaces", "$(arg namespaces)"),
+        Param("starts", "$(arg starts)"),
     ]),
 ]

@@ -3,6 +3,8 @@
 A launch file under ``launch_py/`` is a module with a ``LAUNCH`` list built from
 these classes; the launcher interprets it with roslaunch semantics (args,
 substitutions, ``<rosparam command="load" ns=...>``, remaps, includes, groups).
+A file whose items depend on an argument (one group per robot) has ``ARGS`` and
+``generate(args)`` instead, called with the resolved arguments.
 """
 
 from __future__ import annotations

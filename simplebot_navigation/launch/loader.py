@@ -8,7 +8,7 @@ import os
 import re
 import runpy
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Callable
 
 from simplebot_navigation import paths
 from simplebot_navigation.launch.description import Arg, Group, Include, Node, Param, RosParam
@@ -152,15 +152,36 @@ def _typed(value: Any) -> Any:
     return value
 
 
-def _load_module(path: str) -> tuple[list, list[Arg]]:
+def _load_module(path: str) -> tuple[Callable[[dict[str, str]], list], list[Arg]]:
+    """(the file's items for given resolved args, its Args).
+
+    A launch file is either a ``LAUNCH`` list, or ``ARGS`` (a list of Arg) and ``generate(args)``, which
+    returns the items from the resolved arguments: the way to repeat items (one robot per index, say)
+    that roslaunch's static XML has no construct for.
+    """
     try:
         module = runpy.run_path(path)
     except Exception as err:  # a launch file is user code: report it, do not crash with its traceback
         raise LaunchError(f"{path}: cannot be read: {type(err).__name__}: {err}") from None
-    if "LAUNCH" not in module:
-        raise LaunchError(f"{path}: defines no LAUNCH list")
-    items = list(module["LAUNCH"])
-    return items, [i for i in items if isinstance(i, Arg)]
+    if "LAUNCH" in module:
+        items = list(module["LAUNCH"])
+        return (lambda _args: items), [i for i in items if isinstance(i, Arg)]
+    generate, declared = module.get("generate"), module.get("ARGS", [])
+    if not callable(generate):
+        raise LaunchError(f"{path}: defines neither a LAUNCH list nor ARGS and generate(args)")
+    if not isinstance(declared, list) or not all(isinstance(a, Arg) for a in declared):
+        raise LaunchError(f"{path}: ARGS must be a list of Arg")
+
+    def items(args: dict[str, str]) -> list:
+        try:
+            generated = generate(dict(args))
+        except Exception as err:  # noqa: BLE001 - user code; a ValueError is the file's own message
+            raise LaunchError(f"{path}: generate(): {type(err).__name__}: {err}") from None
+        if not isinstance(generated, list) or any(isinstance(i, Arg) for i in generated):
+            raise LaunchError(f"{path}: generate() must return a list of launch items without Arg "
+                              "(arguments go in ARGS)")
+        return generated
+    return items, list(declared)
 
 
 def declared_args(path: str) -> list[Arg]:
@@ -196,7 +217,7 @@ def load_launch(path: str, given_args: dict[str, str] | None = None) -> LaunchCo
                      remaps: list[tuple[str, str]]) -> tuple[list[Arg], dict[str, str]]:
         items, declared = _load_module(file)
         ctx = _Context(file, _resolve_args(file, declared, given), ns, remaps)
-        process_items(items, ctx)
+        process_items(items(ctx.args), ctx)
         return declared, ctx.args
 
     def process_items(items: list, ctx: _Context) -> None:

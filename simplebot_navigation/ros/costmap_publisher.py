@@ -25,9 +25,9 @@ class CostmapPublisher:
         self._pending_window: tuple[int, int, int, int] | None = None
         self._sent_geometry = None
         self._new_subscriber = False
-        self.costmap_pub = create_publisher(node, OccupancyGrid, f"/{owner.name}/costmap", LATCHED,
+        self.costmap_pub = create_publisher(node, OccupancyGrid, f"{owner.name}/costmap", LATCHED,
                                             matched=self._on_costmap_matched, callback_group=owner.callback_group)
-        self.updates_pub = create_publisher(node, OccupancyGridUpdate, f"/{owner.name}/costmap_updates",
+        self.updates_pub = create_publisher(node, OccupancyGridUpdate, f"{owner.name}/costmap_updates",
                                             UPDATES_QOS)
         self.footprint_pub = create_publisher(node, PolygonStamped, footprint_topic, 1)
 

@@ -145,8 +145,8 @@ class Costmap2DROS:
             timer.reset()          # the next update one new period from now
 
     def _topic(self, topic: str) -> str:
-        """A costmap-private topic: relative names live under /<name>/ (docs/design.md §5)."""
-        return topic if topic.startswith("/") else f"/{self.name}/{topic}"
+        """A costmap-private topic: relative names live under <namespace>/<name>/ (docs/design.md §5)."""
+        return topic if topic.startswith("/") else f"{self.name}/{topic}"
 
     def now_s(self) -> float:
         return self.node.get_clock().now().nanoseconds * 1e-9

@@ -15,7 +15,6 @@ The node is the clock, so it never follows /clock itself (use_sim_time is turned
 
 from __future__ import annotations
 
-import array
 import io
 import math
 import sys
@@ -24,40 +23,30 @@ import time
 
 import numpy as np
 import yourdfpy
-from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
-from geometry_msgs.msg import TransformStamped, Twist
-from nav_msgs.msg import Odometry
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from rosgraph_msgs.msg import Clock as ClockMsg
-from sensor_msgs.msg import LaserScan
-from std_msgs.msg import String
 
 from simplebot_description import robot_description
-from simplebot_navigation.geometry import (axis_angle_to_quaternion, compose, rpy_to_quaternion,
-                                           yaw_to_quaternion)
 from simplebot_navigation.ros.node_main import run_node
 from simplebot_navigation.ros.params import declare_checked
 from simplebot_navigation.ros.simulator_faults import SimulatorFaults
+from simplebot_navigation.ros.simulator_robot import SimulatedRobotIO, set_stamp
 from simplebot_navigation.ros.tf import StaticTransformBroadcaster, TransformBroadcaster
 from simplebot_navigation.sim.simulator import SimplebotSim
+from simplebot_navigation.sim.starts import robot_starts
 from simplebot_navigation.sim.world_loader import load_world
 
-LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 # Wall-clock ticks come once per physics step but no faster than this: a tick costs about as much
 # as a physics step, so at high real-time factors each tick steps several times.
 MIN_WALL_TICK_S = 0.005
 MAX_LAG_S = 0.5
 # Launch files and `-p name:=2` give whole numbers as integers; the numeric parameters take both.
+# ``namespaces``: one robot per space-separated name ("robot1 robot2"); empty: one robot, no namespace.
+# ``starts``: "x,y,yaw;x,y,yaw;..." for them; empty: the world's starts (one robot: its start).
 PARAMETERS = {"world": "lab", "robot": "box", "radius": 0.3, "real_time_factor": 1.0, "physics_rate": 100.0,
-              "odom_rate": 50.0, "seed": 0, "range_noise_std": 0.0}
-
-
-def _set_stamp(stamp, t: float) -> None:
-    """Write t seconds into a builtin_interfaces/Time in place (messages are reused every step)."""
-    stamp.sec, stamp.nanosec = divmod(round(t * 1e9), 1_000_000_000)
+              "odom_rate": 50.0, "seed": 0, "range_noise_std": 0.0, "namespaces": "", "starts": ""}
 
 
 def _quaternion_from_matrix(m: np.ndarray) -> tuple[float, float, float, float]:
@@ -66,27 +55,6 @@ def _quaternion_from_matrix(m: np.ndarray) -> tuple[float, float, float, float]:
     y = math.copysign(math.sqrt(max(0.0, 1.0 - m[0, 0] + m[1, 1] - m[2, 2])) / 2.0, m[0, 2] - m[2, 0])
     z = math.copysign(math.sqrt(max(0.0, 1.0 - m[0, 0] - m[1, 1] + m[2, 2])) / 2.0, m[1, 0] - m[0, 1])
     return float(x), float(y), float(z), float(w)
-
-
-def _transform(parent: str, child: str, xyz=(0.0, 0.0, 0.0), quat=(0.0, 0.0, 0.0, 1.0)) -> TransformStamped:
-    tf = TransformStamped()
-    tf.header.frame_id = parent
-    tf.child_frame_id = child
-    _set_transform(tf, (*xyz, *quat))
-    return tf
-
-
-def _set_transform(tf: TransformStamped, value) -> None:
-    """value: (x, y, z, qx, qy, qz, qw)."""
-    t, r = tf.transform.translation, tf.transform.rotation
-    t.x, t.y, t.z, r.x, r.y, r.z, r.w = (float(v) for v in value)
-
-
-def _odometry(source) -> Odometry:
-    msg = Odometry()
-    msg.header.frame_id = source.frame_id
-    msg.child_frame_id = source.child_frame_id
-    return msg
 
 
 class SimulatorNode(Node):
@@ -107,37 +75,25 @@ class SimulatorNode(Node):
             self.world = load_world(p["world"], robot_radius=self.description.inscribed_radius)
         except (ValueError, FileNotFoundError) as err:
             raise ValueError(f"parameter 'world': {err}") from err
+        namespaces = p["namespaces"].split() or [""]
+        try:
+            starts = robot_starts(self.world, [ns or "simplebot" for ns in namespaces], p["starts"],
+                                  self.description)
+        except ValueError as err:
+            raise ValueError(f"parameter 'starts': {err}") from err
         self.sim = SimplebotSim(self.world, self.description, physics_rate=p["physics_rate"], seed=p["seed"],
-                                range_noise_std=p["range_noise_std"])
+                                range_noise_std=p["range_noise_std"], starts=starts)
         self.rtf = p["real_time_factor"]
         self._odom_every = max(1, round(p["physics_rate"] / p["odom_rate"]))
 
         self.clock_pub = self.create_publisher(ClockMsg, "/clock", 10)
-        self.odom_pub = self.create_publisher(Odometry, "/simplebot_controller/odom", 10)
-        self.truth_pub = self.create_publisher(Odometry, "/simplebot/ground_truth", 10)
-        self.collision_pub = self.create_publisher(DiagnosticStatus, "/simplebot/collisions", LATCHED)
-        self.scan_pubs = {frame: self.create_publisher(LaserScan, "/" + scan.topic.lstrip("/"),
-                                                       qos_profile_sensor_data)
-                          for frame, scan in self.description.scans.items()}
-        self.faults = SimulatorFaults(self, self.scan_pubs)
+        wheel_joints = self._wheel_geometry()
+        self.robots = [SimulatedRobotIO(self, self.sim, i, ns, wheel_joints) for i, ns in enumerate(namespaces)]
+        self.faults = SimulatorFaults(self, self.description.scans)
         self.tf_broadcaster = TransformBroadcaster(self)
-        self.create_publisher(String, "/robot_description", LATCHED).publish(String(data=self.description.urdf))
-        StaticTransformBroadcaster(self).send_transform([
-            _transform(j.parent, j.child, j.xyz, rpy_to_quaternion(j.rpy)) for j in self.description.fixed_joints])
-        self.create_subscription(Twist, "/simplebot_controller/cmd_vel", self._on_cmd_vel, 10)
-
-        # Messages are built once and refilled: constructing them costs more than a physics step.
+        StaticTransformBroadcaster(self).send_transform([tf for robot in self.robots
+                                                         for tf in robot.static_transforms()])
         self._clock_msg = ClockMsg()
-        odom, truth = self.sim.odometry(), self.sim.ground_truth()
-        self._odom_msgs = [(self.odom_pub, _odometry(odom)), (self.truth_pub, _odometry(truth))]
-        self._odom_tf = _transform(odom.frame_id, odom.child_frame_id)
-        self._wheel_joints = self._wheel_geometry()
-        self._wheel_tfs = {name: _transform(parent, child)
-                           for name, (parent, child, _, _) in self._wheel_joints.items()}
-        self._scan_msgs = {frame: LaserScan() for frame in self.scan_pubs}
-
-        self._reported_collisions = -1
-        self._publish_collisions()
         self._steps = 0
         self._stepper: threading.Thread | None = None
         self._stop = threading.Event()
@@ -147,10 +103,10 @@ class SimulatorNode(Node):
             # The stepping thread starts with the first executor round: time until spinning starts is not lag.
             self._start_timer = self.create_timer(0.0, self._start_stepping,
                                                   clock=Clock(clock_type=ClockType.STEADY_TIME))
-        start = self.world.start
+        robots = ", ".join(f"{'/' + ns + ' ' if ns else ''}at ({start.x:.2f}, {start.y:.2f}, yaw {start.yaw:.2f})"
+                           for ns, start in zip(namespaces, starts))
         self.get_logger().info(
-            f"world '{self.world.name}', {self.description.body} robot at ({start.x:.2f}, {start.y:.2f}, "
-            f"yaw {start.yaw:.2f}), physics {p['physics_rate']:g} Hz, "
+            f"world '{self.world.name}', {self.description.body} robot {robots}, physics {p['physics_rate']:g} Hz, "
             + (f"real-time factor {self.rtf:g}" if self.rtf > 0 else "lockstep (stepped by its driver)"))
 
     def _checked_parameters(self) -> dict:
@@ -201,76 +157,19 @@ class SimulatorNode(Node):
     def _step(self) -> None:
         self.sim.step()
         self._steps += 1
-        now = self.sim.sim_time
-        _set_stamp(self._clock_msg.clock, now)
+        set_stamp(self._clock_msg.clock, self.sim.sim_time)
         self.clock_pub.publish(self._clock_msg)
-        if self._steps % self._odom_every == 0:
-            self._publish_odometry()
-        for scan in self.sim.due_scans():
-            if not self.faults.drops_scan(scan.frame):
-                self.scan_pubs[scan.frame].publish(self._scan_msg(scan))
-        if self.sim.collisions().count != self._reported_collisions:
-            self._publish_collisions()
-
-    # -- publishing -----------------------------------------------------------------------------
-    def _publish_odometry(self) -> None:
-        stamp = self._clock_msg.clock
-        odom = self.sim.odometry()
-        odometry_dropout = self.faults.odometry_dropout
-        for source, (pub, msg) in zip((odom, self.sim.ground_truth()), self._odom_msgs):
-            if odometry_dropout and pub is self.odom_pub:
-                continue
-            msg.header.stamp = stamp
-            pose, twist = msg.pose.pose, msg.twist.twist
-            pose.position.x, pose.position.y = source.x, source.y
-            _, _, pose.orientation.z, pose.orientation.w = yaw_to_quaternion(source.yaw)
-            twist.linear.x, twist.linear.y, twist.angular.z = source.vx, source.vy, source.wz
-            pub.publish(msg)
-        self._odom_tf.header.stamp = stamp
-        _set_transform(self._odom_tf, (odom.x, odom.y, 0.0, *yaw_to_quaternion(odom.yaw)))
-        transforms = [] if odometry_dropout else [self._odom_tf]
-        joints = self.sim.joint_states()
-        for name, angle in zip(joints.names, joints.positions):
-            _, _, origin, axis = self._wheel_joints[name]
-            tf = self._wheel_tfs[name]
-            tf.header.stamp = stamp
-            _set_transform(tf, compose(origin, (0.0, 0.0, 0.0, *axis_angle_to_quaternion(axis, angle))))
-            transforms.append(tf)
-        due = self.faults.transforms_due(self.sim.sim_time, transforms)
-        if due:
-            self.tf_broadcaster.send_transform(due)
-
-    def _scan_msg(self, scan) -> LaserScan:
-        msg = self._scan_msgs[scan.frame]
-        _set_stamp(msg.header.stamp, scan.stamp)
-        msg.header.frame_id = scan.frame
-        msg.angle_min, msg.angle_max, msg.angle_increment = scan.angle_min, scan.angle_max, scan.angle_increment
-        msg.time_increment, msg.scan_time = scan.time_increment, scan.scan_time
-        msg.range_min, msg.range_max = scan.range_min, scan.range_max
-        ranges = array.array("f")
-        ranges.frombytes(scan.ranges.astype(np.float32, copy=False).tobytes())
-        msg.ranges = ranges
-        return msg
-
-    def _publish_collisions(self) -> None:
-        report = self.sim.collisions()
-        self._reported_collisions = report.count
-        status = DiagnosticStatus(name="simplebot/collisions", hardware_id="simplebot",
-                                  level=DiagnosticStatus.WARN if report.count else DiagnosticStatus.OK,
-                                  message=f"{report.count} collision(s)")
-        values = {"count": report.count, "in_contact": report.in_contact, "last_obstacle": report.last_obstacle,
-                  "last_stamp": report.last_stamp}
-        if report.last_point is not None:
-            values.update(zip(("last_x", "last_y", "last_z"), report.last_point))
-        status.values = [KeyValue(key=k, value="" if v is None else str(v)) for k, v in values.items()]
-        self.collision_pub.publish(status)
-
-    # -- input ----------------------------------------------------------------------------------
-    def _on_cmd_vel(self, msg: Twist) -> None:
-        try:
-            self.sim.set_cmd_vel(msg.linear.x, msg.angular.z)
-        except ValueError as err:
-            self.get_logger().warn(f"/simplebot_controller/cmd_vel: {err}", throttle_duration_sec=2.0)
+        odometry_due = self._steps % self._odom_every == 0
+        transforms = []
+        for robot in self.robots:
+            if odometry_due:
+                transforms += robot.publish_odometry(self._clock_msg.clock, self.faults.odometry_dropout)
+            robot.publish_scans(self.faults.drops_scan)
+            robot.publish_collisions_if_new()
+        if odometry_due:
+            due = self.faults.transforms_due(self.sim.sim_time, transforms)
+            if due:
+                self.tf_broadcaster.send_transform(due)
 
     def _wheel_geometry(self) -> dict:
         """joint -> (parent, child, origin as (x, y, z, qx, qy, qz, qw), unit axis) of the wheel joints."""

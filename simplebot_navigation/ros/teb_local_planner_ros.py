@@ -48,7 +48,7 @@ class TebLocalPlannerROS:
         declare_defaults(node, {f.name: getattr(self.config, f.name) for f in dataclasses.fields(self.config)
                                 if f.name != "warnings"}, self.name, specs=fields_of(TebConfig))
         self.frame = costmap_ros.global_frame
-        base = f"/{node.get_name()}/{self.name}"
+        base = f"~/{self.name}"
         self.local_plan_pub = create_publisher(node, Path, f"{base}/local_plan", 1)
         self.global_plan_pub = create_publisher(node, Path, f"{base}/global_plan", 1)
         self.poses_pub = create_publisher(node, PoseArray, f"{base}/teb_poses", 1)

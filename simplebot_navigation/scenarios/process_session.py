@@ -43,16 +43,18 @@ LAUNCH = [
 class RemoteSession(_Session):
     """A client node for a stack started elsewhere: by the launcher, in another shell, or on another host
     on the same ROS domain (README, "Two hosts"). Goals and poses are in the world frame of ``world``;
-    ``launch`` is the configuration move_base was started from, for the goal tolerances.
+    ``launch`` is the configuration move_base was started from, for the goal tolerances. With
+    ``namespace`` the client drives the robot under it.
     """
 
-    def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, launch: LaunchConfig | None = None):
+    def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, launch: LaunchConfig | None = None,
+                 namespace: str = ""):
         self.description = robot_description(robot, radius)
         self.world = load_world(world, robot_radius=self.description.inscribed_radius)
         self.launch = launch or load_launch("move_base", {"robot": robot})
         self.context = rclpy.Context()
         rclpy.init(context=self.context)
-        self.client = ScenarioClient(self.context)
+        self.client = ScenarioClient(self.context, namespace)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.client)
 
@@ -86,18 +88,22 @@ class ProcessSession(RemoteSession):
 
     Ground truth, collisions and status come over topics; move_base's counters (replans,
     recoveries, cycle times) are not visible from outside and stay empty. The launcher's output
-    goes to ``log_file``.
+    goes to ``log_file``. With ``namespace`` the robot runs under it (the launch file's ``namespace``
+    argument) and the client drives it there.
     """
 
     def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, rtf: float = 1.0,
                  seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation", tight: bool = False,
-                 respawn: bool = False, overrides: tuple[str, ...] = (), foxglove_port: int | None = None):
+                 respawn: bool = False, overrides: tuple[str, ...] = (), foxglove_port: int | None = None,
+                 namespace: str = ""):
         if not (math.isfinite(rtf) and rtf > 0):
             raise ValueError(f"separate processes need rtf > 0 (lockstep is single-process), got {rtf!r}")
         args = launch_args(world, robot, radius, rtf, tight, respawn, foxglove_port)
+        if namespace:  # the launch file's namespace argument: the robot's topics and frames under it
+            args["namespace"] = namespace
         launch = load_launch(launch_file, args)
         apply_set(launch, list(overrides))     # checked here, and read by controller_param
-        super().__init__(world, robot, radius, launch)
+        super().__init__(world, robot, radius, launch, namespace)
         self.run_dir = run_dir = tempfile.mkdtemp(prefix="simplebot_scenario_")
         wrapper = os.path.join(run_dir, "scenario_launch.py")
         with open(wrapper, "w", encoding="utf-8") as handle:

@@ -74,20 +74,24 @@ class GoalRun:
 
 
 class ScenarioClient(Node):
-    """The user's side: goals through the action, ground truth, collisions and status from topics."""
+    """The user's side: goals through the action, ground truth, collisions and status from topics.
 
-    def __init__(self, context):
-        super().__init__("scenario_runner", context=context,
+    Its names are relative: in ``namespace`` (robot1, say) it drives that robot of a multi-robot run.
+    """
+
+    def __init__(self, context, namespace: str = ""):
+        super().__init__("scenario_runner", namespace=namespace, context=context,
                          parameter_overrides=[Parameter("use_sim_time", value=True)])
+        self.frame_prefix = f"{namespace}/" if namespace else ""  # the robot's frames, as the simulator names them
         self.action = ActionClient(self, MoveBase, "move_base", goal_service_qos_profile=ACTION_SERVICE_QOS,
                                    result_service_qos_profile=ACTION_SERVICE_QOS,
                                    cancel_service_qos_profile=ACTION_SERVICE_QOS)
         self.truth: list[tuple[float, float, float, float]] = []  # (t, x, y, yaw) in the world frame
         self.collisions = 0
         self.status: GoalStatusArray | None = None
-        self.create_subscription(Odometry, "/simplebot/ground_truth", self._on_truth, 100)
-        self.create_subscription(DiagnosticStatus, "/simplebot/collisions", self._on_collisions, LATCHED)
-        self.create_subscription(GoalStatusArray, "/move_base/status", self._on_status, 10)
+        self.create_subscription(Odometry, "simplebot/ground_truth", self._on_truth, 100)
+        self.create_subscription(DiagnosticStatus, "simplebot/collisions", self._on_collisions, LATCHED)
+        self.create_subscription(GoalStatusArray, "move_base/status", self._on_status, 10)
 
     def _on_truth(self, msg: Odometry) -> None:
         p, q = msg.pose.pose.position, msg.pose.pose.orientation
@@ -104,7 +108,7 @@ class ScenarioClient(Node):
         """From now on, (monotonic wall time, v, omega) of every cmd_vel the robot is sent: when it was told what,
         for tests and benches that check how fast the stack stops it."""
         commands: list[tuple[float, float, float]] = []
-        self.create_subscription(Twist, "/simplebot_controller/cmd_vel",
+        self.create_subscription(Twist, "simplebot_controller/cmd_vel",
                                  lambda msg: commands.append((time.monotonic(), msg.linear.x, msg.angular.z)), 50)
         return commands
 
@@ -199,7 +203,7 @@ class _Session(abc.ABC):
         x, y, yaw = self.to_odom(goal.x, goal.y, goal.yaw)
         msg = MoveBase.Goal()
         pose: PoseStamped = msg.target_pose
-        pose.header.frame_id = "odom"
+        pose.header.frame_id = self.client.frame_prefix + "odom"
         pose.header.stamp = self.client.get_clock().now().to_msg()
         pose.pose.position.x, pose.pose.position.y = x, y
         pose.pose.orientation = quaternion_msg(yaw)

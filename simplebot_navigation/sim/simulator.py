@@ -1,6 +1,7 @@
-"""The pybullet simplebot: physics, diff drive, wheel odometry, lidars and contacts, without ROS.
+"""The pybullet simplebots: physics, diff drive, wheel odometry, lidars and contacts, without ROS.
 
-One instance owns one pybullet DIRECT client, so several simulators can live in one process. Time
+One instance owns one pybullet DIRECT client, so several simulators can live in one process, and one
+or more robots (sim/robot.py), which see and bump into each other. Time
 advances only through step()/step_until(); with the same world, commands and seed every run is
 identical.
 
@@ -13,106 +14,72 @@ customary 240 Hz, though not 2.4x: the lidar rays dominate the cost (bench/sim_s
 Obstacles exist twice: as primitives (boxes, cylinders) for contacts, and merged into one static
 triangle mesh that only the lidar rays see (collision filter groups keep the two apart). Ray casts
 against a BVH mesh cost half of those against convex primitives, and the robot itself is not in the
-ray group, so a scan can never see its own body.
+ray group, so a scan can never see its own body. Other robots are seen through their hulls, each in a
+filter group of its own that the robot's own casts leave out of their mask.
 """
 
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 import weakref
-from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
 import pybullet as pb
 
 from simplebot_description import RobotDescription
 
-from .diff_drive import DiffDriveParams, OdomNoise, WheelOdometry, ramp, wheel_targets
-from .lidar import LaserScanData, LidarRig
-from .world import Box, Cylinder, World
+from .diff_drive import DiffDriveParams, OdomNoise
+from .lidar import LaserScanData
+from .robot import CollisionGroups, CollisionReport, JointStates, Odometry, SimRobot
+from .world import Box, Cylinder, Pose2D, World
 
 # Collision filter groups. Bullet lets a ray hit an object only if the object's mask has bit 1
-# (the ray's own group), so only the ray mesh carries that bit.
+# (the ray's own group), so only the ray mesh and the robots' hulls carry that bit.
 _RAY = 1
 _ROBOT = 2
 _FLOOR = 4
 _OBSTACLE = 8
 _RAY_MESH = 16
+_FIRST_HULL = 32
+#: robots in one world: each hull takes a filter group bit of Bullet's 32
+MAX_ROBOTS = 16
 _CYLINDER_SIDES = 64
-# Contacts Bullet keeps with a positive gap (up to its breaking threshold) are near misses.
-_CONTACT_DISTANCE = 1e-4
-
-
-@dataclass(frozen=True)
-class Odometry:
-    """nav_msgs/Odometry content: pose of child_frame in frame, twist in child_frame."""
-
-    stamp: float
-    frame_id: str
-    child_frame_id: str
-    x: float
-    y: float
-    yaw: float
-    vx: float
-    vy: float
-    wz: float
-
-
-@dataclass(frozen=True)
-class CollisionReport:
-    """Contacts of the robot with anything but the floor.
-
-    ``count`` counts collisions (a contact with an obstacle that was not touched the step before);
-    ``last_*`` describe the most recent step with a contact.
-    """
-
-    count: int
-    in_contact: bool
-    last_point: tuple[float, float, float] | None
-    last_obstacle: str | None
-    last_stamp: float | None
-
-
-@dataclass(frozen=True)
-class JointStates:
-    names: tuple[str, ...]
-    positions: tuple[float, ...]
-    velocities: tuple[float, ...]
 
 
 class SimplebotSim:
-    """One simulated simplebot in one world.
+    """Simulated simplebots in one world.
 
     The ROS node calls set_cmd_vel() when a Twist arrives, step_until() to advance the clock, and
-    publishes odometry(), ground_truth(), due_scans() and collisions().
+    publishes odometry(), ground_truth(), due_scans() and collisions(); each takes the robot's index
+    (0, the only one unless ``starts`` lists more poses than the world's start).
 
     physics_rate must be a multiple of the lidar rate (10 Hz). ``seed`` feeds the lidar range noise
     (``range_noise_std``, metres, off by default) and the odometry errors (``odom_noise``, off by
     default). ``ray_threads`` is passed to rayTestBatch (1: the other core stays free for the nodes).
+    A start's ``name`` labels that robot in the other robots' collision reports.
     """
 
     def __init__(self, world: World, description: RobotDescription, *, physics_rate: float = 100.0,
                  seed: int = 0, drive: DiffDriveParams = DiffDriveParams(),
                  range_noise_std: float = 0.0, odom_noise: OdomNoise | None = None,
-                 ray_threads: int = 1):
+                 ray_threads: int = 1, starts: Sequence[Pose2D] | None = None):
         if isinstance(physics_rate, bool) or not isinstance(physics_rate, (int, float)) \
                 or not math.isfinite(physics_rate) or physics_rate <= 0:
             raise ValueError(f"physics_rate must be a positive number of Hz, got {physics_rate!r}")
         if isinstance(seed, bool) or not isinstance(seed, int):
             raise ValueError(f"seed must be an int, got {seed!r}")
+        starts = (world.start,) if starts is None else tuple(starts)
+        if not 1 <= len(starts) <= MAX_ROBOTS:
+            raise ValueError(f"starts: one pose per robot, 1 to {MAX_ROBOTS} robots, got {len(starts)}")
         self.world = world
         self.description = description
         self.physics_rate = float(physics_rate)
         self.dt = 1.0 / self.physics_rate
         self.drive = drive
         self._ray_threads = ray_threads
-        odom_rng, lidar_rng = (np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(2))
-        self._odom = WheelOdometry(description.wheel_separation, description.wheel_radius, odom_noise, odom_rng)
-        self._lidars = LidarRig(description, range_noise_std, lidar_rng)
         self._scan_period_steps = []
-        for sensor in self._lidars.sensors:
+        for sensor in description.scans.values():
             ratio = self.physics_rate / sensor.update_rate
             if abs(ratio - round(ratio)) > 1e-9:
                 raise ValueError(f"physics_rate {physics_rate} Hz must be a multiple of the {sensor.frame} "
@@ -122,16 +89,18 @@ class SimplebotSim:
         self._client = pb.connect(pb.DIRECT)
         self._finalizer = weakref.finalize(self, _disconnect, self._client)
         self._steps = 0
-        # (v, w, received at): one tuple, so a command set from another thread is never half-new.
-        self._cmd: tuple[float, float, float] | None = None
-        self._wheel_cmd = np.zeros(2)
-        self._stopped = np.zeros(2)
-        self._target_of: tuple | None = None  # (command, its wheel targets): computed once per command
-        self._pending_scans: list[LaserScanData] = []
-        self._collision_count = 0
-        self._touching: set[int] = set()
-        self._last_contact: tuple | None = None
         self._build()
+        hulls = [_FIRST_HULL << i for i in range(len(starts))]
+        # The first robot draws its noise from the seed as a lone robot always did.
+        seeds = [np.random.SeedSequence(seed)] + [np.random.SeedSequence([seed, i]) for i in range(1, len(starts))]
+        self.robots = [SimRobot(self._client, description, start,
+                                CollisionGroups(_ROBOT, _FLOOR | _OBSTACLE | _ROBOT, hull), drive=drive,
+                                range_noise_std=range_noise_std, odom_noise=odom_noise, seed=robot_seed)
+                       for start, hull, robot_seed in zip(starts, hulls, seeds)]
+        all_hulls = sum(hulls)
+        self._ray_masks = [_RAY_MESH | (all_hulls & ~hull) for hull in hulls]
+        for i, robot in enumerate(self.robots):
+            self._labels[robot.body] = robot.start.name or f"robots[{i}]"
 
     # -- construction -------------------------------------------------------------------------
 
@@ -145,41 +114,16 @@ class SimplebotSim:
         pb.changeDynamics(self._floor, -1, lateralFriction=1.0, physicsClientId=c)
         pb.setCollisionFilterGroupMask(self._floor, -1, _FLOOR, _ROBOT, physicsClientId=c)
 
-        self._obstacle_labels: dict[int, str] = {}
+        self._labels: dict[int, str] = {}
         for label, shape in self.world.obstacles():
             body = self._create_obstacle(shape)
             pb.setCollisionFilterGroupMask(body, -1, _OBSTACLE, _ROBOT, physicsClientId=c)
-            self._obstacle_labels[body] = f"{label} ({shape.name})" if shape.name else label
+            self._labels[body] = f"{label} ({shape.name})" if shape.name else label
         vertices, indices = _obstacle_mesh(self.world)
         if indices:
             mesh = pb.createCollisionShape(pb.GEOM_MESH, vertices=vertices, indices=indices, physicsClientId=c)
             self._ray_mesh = pb.createMultiBody(0, mesh, physicsClientId=c)
             pb.setCollisionFilterGroupMask(self._ray_mesh, -1, _RAY_MESH, _RAY, physicsClientId=c)
-
-        start = self.world.start
-        with tempfile.NamedTemporaryFile("w", suffix=".urdf", delete=False) as f:
-            f.write(self.description.urdf)
-        try:
-            # Implicit cylinders: the round chassis collides as a true circle, not a polygon.
-            self._robot = pb.loadURDF(f.name, [start.x, start.y, 0.0], pb.getQuaternionFromEuler([0, 0, start.yaw]),
-                                      flags=pb.URDF_USE_INERTIA_FROM_FILE | pb.URDF_USE_IMPLICIT_CYLINDER,
-                                      physicsClientId=c)
-        finally:
-            os.unlink(f.name)
-        joints = {pb.getJointInfo(self._robot, i, physicsClientId=c)[1].decode(): i
-                  for i in range(pb.getNumJoints(self._robot, physicsClientId=c))}
-        self._wheel_names = ("left_wheel_joint", "right_wheel_joint")
-        self._wheels = [joints[name] for name in self._wheel_names]
-        for link in (-1, *joints.values()):
-            # Only the driven wheels grip; casters and chassis slide (casters are ideal ball casters).
-            friction = 1.0 if link in self._wheels else 0.0
-            pb.changeDynamics(self._robot, link, lateralFriction=friction, rollingFriction=0.0,
-                              spinningFriction=0.0, physicsClientId=c)
-            pb.setCollisionFilterGroupMask(self._robot, link, _ROBOT, _FLOOR | _OBSTACLE, physicsClientId=c)
-        self._apply_wheel_cmd()
-        # pybullet reports the base's centre of mass; base_link is offset from it by the inertial origin.
-        info = pb.getDynamicsInfo(self._robot, -1, physicsClientId=c)
-        self._com_to_link = pb.invertTransform(info[3], info[4])
 
     def _create_obstacle(self, shape: Box | Cylinder) -> int:
         c = self._client
@@ -200,121 +144,65 @@ class SimplebotSim:
     def sim_time(self) -> float:
         return self._steps / self.physics_rate
 
-    def set_cmd_vel(self, v: float, w: float, now: float | None = None) -> None:
+    def set_cmd_vel(self, v: float, w: float, now: float | None = None, robot: int = 0) -> None:
         """Command body velocity (m/s, rad/s), received at sim time ``now`` (default: current).
 
         Raises ValueError for NaN/inf; the previous command then stays in force (and times out).
         """
-        if not (math.isfinite(v) and math.isfinite(w)):
-            raise ValueError(f"cmd_vel with non-finite values ignored: linear.x={v}, angular.z={w}")
-        self._cmd = (float(v), float(w), self.sim_time if now is None else float(now))
+        self.robots[robot].set_cmd_vel(v, w, self.sim_time if now is None else now)
 
     def step(self) -> None:
         """Advance one physics step: drive control, physics, odometry, contacts, due scans."""
-        c = self._client
-        target = self._wheel_target()
-        if target is not self._wheel_cmd:
-            wheel_cmd = ramp(self._wheel_cmd, target, self.drive.max_wheel_accel * self.dt)
-            changed = not np.array_equal(wheel_cmd, self._wheel_cmd)
-            # Once the ramp reaches the target, the target itself is kept: the identity test above
-            # then skips the ramp while the wheels hold their speed.
-            self._wheel_cmd = target if np.array_equal(wheel_cmd, target) else wheel_cmd
-            if changed:
-                self._apply_wheel_cmd()
-        pb.stepSimulation(physicsClientId=c)
+        now = self.sim_time
+        for robot in self.robots:
+            robot.before_step(now, self.dt)
+        pb.stepSimulation(physicsClientId=self._client)
         self._steps += 1
-        states = pb.getJointStates(self._robot, self._wheels, physicsClientId=c)
-        self._odom.update((states[0][1], states[1][1]), self.dt)
-        self._check_contacts()
+        now = self.sim_time
+        for robot in self.robots:
+            robot.after_step(now, self.dt, self._labels, self._floor)
         due = [i for i, period in enumerate(self._scan_period_steps) if self._steps % period == 0]
         if due:
             self._cast(due)
-
-    def _wheel_target(self) -> np.ndarray:
-        """Wheel speeds the current command asks for (zero without one, or after its timeout)."""
-        cmd = self._cmd
-        if cmd is None or self.sim_time - cmd[2] > self.drive.cmd_timeout:
-            return self._stopped
-        if self._target_of is None or self._target_of[0] is not cmd:
-            self._target_of = (cmd, wheel_targets(cmd[0], cmd[1], self.description.wheel_separation,
-                                                  self.description.wheel_radius, self.drive.max_wheel_speed))
-        return self._target_of[1]
 
     def step_until(self, t: float) -> None:
         """Step while the next step ends at or before sim time t."""
         while (self._steps + 1) / self.physics_rate <= t + 1e-9:
             self.step()
 
-    def _apply_wheel_cmd(self) -> None:
-        torque = self.drive.max_wheel_torque
-        pb.setJointMotorControlArray(self._robot, self._wheels, pb.VELOCITY_CONTROL,
-                                     targetVelocities=self._wheel_cmd.tolist(), forces=[torque, torque],
-                                     physicsClientId=self._client)
-
-    def _check_contacts(self) -> None:
-        touching = {}
-        for contact in pb.getContactPoints(bodyA=self._robot, physicsClientId=self._client):
-            body, distance = contact[2], contact[8]
-            if body == self._floor or distance > _CONTACT_DISTANCE:
-                continue
-            if body not in touching or distance < touching[body][8]:
-                touching[body] = contact
-        self._collision_count += len(touching.keys() - self._touching)
-        self._touching = set(touching)
-        if touching:
-            deepest = min(touching.values(), key=lambda contact: contact[8])
-            self._last_contact = (tuple(deepest[6]), self._obstacle_labels.get(deepest[2], str(deepest[2])),
-                                  self.sim_time)
-
     def _cast(self, sensors: list[int]) -> None:
-        position, rotation = self._base_link_pose()
-        origins, ends = self._lidars.rays(sensors, position, rotation)
-        results = pb.rayTestBatch(origins, ends, numThreads=self._ray_threads, collisionFilterMask=_RAY_MESH,
-                                  physicsClientId=self._client)
-        ids, _, fractions, _, _ = zip(*results)
-        hit = np.asarray(ids) >= 0
-        self._pending_scans += self._lidars.scans(sensors, np.asarray(fractions), hit, self.sim_time)
-
-    def _base_link_pose(self) -> tuple[np.ndarray, np.ndarray]:
-        com_pos, com_orn = pb.getBasePositionAndOrientation(self._robot, physicsClientId=self._client)
-        pos, orn = pb.multiplyTransforms(com_pos, com_orn, *self._com_to_link)
-        rotation = np.array(pb.getMatrixFromQuaternion(orn)).reshape(3, 3)
-        return np.array(pos), rotation
+        """One batch of rays per robot, against the obstacles and the other robots' hulls."""
+        if len(self.robots) > 1:
+            for robot in self.robots:
+                robot.move_hull()
+        for robot, mask in zip(self.robots, self._ray_masks):
+            origins, ends = robot.lidars.rays(sensors, *robot.base_link_pose())
+            results = pb.rayTestBatch(origins, ends, numThreads=self._ray_threads, collisionFilterMask=mask,
+                                      physicsClientId=self._client)
+            ids, _, fractions, _, _ = zip(*results)
+            hit = np.asarray(ids) >= 0
+            robot.add_scans(robot.lidars.scans(sensors, np.asarray(fractions), hit, self.sim_time))
 
     # -- outputs ------------------------------------------------------------------------------
 
-    def odometry(self) -> Odometry:
-        """Wheel odometry: base_link in the odom frame (the start pose), twist in base_link."""
-        o = self._odom
-        return Odometry(self.sim_time, "odom", self.description.base_frame, o.x, o.y, o.yaw, o.v, 0.0, o.w)
+    def odometry(self, robot: int = 0) -> Odometry:
+        """Wheel odometry: base_link in the odom frame (the robot's start pose), twist in base_link."""
+        return self.robots[robot].odometry(self.sim_time)
 
-    def ground_truth(self) -> Odometry:
+    def ground_truth(self, robot: int = 0) -> Odometry:
         """True base_link pose in the world frame and its twist in base_link."""
-        # Plain floats: numpy's overhead on 3-vectors made this the costliest call a node makes at 50 Hz.
-        c = self._client
-        com, com_orn = pb.getBasePositionAndOrientation(self._robot, physicsClientId=c)
-        (x, y, z), orn = pb.multiplyTransforms(com, com_orn, *self._com_to_link)
-        m = pb.getMatrixFromQuaternion(orn)  # row-major rotation base_link -> world
-        (lx, ly, lz), (ax, ay, az) = pb.getBaseVelocity(self._robot, physicsClientId=c)
-        rx, ry, rz = x - com[0], y - com[1], z - com[2]
-        # Velocity of base_link's origin: the centre of mass's plus omega x r, then into base_link.
-        vx, vy, vz = lx + ay * rz - az * ry, ly + az * rx - ax * rz, lz + ax * ry - ay * rx
-        return Odometry(self.sim_time, "world", self.description.base_frame, x, y, math.atan2(m[3], m[0]),
-                        m[0] * vx + m[3] * vy + m[6] * vz, m[1] * vx + m[4] * vy + m[7] * vz, az)
+        return self.robots[robot].ground_truth(self.sim_time)
 
-    def due_scans(self) -> list[LaserScanData]:
+    def due_scans(self, robot: int = 0) -> list[LaserScanData]:
         """Scans taken since the last call, oldest first."""
-        scans, self._pending_scans = self._pending_scans, []
-        return scans
+        return self.robots[robot].due_scans()
 
-    def collisions(self) -> CollisionReport:
-        point, label, stamp = self._last_contact or (None, None, None)
-        return CollisionReport(self._collision_count, bool(self._touching), point, label, stamp)
+    def collisions(self, robot: int = 0) -> CollisionReport:
+        return self.robots[robot].collisions()
 
-    def joint_states(self) -> JointStates:
+    def joint_states(self, robot: int = 0) -> JointStates:
         """Wheel angles and speeds (for /joint_states and the wheels' transforms)."""
-        states = pb.getJointStates(self._robot, self._wheels, physicsClientId=self._client)
-        return JointStates(self._wheel_names, tuple(s[0] for s in states), tuple(s[1] for s in states))
+        return self.robots[robot].joint_states()
 
     def close(self) -> None:
         self._finalizer()

@@ -8,6 +8,7 @@ World file shape (more top-level keys are allowed and kept in ``World.extra``)::
     cylinders: [{center: [x, y], radius: 0.075, height: 1.0}]
     start: {x: 0.0, y: 0.0, yaw: 0.0}
     goals: [{x: 5.0, y: 2.0, yaw: 0.0, name: kitchen}]
+    starts: [[x, y, yaw], ...]    # optional: where robot1, robot2, ... start when there are several
 
 A wall is the box of its thickness around the segment from -> to and ends exactly at the end points,
 so the gap between two collinear walls is the clear width of the door between them. Every entry may
@@ -89,6 +90,7 @@ class World:
     goals: tuple[Pose2D, ...] = ()
     source: str = "<generated>"
     extra: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
+    starts: tuple[Pose2D, ...] = ()
 
     def obstacles(self) -> Iterator[tuple[str, Box | Cylinder]]:
         """Every solid with the entry label used in messages ("walls[3]"); walls come as boxes."""
@@ -150,6 +152,8 @@ class World:
                                     "height": c.height}, c) for c in self.cylinders]
         data["start"] = {"x": self.start.x, "y": self.start.y, "yaw": self.start.yaw}
         data["goals"] = [named({"x": g.x, "y": g.y, "yaw": g.yaw}, g) for g in self.goals]
+        if self.starts:
+            data["starts"] = [[p.x, p.y, p.yaw] for p in self.starts]
         return data
 
     def _nearest(self, pts: np.ndarray):
@@ -199,14 +203,21 @@ def world_from_dict(data: Any, source: str = "<generated>", default_name: str = 
         for w, e in v.entries(data, "cylinders", required=("center", "radius"), optional=("height",)))
     start = v.pose(data["start"], "start") if "start" in data else Pose2D(0.0, 0.0, 0.0)
     goals = tuple(v.pose(e, w) for w, e in v.entries(data, "goals", required=("x", "y"), optional=("yaw",)))
-    known = {"name", "walls", "boxes", "cylinders", "start", "goals"}
+    starts = v.start_list(data.get("starts") or [])
+    known = {"name", "walls", "boxes", "cylinders", "start", "goals", "starts"}
     extra = MappingProxyType({k: val for k, val in data.items() if k not in known})
-    return World(name, walls, boxes, cylinders, start, goals, source, extra)
+    return World(name, walls, boxes, cylinders, start, goals, source, extra, starts)
 
 
 def check_clearance(world: World, robot_radius: float) -> None:
-    """The start and every goal must be at least robot_radius away from all obstacles."""
-    poses = [("start", world.start)] + [(f"goals[{i}]", g) for i, g in enumerate(world.goals)]
+    """The start, the robots' starts and every goal must be at least robot_radius away from all obstacles."""
+    poses = [("start", world.start)] + [(f"starts[{i}]", p) for i, p in enumerate(world.starts)] \
+        + [(f"goals[{i}]", g) for i, g in enumerate(world.goals)]
+    check_poses_clear(world, poses, robot_radius)
+
+
+def check_poses_clear(world: World, poses: list[tuple[str, Pose2D]], robot_radius: float) -> None:
+    """Each (label, pose) at least robot_radius away from all obstacles; the error names the label."""
     for where, pose in poses:
         dist, label = world.nearest_obstacle(pose.x, pose.y)
         if dist == 0.0:
@@ -297,6 +308,18 @@ class _Validator:
         if name is not None and not isinstance(name, str):
             self.fail(f"{where}.name", f"expected a string, got {type(name).__name__} {name!r}")
         return name
+
+    def start_list(self, items: Any) -> tuple[Pose2D, ...]:
+        """``starts: [[x, y, yaw], ...]``; yaw may be left out."""
+        if not isinstance(items, list):
+            self.fail("starts", f"expected a list of [x, y, yaw], got {type(items).__name__}")
+        poses = []
+        for i, item in enumerate(items):
+            if not isinstance(item, list) or len(item) not in (2, 3):
+                self.fail(f"starts[{i}]", f"expected [x, y, yaw], got {item!r}")
+            pose = dict(zip(("x", "y", "yaw"), item))
+            poses.append(Pose2D(*(self.number(pose, f"starts[{i}]", key, 0.0) for key in ("x", "y", "yaw"))))
+        return tuple(poses)
 
     def pose(self, entry: Any, where: str) -> Pose2D:
         if not isinstance(entry, dict):

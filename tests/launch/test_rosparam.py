@@ -37,8 +37,10 @@ def test_move_base_gets_ros2_overrides(lab):
     assert params["global_costmap.obstacles.plugin"] == "costmap_2d::ObstacleLayer"
     assert params["local_costmap.inflation_layer.plugin"] == "costmap_2d::InflationLayer"
     assert params["use_sim_time"] is True
-    assert ("cmd_vel", "/simplebot_controller/cmd_vel") in move_base.remaps
-    assert ("/odom", "/simplebot_controller/odom") in move_base.remaps
+    # Relative targets: at the root they are /simplebot_controller/..., in a robot's namespace under it.
+    assert move_base.namespace == "/"
+    assert ("cmd_vel", "simplebot_controller/cmd_vel") in move_base.remaps
+    assert ("/odom", "simplebot_controller/odom") in move_base.remaps
 
 
 def test_ros2_overrides_round_trip_to_the_ros1_tree(lab):

@@ -151,7 +151,8 @@ def test_a_command_sent_by_a_timer_reaches_the_simulation_in_the_same_step(conte
     sim, wanderer = simulator(context), Wanderer(context)
     received = []
     set_cmd_vel = sim.sim.set_cmd_vel
-    sim.sim.set_cmd_vel = lambda v, w, now=None: (received.append(sim.sim.sim_time), set_cmd_vel(v, w, now))
+    sim.sim.set_cmd_vel = lambda v, w, now=None, robot=0: (received.append(sim.sim.sim_time),
+                                                           set_cmd_vel(v, w, now, robot))
     driver = LockstepDriver(sim, [wanderer])
     driver.run_until(0.5)
     # The first scan comes at 0.1 s; from then on every 0.05 s tick commands at its own sim time.

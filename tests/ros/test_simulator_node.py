@@ -81,9 +81,9 @@ class Lockstep:
         self.commands = []
         set_cmd_vel = self.sim.sim.set_cmd_vel
 
-        def spy(v, w, now=None):
+        def spy(v, w, now=None, robot=0):
             self.commands.append((v, w))
-            return set_cmd_vel(v, w, now)
+            return set_cmd_vel(v, w, now, robot)
 
         self.sim.sim.set_cmd_vel = spy
         self.pump(lambda: self.probe.collisions and self.sim.count_subscribers("/front_laser/front_scan") >= 1

@@ -54,7 +54,8 @@ def recording(context, corridor, tmp_path_factory):
             assert time.monotonic() < deadline, f"timed out waiting for {what}"
             executor.spin_once(timeout_sec=0.01)
 
-    publishers = [sim.clock_pub, sim.odom_pub, sim.truth_pub, sim.tf_broadcaster._pub, *sim.scan_pubs.values()]
+    robot = sim.robots[0]
+    publishers = [sim.clock_pub, robot.odom_pub, robot.truth_pub, sim.tf_broadcaster._pub, *robot.scan_pubs.values()]
 
     def subscribed():
         recorder.discover()

@@ -139,7 +139,7 @@ def test_a_taken_port_is_named(scenario, context):
 
 
 def test_topics_are_taken_only_while_a_page_is_open(scenario, monkeypatch):
-    viewer, scans = scenario.viewer, scenario.sim.scan_pubs["front_laser_link"]
+    viewer, scans = scenario.viewer, scenario.sim.robots[0].scan_pubs["front_laser_link"]
     get(viewer.url + "frame?after=-1")
     scenario.wait_for(lambda: viewer.watched and scans.get_subscription_count() == 1, what="the viewer to subscribe")
     monkeypatch.setattr("simplebot_navigation.viewer.node.PAGE_GONE_S", 0.5)

@@ -1,0 +1,42 @@
+"""Several simplebots in one world: one simulator with robots robot1 .. robot<N>, and a move_base per
+robot in its namespace (/robot1/move_base, /robot1/move_base_simple/goal, ...), with frames robot1/odom,
+robot1/base_link, ... on the shared /tf. The simulator places each robot's odom frame in ``map`` at
+its start pose, so goals may be given in ``map`` (docs/design.md §5).
+
+    python -m simplebot_navigation.launch multi_navigation robots:=3 [starts:="x,y,yaw;x,y,yaw;..."]
+
+The number of robots is an argument, so the items come from ``generate(args)``.
+"""
+
+from simplebot_navigation.launch.description import Arg, Include
+
+LAUNCH_DIR = "$(find simplebot_navigation)/launch_py"
+
+ARGS = [
+    Arg("robots", default="3", doc="how many robots (robot1 .. robot<N>)"),
+    Arg("world", default="lab",
+        doc="built-in world name (lab, doors, clutter, empty), forest:<seed> or a world/map YAML path"),
+    Arg("starts", default="",
+        doc="x,y,yaw;x,y,yaw;... in the world frame, one per robot (empty: the world file's starts list)"),
+    Arg("robot", default="box", choices=("box", "round"), doc="robot body: the lab's 0.9 x 0.6 m box, or round"),
+    Arg("radius", default="0.3", doc="radius of the round body in metres"),
+    Arg("rtf", default="1.0", doc="real-time factor of the simulation"),
+    Arg("tight", default="false", choices=("true", "false"),
+        doc="the narrow-door parameter set (config/tight/) over the lab's files"),
+    Arg("respawn", default="true", choices=("true", "false"),
+        doc="restart the simulator and each move_base when they exit (roslaunch's respawn)"),
+]
+
+
+def generate(args: dict[str, str]) -> list:
+    if not args["robots"].isdigit() or int(args["robots"]) < 1:
+        raise ValueError(f"robots:={args['robots']!r} must be a whole number >= 1")
+    namespaces = [f"robot{i}" for i in range(1, int(args["robots"]) + 1)]
+    return [
+        Include(file=f"{LAUNCH_DIR}/simulator.py", args={
+            "world": "$(arg world)", "robot": "$(arg robot)", "radius": "$(arg radius)", "rtf": "$(arg rtf)",
+            "respawn": "$(arg respawn)", "namespaces": " ".join(namespaces), "starts": "$(arg starts)"}),
+        *(Include(file=f"{LAUNCH_DIR}/move_base.py", args={
+            "robot": "$(arg robot)", "tight": "$(arg tight)", "respawn": "$(arg respawn)", "namespace": namespace})
+          for namespace in namespaces),
+    ]
