@@ -39,7 +39,8 @@ def two_robots(context):
             assert time.monotonic() < deadline, "timed out"
             executor.spin_once(timeout_sec=0.01)
 
-    pump(lambda: seen["static"] and sim.count_subscribers("/robot1/front_laser/front_scan") >= 1
+    # /tf_static may also carry what simulators of earlier tests latched: wait for this one's
+    pump(lambda: any(t.child_frame_id == "robot2/odom" for t in seen["static"]) and sim.count_subscribers("/robot1/front_laser/front_scan") >= 1
          and cmd_vel.get_subscription_count() >= 1)
     yield sim, seen, cmd_vel, pump
     executor.shutdown()
