@@ -24,12 +24,11 @@ import time
 import numpy as np
 import yourdfpy
 from rclpy.clock import Clock, ClockType
-from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock as ClockMsg
 
 from simplebot_description import robot_description
-from simplebot_navigation.ros.node_main import run_node
+from simplebot_navigation.ros.node_main import SetUpNode, run_node
 from simplebot_navigation.ros.params import declare_checked
 from simplebot_navigation.ros.simulator_faults import SimulatorFaults
 from simplebot_navigation.ros.simulator_robot import SimulatedRobotIO, set_stamp
@@ -57,16 +56,11 @@ def _quaternion_from_matrix(m: np.ndarray) -> tuple[float, float, float, float]:
     return float(x), float(y), float(z), float(w)
 
 
-class SimulatorNode(Node):
+class SimulatorNode(SetUpNode):
     def __init__(self, **kwargs):
         super().__init__("simulator", **kwargs)
-        try:
-            self._setup()
-        except BaseException:
-            self.destroy_node()
-            raise
 
-    def _setup(self) -> None:
+    def _set_up(self) -> None:
         if self.get_parameter("use_sim_time").value:
             self.set_parameters([Parameter("use_sim_time", value=False)])
         p = self._checked_parameters()
