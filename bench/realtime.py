@@ -60,6 +60,7 @@ from simplebot_navigation.ros.conversions import quaternion_msg, yaw_of  # noqa:
 from simplebot_navigation.scenarios.runner import parse_goals, time_budget  # noqa: E402
 from simplebot_navigation.sim.world import Pose2D, World  # noqa: E402
 from simplebot_navigation.sim.world_loader import load_world  # noqa: E402
+from simplebot_navigation.testing.proc_stats import cpu_seconds, loadavg  # noqa: E402
 
 WORLD = "lab"
 LOOP_STATUS = "move_base: control loop"
@@ -68,7 +69,6 @@ WARM_UP_S = 2.0          # sim seconds before the first goal, as the scenario ru
 START_TIMEOUT_S = 120.0  # wall seconds for the launcher's nodes to come up
 CANCEL_WAIT_S = 5.0
 STOP_GRACE_S = 15.0
-CLOCK_TICK = os.sysconf("SC_CLK_TCK")
 STATUS_NAMES = {GoalStatus.STATUS_SUCCEEDED: "reached", GoalStatus.STATUS_ABORTED: "aborted",
                 GoalStatus.STATUS_CANCELED: "canceled over budget", GoalStatus.STATUS_UNKNOWN: "no result"}
 
@@ -99,13 +99,6 @@ class RunResult:
     error: str = ""
 
 
-def cpu_seconds(pid: int) -> float:
-    """utime + stime of every thread of the process (fields 14 and 15 of /proc/<pid>/stat)."""
-    with open(f"/proc/{pid}/stat", encoding="ascii") as handle:
-        fields = handle.read().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / CLOCK_TICK
-
-
 def node_pids(launcher_pid: int, names: tuple[str, ...]) -> dict[str, int]:
     """The launcher's child process of each node, found by the ``__node:=<name>`` of its command line."""
     found = {}
@@ -125,11 +118,6 @@ def node_pids(launcher_pid: int, names: tuple[str, ...]) -> dict[str, int]:
             if f"__node:={name}" in argv:
                 found[name] = int(entry)
     return found
-
-
-def loadavg() -> str:
-    with open("/proc/loadavg", encoding="ascii") as handle:
-        return handle.read().split()[0]
 
 
 class BenchClient(Node):
