@@ -45,11 +45,12 @@ LAUNCH = [
         RosParam(file=f"{CONFIG}/round/costmap_common.yaml", ns="move_base/global_costmap", if_=ROUND),
         RosParam(file=f"{CONFIG}/round/costmap_common.yaml", ns="move_base/local_costmap", if_=ROUND),
 
-        # Narrow doors: no padding (for either body), a fine global costmap, TEB with the box outline and
-        # small margins.
+        # Narrow doors: no padding (for either body), fine costmaps, TEB with the box outline and small
+        # margins.
         RosParam(file=f"{CONFIG}/tight/costmap_common.yaml", ns="move_base/global_costmap", if_=TIGHT),
         RosParam(file=f"{CONFIG}/tight/costmap_common.yaml", ns="move_base/local_costmap", if_=TIGHT),
         RosParam(file=f"{CONFIG}/tight/costmap_global.yaml", ns="move_base/global_costmap", if_=TIGHT),
+        RosParam(file=f"{CONFIG}/tight/costmap_local.yaml", ns="move_base/local_costmap", if_=TIGHT),
         RosParam(file=f"{CONFIG}/tight/teb_local_planner.yaml", ns="move_base", if_=TIGHT),
 
         # ... and TEB's circle in place of the lab's two circles or the tight set's box outline.

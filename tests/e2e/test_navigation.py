@@ -158,3 +158,14 @@ def test_the_tight_set_takes_either_body_through_a_door_one_and_a_quarter_times_
         assert result.success, result.failures
         assert result.collisions == 0 and result.min_clearance > 0.0
         assert doors_crossed(result.trajectory, [((-0.375, 0.0), (0.375, 0.0))]) == [0]
+
+
+def test_the_tight_set_takes_the_round_body_through_a_door_of_1_15_times_its_width(tmp_path):
+    world = tmp_path / "door_1.15x.yaml"
+    write_world(doors_world(0.6, ratios=(1.15,)), world)
+    with NavigationSession(str(world), robot="round", seed=0, range_noise=0.01, tight=True) as session:
+        session.wait_ready(wall_timeout_s=60)
+        result = run_goal(session, session.world.goal("door_1.15x"), 40.0, wall_timeout_s=WALL_GUARD_S)
+        assert result.success, result.failures
+        assert result.collisions == 0 and result.min_clearance > 0.0
+        assert doors_crossed(result.trajectory, [((-0.345, 0.0), (0.345, 0.0))]) == [0]

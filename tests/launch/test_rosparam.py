@@ -78,6 +78,7 @@ def test_the_round_body_radius_reaches_both_costmaps_and_teb():
 def test_tight_set_goes_under_the_round_body():
     box = load_launch("navigation", {"tight": "true"}).params
     assert box.get("/move_base/global_costmap/resolution") == 0.05
+    assert box.get("/move_base/local_costmap/resolution") == 0.025
     assert box.get("/move_base/local_costmap/footprint_padding") == 0.0
     assert box.get("/move_base/TebLocalPlannerROS/footprint_model/type") == "polygon"
     assert box.get("/move_base/TebLocalPlannerROS/min_obstacle_dist") == 0.03
