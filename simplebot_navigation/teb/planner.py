@@ -63,7 +63,7 @@ class TebLocalPlanner:
         self.goal_reached = False
         #: infeasible cycles in a row, and control periods' worth of seconds since the last one
         #: (the shell hands in no clock; move_base calls once per controller period)
-        self.no_infeasible_plans = 0
+        self._infeasible_in_a_row = 0
         self._since_infeasible = math.inf
         self._notices: list[str] = []
         self._budget_reported = False
@@ -155,7 +155,7 @@ class TebLocalPlanner:
 
         if not self.planner.remove_infeasible_best(feasible):
             return self._infeasible("trajectory is not feasible. Resetting planner...")
-        self.no_infeasible_plans = 0
+        self._infeasible_in_a_row = 0
         command = self._velocity_from_band(self.planner.best_band())
         if command is None:
             return self._infeasible("velocity command invalid. Resetting planner...")
@@ -165,7 +165,7 @@ class TebLocalPlanner:
     def _infeasible(self, message: str) -> VelocityCommandResult:
         """No valid command this cycle: drop the bands and count it for shrink_horizon_backup."""
         self.planner.clear()
-        self.no_infeasible_plans += 1
+        self._infeasible_in_a_row += 1
         self._since_infeasible = 0.0
         return VelocityCommandResult(0.0, 0.0, False, message)
 
@@ -244,7 +244,7 @@ class TebLocalPlanner:
         heading must not change under the band."""
         cfg = self.cfg
         if not (cfg.shrink_horizon_backup and goal_idx < len(self.global_plan) - 1
-                and (self.no_infeasible_plans > 0 or self._since_infeasible < cfg.shrink_horizon_min_duration)):
+                and (self._infeasible_in_a_row > 0 or self._since_infeasible < cfg.shrink_horizon_min_duration)):
             return transformed, goal_idx
         reduction = goal_idx // 2
         keep = len(transformed) - reduction
