@@ -183,10 +183,8 @@ class TebConfig:
                                                    ge=0, not_implemented=_HCP)
     max_ratio_detours_duration_best_duration: float = param(3.0, "", "drop classes this much slower", ge=0)
     # -- recovery ---------------------------------------------------------------
-    shrink_horizon_backup: bool = param(True, "", "shorten the horizon while the band is infeasible",
-                                        not_implemented="the horizon is never shortened")
-    shrink_horizon_min_duration: float = param(10.0, "s", "how long the horizon stays shortened", ge=0,
-                                               not_implemented="the horizon is never shortened")
+    shrink_horizon_backup: bool = param(True, "", "halve the horizon while the band is infeasible")
+    shrink_horizon_min_duration: float = param(10.0, "s", "how long the horizon stays halved after that", ge=0)
     oscillation_recovery: bool = param(True, "", "detect oscillation and prefer one turning direction",
                                        not_implemented=_OSCILLATION)
     oscillation_v_eps: float = param(0.1, "", "mean |v|/max_vel_x below which the robot oscillates", ge=0,

@@ -92,8 +92,8 @@ class TebOptimizer:
         n = len(band.poses)
         if via_points is not None and len(via_points) and cfg.weight_viapoint > 0 and n > 2:
             vpts = np.asarray(via_points, dtype=float).reshape(-1, 2)
-            d2 = ((band.poses[None, 1:-1, :2] - vpts[:, None, :]) ** 2).sum(axis=2)
             if cfg.via_points_ordered:
+                d2 = ((band.poses[None, 1:-1, :2] - vpts[:, None, :]) ** 2).sum(axis=2)
                 idx, start = [], 0
                 for row in d2:
                     k = start + int(np.argmin(row[start:])) if start < len(row) else len(row) - 1
@@ -101,7 +101,11 @@ class TebOptimizer:
                     start = k + 1
                 vp = np.array(idx, dtype=np.int64) + 1
             else:
-                vp = np.argmin(d2, axis=1) + 1
+                # AddEdgesViaPoints: a via-point nearest to the fixed start pose is one the robot has
+                # reached or passed and is skipped (pulling pose 1 back to it would turn the band
+                # round); one nearest to the goal goes to the pose before it.
+                nearest = np.argmin(((band.poses[None, :, :2] - vpts[:, None, :]) ** 2).sum(axis=2), axis=1)
+                vp, vpts = np.minimum(nearest[nearest > 0], n - 2), vpts[nearest > 0]
         return EdgeSet(pi, obst_point, gap, vp, vpts, obstacle_weight, n=n - 1)
 
     @property

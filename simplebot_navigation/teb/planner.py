@@ -61,6 +61,10 @@ class TebLocalPlanner:
         self.via_points = np.zeros((0, 2))
         self.obstacles = np.zeros((0, 2))
         self.goal_reached = False
+        #: infeasible cycles in a row, and control periods' worth of seconds since the last one
+        #: (the shell hands in no clock; move_base calls once per controller period)
+        self._infeasible_in_a_row = 0
+        self._since_infeasible = math.inf
         self._notices: list[str] = []
         self._budget_reported = False
 
@@ -111,7 +115,8 @@ class TebLocalPlanner:
         if len(self.global_plan) == 0:
             return VelocityCommandResult(0.0, 0.0, False, "no global plan set")
         self._prune_global_plan(pose)
-        transformed, goal_idx = self._transform_global_plan(pose, costmap)
+        self._since_infeasible += self.controller_period
+        transformed, goal_idx = self._shrink_horizon(*self._transform_global_plan(pose, costmap))
         self.via_points = self._via_points(transformed)
         if self.is_goal_reached(pose, vel):
             self.goal_reached = True
@@ -140,8 +145,7 @@ class TebLocalPlanner:
                 "alternative band(s) postponed to the next cycle. The followed band is always optimised. "
                 "Reported once; later occurrences are not logged.")
         if not planned:
-            self.planner.clear()
-            return VelocityCommandResult(0.0, 0.0, False, "planner failed to find a trajectory")
+            return self._infeasible("planner failed to find a trajectory")
 
         def feasible(band):
             return is_trajectory_feasible(costmap, self.costmap_footprint, self.costmap_inscribed_radius,
@@ -150,14 +154,20 @@ class TebLocalPlanner:
                                           cfg.min_resolution_collision_check_angular)
 
         if not self.planner.remove_infeasible_best(feasible):
-            self.planner.clear()
-            return VelocityCommandResult(0.0, 0.0, False, "trajectory is not feasible. Resetting planner...")
+            return self._infeasible("trajectory is not feasible. Resetting planner...")
+        self._infeasible_in_a_row = 0
         command = self._velocity_from_band(self.planner.best_band())
         if command is None:
-            self.planner.clear()
-            return VelocityCommandResult(0.0, 0.0, False, "velocity command invalid. Resetting planner...")
+            return self._infeasible("velocity command invalid. Resetting planner...")
         v, omega = self._saturate(*command, vel)
         return VelocityCommandResult(v, omega, True, "")
+
+    def _infeasible(self, message: str) -> VelocityCommandResult:
+        """No valid command this cycle: drop the bands and count it for shrink_horizon_backup."""
+        self.planner.clear()
+        self._infeasible_in_a_row += 1
+        self._since_infeasible = 0.0
+        return VelocityCommandResult(0.0, 0.0, False, message)
 
     def is_goal_reached(self, robot_pose, robot_velocity) -> bool:
         """Position and yaw within tolerance, no via-points left (complete_global_plan) and
@@ -225,6 +235,22 @@ class TebLocalPlanner:
         lead = int(np.argmin(ok)) if not ok.all() else len(ok)
         end = min(start + 1 + lead, len(plan))
         return plan[start:end].copy(), end - 1
+
+    def _shrink_horizon(self, transformed, goal_idx: int):
+        """shrink_horizon_backup (TEB's configureBackupModes): while cycles fail, and for
+        shrink_horizon_min_duration after the last failure, the local goal moves half-way towards
+        the robot (counted in plan poses), so a band that keeps running into an obstacle beyond a
+        corner is replaced by a shorter one. Not when the local goal is the global goal, whose
+        heading must not change under the band."""
+        cfg = self.cfg
+        if not (cfg.shrink_horizon_backup and goal_idx < len(self.global_plan) - 1
+                and (self._infeasible_in_a_row > 0 or self._since_infeasible < cfg.shrink_horizon_min_duration)):
+            return transformed, goal_idx
+        reduction = goal_idx // 2
+        keep = len(transformed) - reduction
+        if keep < 1:
+            return transformed, goal_idx
+        return transformed[:keep], goal_idx - reduction
 
     def _via_points(self, transformed) -> np.ndarray:
         sep = self.cfg.global_plan_viapoint_sep

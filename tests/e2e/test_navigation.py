@@ -4,6 +4,7 @@ Every test gets a fresh session (the lab's box robot unless said otherwise); bud
 and the wall-clock guard only turns a hang into a failure.
 """
 
+import dataclasses
 import math
 
 import numpy as np
@@ -169,3 +170,17 @@ def test_the_tight_set_takes_the_round_body_through_a_door_of_1_15_times_its_wid
         assert result.success, result.failures
         assert result.collisions == 0 and result.min_clearance > 0.0
         assert doors_crossed(result.trajectory, [((-0.345, 0.0), (0.345, 0.0))]) == [0]
+
+
+def test_the_tight_set_turns_the_box_into_a_door_one_and_a_quarter_times_its_width_from_along_its_wall(tmp_path):
+    # Parallel to the door's wall, 0.25 m from it, 1.8 m to the side of the door: the 0.9 m box has
+    # to swing out before it turns, or it arrives across the 0.75 m door and catches a jamb.
+    world = tmp_path / "door_1.25x_along_wall.yaml"
+    write_world(dataclasses.replace(doors_world(0.6, ratios=(1.25,), bay_width=5.0), start=Pose2D(-1.8, -0.6, 0.0)),
+                world)
+    with NavigationSession(str(world), robot="box", seed=0, range_noise=0.01, tight=True) as session:
+        session.wait_ready(wall_timeout_s=60)
+        result = run_goal(session, session.world.goal("door_1.25x"), 40.0, wall_timeout_s=WALL_GUARD_S)
+        assert result.success, result.failures
+        assert result.collisions == 0 and result.min_clearance > 0.0
+        assert doors_crossed(result.trajectory, [((-0.375, 0.0), (0.375, 0.0))]) == [0]

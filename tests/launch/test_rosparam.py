@@ -82,8 +82,10 @@ def test_tight_set_goes_under_the_round_body():
     assert box.get("/move_base/local_costmap/footprint_padding") == 0.0
     assert box.get("/move_base/TebLocalPlannerROS/footprint_model/type") == "polygon"
     assert box.get("/move_base/TebLocalPlannerROS/min_obstacle_dist") == 0.03
+    assert box.get("/move_base/TebLocalPlannerROS/global_plan_viapoint_sep") == 0.1     # the box swings out
     round_body = load_launch("navigation", {"tight": "true", "robot": "round"}).params
     assert round_body.get("/move_base/TebLocalPlannerROS/footprint_model/type") == "circular"
+    assert round_body.get("/move_base/TebLocalPlannerROS/global_plan_viapoint_sep") < 0  # it turns on the spot
     assert round_body.get("/move_base/global_costmap/resolution") == 0.05
     assert round_body.get("/move_base/local_costmap/footprint_padding") == 0.0      # the tight set's, not round's
     assert round_body.get("/move_base/local_costmap/footprint") == []

@@ -31,7 +31,7 @@ def test_every_parameter_has_a_doc_a_status_and_a_reason_when_it_does_nothing():
 def test_the_known_parameters_without_effect_are_declared():
     names = {name for _, name in NOT_IMPLEMENTED}
     assert {"shutdown_costmaps", "make_plan_clear_costmap", "make_plan_add_unreachable_goal",
-            "weight_shortest_path", "oscillation_recovery", "shrink_horizon_backup", "max_vel_y",
+            "weight_shortest_path", "oscillation_recovery", "max_vel_y",
             "min_turning_radius", "costmap_converter_plugin", "divergence_detection_enable"} <= names
     teb = [name for cls, name in NOT_IMPLEMENTED if cls.__name__ == "TebConfig"]
     assert len(teb) >= 49

@@ -90,6 +90,16 @@ def test_via_points_pull_the_band():
     assert np.min(np.hypot(band.poses[:, 0] - 1.5, band.poses[:, 1] - 0.5)) < 0.25
 
 
+def test_a_via_point_the_robot_has_passed_does_not_pull_the_band_back():
+    # Dense via-points (every 0.1 m): the first one can lie beside or behind the robot once it
+    # has driven past it. TEB skips a via-point whose nearest band pose is the fixed start.
+    cfg = TebConfig.from_params({"weight_viapoint": 50.0})
+    band = band_from(straight_plan(0.0, 2.0), cfg)
+    TebOptimizer(cfg, FootprintModel.point()).optimize(band, np.zeros((0, 2)), np.array([[-0.1, 0.0], [1.0, 0.0]]),
+                                                       (0.2, 0.0), False)
+    assert np.all(np.diff(band.poses[:, 0]) > 0), band.poses[:4]
+
+
 @pytest.mark.parametrize("free_goal_vel", [False, True])
 @pytest.mark.parametrize("model", [FootprintModel.from_params(LAB_TWO_CIRCLES),
                                    FootprintModel.polygon([[0.45, 0.3], [0.45, -0.3], [-0.45, -0.3], [-0.45, 0.3]]),

@@ -105,6 +105,27 @@ def test_wall_across_the_path_is_reported_infeasible_and_the_planner_reset(homot
     assert len(planner.band_poses) == 0 and planner.candidate_bands == []
 
 
+@pytest.mark.parametrize("shrink", [True, False])
+def test_after_an_infeasible_band_the_horizon_is_halved_for_shrink_horizon_min_duration(shrink):
+    planner = lab_planner(shrink_horizon_backup=shrink, shrink_horizon_min_duration=10.0)
+    planner.set_plan(straight_plan(-3.0, 8.0))
+    free = rolling_costmap(0, 0, np.zeros((0, 2)), size_m=10.0)
+    touching = rolling_costmap(0, 0, np.array([[LAB_PADDED_FOOTPRINT[0, 0], 0.0]]), size_m=10.0)  # on the outline
+    assert not planner.compute_velocity_commands((0.0, 0.0, 0.0), (0.0, 0.0), touching).ok
+    local_goals = []
+    for _ in range(int(12.0 / PERIOD)):
+        assert planner.compute_velocity_commands((0.0, 0.0, 0.0), (0.0, 0.0), free).ok
+        local_goals.append(planner.transformed_plan[-1, 0])
+    full = 3.0  # max_global_plan_lookahead_dist on the plan that starts 0.95 m behind the robot
+    if not shrink:
+        assert local_goals == pytest.approx([full] * len(local_goals))
+        return
+    # TEB's reduction: half the local goal's index in the pruned plan, (3.0 + 0.95) / 0.05 // 2 poses
+    shortened = full - (79 // 2) * RES
+    assert local_goals[:int(9.5 / PERIOD)] == pytest.approx([shortened] * int(9.5 / PERIOD))
+    assert local_goals[int(10.5 / PERIOD):] == pytest.approx([full] * (len(local_goals) - int(10.5 / PERIOD)))
+
+
 def test_plan_is_pruned_behind_and_cut_at_the_lookahead():
     planner = lab_planner()
     planner.set_plan(straight_plan(-3.0, 8.0))
