@@ -149,38 +149,30 @@ def test_the_door_challenge_a_door_one_and_a_half_times_the_robot_width(robot):
         assert doors_crossed(result.trajectory, [((-0.45, 0.0), (0.45, 0.0))]) == [0]
 
 
+def through_one_door_with_the_tight_set(tmp_path, robot: str, ratio: float, seed: int, start: Pose2D | None = None):
+    """One door of ``ratio`` x 0.6 m, the tight set: the robot reaches the bay behind it through the door, untouched."""
+    world = doors_world(0.6, ratios=(ratio,), bay_width=5.0 if start else 3.0)
+    path = tmp_path / f"door_{ratio}x.yaml"
+    write_world(dataclasses.replace(world, start=start) if start else world, path)
+    with NavigationSession(str(path), robot=robot, seed=seed, range_noise=0.01, tight=True) as session:
+        session.wait_ready(wall_timeout_s=60)
+        result = run_goal(session, session.world.goal(f"door_{ratio}x"), 40.0, wall_timeout_s=WALL_GUARD_S)
+    assert result.success, result.failures
+    assert result.collisions == 0 and result.min_clearance > 0.0
+    half = ratio * 0.6 / 2
+    assert doors_crossed(result.trajectory, [((-half, 0.0), (half, 0.0))]) == [0]
+
+
 @pytest.mark.parametrize("robot", ["box", "round"])
 def test_the_tight_set_takes_either_body_through_a_door_one_and_a_quarter_times_its_width(robot, tmp_path):
-    world = tmp_path / "door_1.25x.yaml"
-    write_world(doors_world(0.6, ratios=(1.25,)), world)
-    with NavigationSession(str(world), robot=robot, seed=2, range_noise=0.01, tight=True) as session:
-        session.wait_ready(wall_timeout_s=60)
-        result = run_goal(session, session.world.goal("door_1.25x"), 40.0, wall_timeout_s=WALL_GUARD_S)
-        assert result.success, result.failures
-        assert result.collisions == 0 and result.min_clearance > 0.0
-        assert doors_crossed(result.trajectory, [((-0.375, 0.0), (0.375, 0.0))]) == [0]
+    through_one_door_with_the_tight_set(tmp_path, robot, 1.25, seed=2)
 
 
 def test_the_tight_set_takes_the_round_body_through_a_door_of_1_15_times_its_width(tmp_path):
-    world = tmp_path / "door_1.15x.yaml"
-    write_world(doors_world(0.6, ratios=(1.15,)), world)
-    with NavigationSession(str(world), robot="round", seed=0, range_noise=0.01, tight=True) as session:
-        session.wait_ready(wall_timeout_s=60)
-        result = run_goal(session, session.world.goal("door_1.15x"), 40.0, wall_timeout_s=WALL_GUARD_S)
-        assert result.success, result.failures
-        assert result.collisions == 0 and result.min_clearance > 0.0
-        assert doors_crossed(result.trajectory, [((-0.345, 0.0), (0.345, 0.0))]) == [0]
+    through_one_door_with_the_tight_set(tmp_path, "round", 1.15, seed=0)
 
 
 def test_the_tight_set_turns_the_box_into_a_door_one_and_a_quarter_times_its_width_from_along_its_wall(tmp_path):
     # Parallel to the door's wall, 0.25 m from it, 1.8 m to the side of the door: the 0.9 m box has
     # to swing out before it turns, or it arrives across the 0.75 m door and catches a jamb.
-    world = tmp_path / "door_1.25x_along_wall.yaml"
-    write_world(dataclasses.replace(doors_world(0.6, ratios=(1.25,), bay_width=5.0), start=Pose2D(-1.8, -0.6, 0.0)),
-                world)
-    with NavigationSession(str(world), robot="box", seed=0, range_noise=0.01, tight=True) as session:
-        session.wait_ready(wall_timeout_s=60)
-        result = run_goal(session, session.world.goal("door_1.25x"), 40.0, wall_timeout_s=WALL_GUARD_S)
-        assert result.success, result.failures
-        assert result.collisions == 0 and result.min_clearance > 0.0
-        assert doors_crossed(result.trajectory, [((-0.375, 0.0), (0.375, 0.0))]) == [0]
+    through_one_door_with_the_tight_set(tmp_path, "box", 1.25, seed=0, start=Pose2D(-1.8, -0.6, 0.0))
