@@ -8,6 +8,7 @@ overridden below.
 """
 
 from simplebot_navigation.launch.description import Arg, Group, Include, Param, Remap, RosParam
+from simplebot_navigation.launch.simplebot_args import TIGHT as TIGHT_ARG
 
 CONFIG = "$(find simplebot_navigation)/config"
 ROUND = "$(eval robot == 'round')"
@@ -24,8 +25,7 @@ LAUNCH = [
     Arg("robot", default="box", choices=("box", "round"),
         doc="robot body the parameters are for: the lab's 0.9 x 0.6 m box, or round"),
     Arg("radius", default="0.3", doc="radius of the round body in metres (robot:=round)"),
-    Arg("tight", default="false", choices=("true", "false"),
-        doc="the narrow-door parameter set (config/tight/) over the lab's files"),
+    TIGHT_ARG,
     Arg("respawn", default="true", choices=("true", "false"),
         doc="restart move_base when it exits (roslaunch's respawn)"),
     Arg("namespace", default="",

@@ -9,20 +9,19 @@ The number of robots is an argument, so the items come from ``generate(args)``.
 """
 
 from simplebot_navigation.launch.description import Arg, Include
+from simplebot_navigation.launch.simplebot_args import RADIUS, ROBOT, RTF, TIGHT, WORLD
 
 LAUNCH_DIR = "$(find simplebot_navigation)/launch_py"
 
 ARGS = [
     Arg("robots", default="3", doc="how many robots (robot1 .. robot<N>)"),
-    Arg("world", default="lab",
-        doc="built-in world name (lab, doors, clutter, empty), forest:<seed> or a world/map YAML path"),
+    WORLD,
     Arg("starts", default="",
         doc="x,y,yaw;x,y,yaw;... in the world frame, one per robot (empty: the world file's starts list)"),
-    Arg("robot", default="box", choices=("box", "round"), doc="robot body: the lab's 0.9 x 0.6 m box, or round"),
-    Arg("radius", default="0.3", doc="radius of the round body in metres"),
-    Arg("rtf", default="1.0", doc="real-time factor of the simulation"),
-    Arg("tight", default="false", choices=("true", "false"),
-        doc="the narrow-door parameter set (config/tight/) over the lab's files"),
+    ROBOT,
+    RADIUS,
+    RTF,
+    TIGHT,
     Arg("respawn", default="true", choices=("true", "false"),
         doc="restart the simulator and each move_base when they exit (roslaunch's respawn)"),
 ]
@@ -37,6 +36,7 @@ def generate(args: dict[str, str]) -> list:
             "world": "$(arg world)", "robot": "$(arg robot)", "radius": "$(arg radius)", "rtf": "$(arg rtf)",
             "respawn": "$(arg respawn)", "namespaces": " ".join(namespaces), "starts": "$(arg starts)"}),
         *(Include(file=f"{LAUNCH_DIR}/move_base.py", args={
-            "robot": "$(arg robot)", "tight": "$(arg tight)", "respawn": "$(arg respawn)", "namespace": namespace})
+            "robot": "$(arg robot)", "radius": "$(arg radius)", "tight": "$(arg tight)", "respawn": "$(arg respawn)",
+            "namespace": namespace})
           for namespace in namespaces),
     ]

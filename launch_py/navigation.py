@@ -1,21 +1,20 @@
 """navigation.launch: the simulated simplebot plus move_base_local.launch, all on simulated time."""
 
 from simplebot_navigation.launch.description import Arg, Include, Node, Param
+from simplebot_navigation.launch.simplebot_args import RADIUS, ROBOT, RTF, TIGHT, WORLD
 
 LAUNCH_DIR = "$(find simplebot_navigation)/launch_py"
 
 LAUNCH = [
-    Arg("world", default="lab",
-        doc="built-in world name (lab, doors, clutter, empty), forest:<seed> or a world/map YAML path"),
-    Arg("robot", default="box", choices=("box", "round"), doc="robot body: the lab's 0.9 x 0.6 m box, or round"),
-    Arg("radius", default="0.3", doc="radius of the round body in metres"),
-    Arg("rtf", default="1.0", doc="real-time factor of the simulation (0: as fast as the nodes allow)"),
+    WORLD,
+    ROBOT,
+    RADIUS,
+    RTF,
     Arg("viewer", default="false", doc="also start the browser viewer on http://127.0.0.1:8765"),
     Arg("foxglove", default="false", doc="also serve every topic to the Foxglove app over WebSocket"),
     Arg("foxglove_host", default="127.0.0.1", doc="address of the Foxglove WebSocket server (0.0.0.0: every one)"),
     Arg("foxglove_port", default="8766", doc="port of the Foxglove WebSocket server (0: a free one)"),
-    Arg("tight", default="false", choices=("true", "false"),
-        doc="the narrow-door parameter set (config/tight/) over the lab's files"),
+    TIGHT,
     Arg("respawn", default="true", choices=("true", "false"),
         doc="restart the simulator and move_base when they exit (roslaunch's respawn)"),
     Arg("namespace", default="",

@@ -6,13 +6,13 @@ it simulates one robot per name in the same world (``multi_navigation``).
 """
 
 from simplebot_navigation.launch.description import Arg, Node, Param
+from simplebot_navigation.launch.simplebot_args import RADIUS, ROBOT, RTF, WORLD
 
 LAUNCH = [
-    Arg("world", default="lab",
-        doc="built-in world name (lab, doors, clutter, empty), forest:<seed> or a world/map YAML path"),
-    Arg("robot", default="box", choices=("box", "round"), doc="robot body: the lab's 0.9 x 0.6 m box, or round"),
-    Arg("radius", default="0.3", doc="radius of the round body in metres"),
-    Arg("rtf", default="1.0", doc="real-time factor of the simulation (0: as fast as the nodes allow)"),
+    WORLD,
+    ROBOT,
+    RADIUS,
+    RTF,
     Arg("respawn", default="true", choices=("true", "false"),
         doc="restart the simulator when it exits (roslaunch's respawn)"),
     Arg("namespaces", default="",

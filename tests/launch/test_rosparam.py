@@ -69,6 +69,8 @@ def test_the_round_body_radius_reaches_both_costmaps_and_teb():
     assert p.get("/move_base/global_costmap/robot_radius") == 0.25
     assert p.get("/move_base/local_costmap/robot_radius") == 0.25
     assert p.get("/move_base/TebLocalPlannerROS/footprint_model/radius") == 0.25
+    robots = load_launch("multi_navigation", {"robots": "2", "robot": "round", "radius": "0.25"}).params
+    assert robots.get("/robot2/move_base/local_costmap/robot_radius") == 0.25
     box = load_launch("navigation", {"radius": "0.25"}).params    # the box keeps its outline
     assert len(box.get("/move_base/local_costmap/footprint")) == 4
     with pytest.raises(KeyError):
