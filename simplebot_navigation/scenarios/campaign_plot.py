@@ -71,7 +71,7 @@ def summary_figure(path: str, records: list[dict]) -> None:
     left, right = axes[:2]
     rows = np.arange(len(summaries))
     left.barh(rows, 100 * rates, color="tab:green", alpha=0.7)
-    left.errorbar(100 * rates, rows, xerr=[100 * (rates - low), 100 * (high - rates)], fmt="none", ecolor="black",
+    left.errorbar(100 * rates, rows, xerr=100 * np.clip([rates - low, high - rates], 0, None), fmt="none", ecolor="black",
                   capsize=3)
     for row, s in zip(rows, summaries):
         left.annotate(f"{s.successes}/{s.runs}", (2, row), va="center", fontsize=8)
@@ -91,7 +91,7 @@ def summary_figure(path: str, records: list[dict]) -> None:
         ax = axes[2]
         centres = [(a + b) / 2 for a, b, *_ in by_difficulty]
         rates = np.array([ok / n for _, _, ok, n, _ in by_difficulty])
-        errors = np.array([[rate - ci[0], ci[1] - rate] for rate, (*_, ci) in zip(rates, by_difficulty)]).T
+        errors = np.clip([[rate - ci[0], ci[1] - rate] for rate, (*_, ci) in zip(rates, by_difficulty)], 0, None).T
         ax.errorbar(centres, 100 * rates, yerr=100 * errors, fmt="o-", capsize=3)
         for (a, b, ok, n, _), x, rate in zip(by_difficulty, centres, rates):
             ax.annotate(f"{ok}/{n}\n{a:.2f}-{b:.2f} m", (x, 100 * rate), textcoords="offset points", xytext=(0, -28),
