@@ -46,12 +46,13 @@ LAUNCH = [
         RosParam(file=f"{CONFIG}/round/costmap_common.yaml", ns="move_base/local_costmap", if_=ROUND),
 
         # Narrow doors: no padding (for either body), fine costmaps, TEB with the box outline and small
-        # margins.
+        # margins, recoveries that back up and turn where a full circle does not fit.
         RosParam(file=f"{CONFIG}/tight/costmap_common.yaml", ns="move_base/global_costmap", if_=TIGHT),
         RosParam(file=f"{CONFIG}/tight/costmap_common.yaml", ns="move_base/local_costmap", if_=TIGHT),
         RosParam(file=f"{CONFIG}/tight/costmap_global.yaml", ns="move_base/global_costmap", if_=TIGHT),
         RosParam(file=f"{CONFIG}/tight/costmap_local.yaml", ns="move_base/local_costmap", if_=TIGHT),
         RosParam(file=f"{CONFIG}/tight/teb_local_planner.yaml", ns="move_base", if_=TIGHT),
+        RosParam(file=f"{CONFIG}/tight/move_base.yaml", ns="move_base", if_=TIGHT),
 
         # ... and TEB's circle in place of the lab's two circles or the tight set's box outline.
         RosParam(file=f"{CONFIG}/round/teb_local_planner.yaml", ns="move_base", if_=ROUND),

@@ -9,14 +9,14 @@ from typing import Any
 from simplebot_navigation.costmap.params import SEARCHED_KEYS
 from simplebot_navigation.parameters import ParameterError, build, param
 
-from .plugins import CLEAR_COSTMAP_RECOVERY, NAVFN, ROTATE_RECOVERY, TEB_LOCAL_PLANNER
+from .plugins import BACKUP_RECOVERY, CLEAR_COSTMAP_RECOVERY, NAVFN, ROTATE_RECOVERY, SPIN_RECOVERY, TEB_LOCAL_PLANNER
 
 DEFAULT_RECOVERY_BEHAVIORS = (
     {"name": "conservative_reset", "type": CLEAR_COSTMAP_RECOVERY},
     {"name": "rotate_recovery", "type": ROTATE_RECOVERY},
     {"name": "aggressive_reset", "type": CLEAR_COSTMAP_RECOVERY},
 )
-RECOVERY_TYPES = (CLEAR_COSTMAP_RECOVERY, ROTATE_RECOVERY)
+RECOVERY_TYPES = (CLEAR_COSTMAP_RECOVERY, ROTATE_RECOVERY, BACKUP_RECOVERY, SPIN_RECOVERY)
 
 
 @dataclass

@@ -20,13 +20,14 @@ from simplebot_navigation.teb.config import TebConfig
 from simplebot_navigation.teb.footprint import FootprintModel, FootprintModelParams
 
 from .config import MoveBaseConfig
-from .plugins import CLEAR_COSTMAP_RECOVERY, ROTATE_RECOVERY, plugin_namespace
-from .recovery import ClearCostmapParams, RotateParams
+from .plugins import BACKUP_RECOVERY, CLEAR_COSTMAP_RECOVERY, ROTATE_RECOVERY, SPIN_RECOVERY, plugin_namespace
+from .recovery import BackUpParams, ClearCostmapParams, RotateParams, SpinParams
 
 COSTMAPS = ("global_costmap", "local_costmap")
 _UNSET = object()
 _PLANNER_PARAMS = {"GlobalPlanner": GlobalPlannerConfig, "NavfnROS": NavfnParams, "TebLocalPlannerROS": TebConfig}
-_RECOVERY_PARAMS = {CLEAR_COSTMAP_RECOVERY: ClearCostmapParams, ROTATE_RECOVERY: RotateParams}
+_RECOVERY_PARAMS = {CLEAR_COSTMAP_RECOVERY: ClearCostmapParams, ROTATE_RECOVERY: RotateParams,
+                    BACKUP_RECOVERY: BackUpParams, SPIN_RECOVERY: SpinParams}
 
 
 def _prefixed(prefix: str, cls) -> ParameterTable:

@@ -11,9 +11,12 @@ from simplebot_navigation.planning.config import GLOBAL_PLANNER, NAVFN
 TEB_LOCAL_PLANNER = "teb_local_planner/TebLocalPlannerROS"
 CLEAR_COSTMAP_RECOVERY = "clear_costmap_recovery/ClearCostmapRecovery"
 ROTATE_RECOVERY = "rotate_recovery/RotateRecovery"
+# Nav2's BackUp and Spin behaviours as move_base recovery behaviours (move_base/recovery.py).
+BACKUP_RECOVERY = "backup_recovery/BackUpRecovery"
+SPIN_RECOVERY = "spin_recovery/SpinRecovery"
 
 __all__ = ["GLOBAL_PLANNER", "NAVFN", "TEB_LOCAL_PLANNER", "CLEAR_COSTMAP_RECOVERY", "ROTATE_RECOVERY",
-           "PluginRegistry", "plugin_namespace"]
+           "BACKUP_RECOVERY", "SPIN_RECOVERY", "PluginRegistry", "plugin_namespace"]
 
 
 class PluginRegistry:

@@ -16,9 +16,16 @@ from the 0.2 m global costmap):
   between two routes. Such replans come at most once per BLOCKED_REPLAN_INTERVAL_S, so a robot
   discovering a forest cell by cell does not replan every cycle;
 - ``progress_timeout`` (30 s; 0 disables): a robot that has for that long neither come
-  oscillation_distance closer to the goal nor entered a square metre it had not been in during
-  this goal runs the recovery behaviours (trigger PROGRESS_R). Nav2's progress checker counts any
-  movement, but circling is movement too; a detour through new space is progress;
+  oscillation_distance closer to the goal, nor shortened the rest of its current plan by as
+  much (a new plan of about the same length continues the count, another route restarts it),
+  nor entered a square metre it had not been in during this goal runs the recovery
+  behaviours (trigger PROGRESS_R). Nav2's progress checker counts any movement, but circling is
+  movement too. Creeping through clutter, backing out of a dead end along a new plan, or a detour
+  through new space is progress; turning back and forth in place is not;
+- a local planner that fails sends move_base back to PLANNING only when its plan is at least
+  MIN_REPLAN_INTERVAL_S old; until then it keeps the plan and stops the robot. ROS 1 replans
+  after every failed cycle, which in clutter means hundreds of identical plans a minute while
+  the local planner is what is stuck;
 - after a recovery, a new plan or a valid control restarts the recovery sequence only once the
   robot has come oscillation_distance closer to the goal than it ever was before the sequence
   began. ROS 1 restarts it on any new plan, so such a goal never aborts.
@@ -35,12 +42,13 @@ import numpy as np
 
 from simplebot_navigation.move_base.config import MoveBaseConfig
 from simplebot_navigation.move_base.events import MoveBaseEvents
-from simplebot_navigation.move_base.recovery import Recovery
+from simplebot_navigation.move_base.recovery import PoseTrail, Recovery
 
 
 PROGRESS_CELL_M = 1.0  # size of the squares whose first visit counts as progress
 BLOCKED_REPLAN_INTERVAL_S = 1.0
 BLOCKED_CHECK_AHEAD_M = 3.0   # of plan ahead of the robot: what it drives within the next several seconds
+MIN_REPLAN_INTERVAL_S = 1.0   # between plans made because the local planner failed
 
 
 class State(Enum):
@@ -94,10 +102,13 @@ class CycleOutput:
 class MoveBaseCore:
     def __init__(self, config: MoveBaseConfig, recoveries: list[Recovery],
                  plan: Callable[[tuple[float, float, float]], np.ndarray | str], controller: Controller,
-                 plan_blocked: Callable[[np.ndarray, tuple[float, float, float]], np.ndarray] | None = None):
+                 plan_blocked: Callable[[np.ndarray, tuple[float, float, float]], np.ndarray] | None = None,
+                 trail: PoseTrail | None = None):
         """``plan(goal)`` returns the poses (N, 3) or, on failure, the planner's reason;
-        ``plan_blocked(poses, robot pose)`` marks the poses on cells the planner would not enter now."""
+        ``plan_blocked(poses, robot pose)`` marks the poses on cells the planner would not enter now;
+        ``trail`` records where the robot drove (for recoveries that back up along it)."""
         self.cfg = config
+        self.trail = trail if trail is not None else PoseTrail()
         self.recoveries = recoveries
         self._plan = plan
         self._plan_blocked = plan_blocked
@@ -105,6 +116,9 @@ class MoveBaseCore:
         self._last_blocked_replan = -math.inf
         self.controller = controller
         self.plan: np.ndarray | None = None
+        self._plan_to_go = np.empty(0)     # plan length from each pose to the plan's end
+        self._plan_made_at = -math.inf
+        self._best_to_go = math.inf        # least plan length left since the plan was made
         self.goal: tuple[float, float, float] | None = None
         self.state = State.IDLE
         self.trigger = Trigger.PLANNING_R
@@ -143,6 +157,7 @@ class MoveBaseCore:
         self._closest = self._progress_mark = self._progress_distance = math.inf
         self._progress_time = now
         self._visited.clear()
+        self._plan_made_at = -math.inf
         self.plan = None
         self.last_plan_failure = ""
         self.controller.reset()
@@ -164,6 +179,10 @@ class MoveBaseCore:
             return CycleOutput(None)
         distance = math.hypot(pose[0] - self.goal[0], pose[1] - self.goal[1])
         self._closest = min(self._closest, distance)
+        self.trail.record(pose[0], pose[1])
+        to_go = self._plan_left(pose)
+        if to_go < math.inf and to_go <= self._best_to_go - self.cfg.oscillation_distance:
+            self._best_to_go, self._progress_time = to_go, now
         cell = (math.floor(pose[0] / PROGRESS_CELL_M), math.floor(pose[1] / PROGRESS_CELL_M))
         if cell not in self._visited:
             self._visited.add(cell)
@@ -198,12 +217,24 @@ class MoveBaseCore:
             out.event = event
         return out
 
+    def _nearest_on_plan(self, pose) -> int:
+        return int(np.argmin(np.hypot(self.plan[:, 0] - pose[0], self.plan[:, 1] - pose[1])))
+
+    def _plan_left(self, pose) -> float:
+        """Length of the current plan still to drive from its pose nearest the robot; infinite while the
+        robot is more than oscillation_distance off the plan (moving about near a plan is not following it)."""
+        if self.plan is None:
+            return math.inf
+        nearest = self._nearest_on_plan(pose)
+        off = math.hypot(self.plan[nearest, 0] - pose[0], self.plan[nearest, 1] - pose[1])
+        return float(self._plan_to_go[nearest]) if off <= self.cfg.oscillation_distance else math.inf
+
     def _check_plan(self, now: float, pose) -> str | None:
         """Send move_base back to PLANNING when the rest of the plan runs into a new obstacle."""
         if (self._plan_blocked is None or self.state != State.CONTROLLING or self.plan is None
                 or now < self._last_blocked_replan + BLOCKED_REPLAN_INTERVAL_S):
             return None
-        nearest = int(np.argmin(np.hypot(self.plan[:, 0] - pose[0], self.plan[:, 1] - pose[1])))
+        nearest = self._nearest_on_plan(pose)
         ahead = self.plan[nearest:]
         along = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(ahead[:, :2], axis=0).T))])
         end = nearest + int(np.searchsorted(along, BLOCKED_CHECK_AHEAD_M, side="right"))
@@ -234,7 +265,14 @@ class MoveBaseCore:
             if not self.controller.set_plan(plan):
                 self.reset()
                 return "Failed to pass global plan to the controller, aborting."
+            before = self._plan_left(pose)
             self.plan = plan
+            steps = np.hypot(*np.diff(plan[:, :2], axis=0).T)
+            self._plan_to_go = np.concatenate([np.cumsum(steps[::-1])[::-1], [0.0]])
+            self._plan_made_at = now
+            after = self._plan_left(pose)
+            if not abs(after - before) <= self.cfg.oscillation_distance:   # another route: measure from here
+                self._best_to_go = after
             self._blocked_at_plan = (self._plan_blocked(plan, pose) if self._plan_blocked is not None
                                      else np.zeros(len(plan), dtype=bool))
             if self.trigger == Trigger.PLANNING_R and self._progress_since_recoveries():
@@ -277,10 +315,14 @@ class MoveBaseCore:
             self.trigger = Trigger.CONTROLLING_R
             return CycleOutput((0.0, 0.0), message=f"controller failed for {self.cfg.controller_patience:g} s: "
                                                    f"{result.message}")
+        message = f"The local planner could not find a valid plan: {result.message}"
+        if now < self._plan_made_at + MIN_REPLAN_INTERVAL_S:
+            return CycleOutput((0.0, 0.0), message=f"{message} (keeping the global plan of "
+                                                   f"{now - self._plan_made_at:.1f} s ago)")
         self.state = State.PLANNING
         self._last_valid_plan = now
         self._retries = 0
-        return CycleOutput((0.0, 0.0), message=f"The local planner could not find a valid plan: {result.message}")
+        return CycleOutput((0.0, 0.0), message=message)
 
     def _clear(self, now: float, pose) -> CycleOutput:
         if self._active_recovery is None:

@@ -26,6 +26,7 @@ from move_base_msgs.action import MoveBase
 from simplebot_navigation.move_base.config import MoveBaseConfig
 from simplebot_navigation.move_base.cycle_stats import ControlLoopStats
 from simplebot_navigation.move_base.events import MoveBaseEvents
+from simplebot_navigation.move_base.recovery import PoseTrail
 from simplebot_navigation.move_base.state_machine import MoveBaseCore
 from simplebot_navigation.parameters import fields_of
 from simplebot_navigation.ros.conversions import path_msg, pose_to_xyyaw, xyyaw_to_pose
@@ -70,8 +71,9 @@ class MoveBaseNode(MoveBaseSupervision, MoveBaseParameters, Node):
             self, self.cfg.base_global_planner, self.global_costmap)
         self.controller = LOCAL_PLANNERS.resolve(self.cfg.base_local_planner)(
             self, self.cfg.base_local_planner, self.local_costmap, self.tf, self.cfg.controller_frequency)
+        self.trail = PoseTrail()
         self.core = MoveBaseCore(self.cfg, self._build_recoveries(), self._plan_to, LocalPlannerAdapter(self),
-                                 self.planner.blocked_poses)
+                                 self.planner.blocked_poses, self.trail)
 
         self.cmd_vel_pub = create_publisher(self, Twist, "cmd_vel", 1)
         self.current_goal_pub = create_publisher(self, PoseStamped, "~/current_goal", 1)

@@ -8,24 +8,69 @@ from __future__ import annotations
 
 import numpy as np
 
-from simplebot_navigation.move_base.recovery import ClearCostmapRecovery, RotateRecovery
+from simplebot_navigation.move_base.recovery import (BackUpRecovery, ClearCostmapRecovery, RotateRecovery, SpinRecovery,
+                                                     free_area_left_right)
 from simplebot_navigation.ros.params import given_parameter_tree
 from simplebot_navigation.teb.feasibility import footprint_costs
 
 #: rotate_recovery reads these from the (ROS 1 default) local planner's namespace when it has none
 ROTATE_BORROWED = ("acc_lim_theta", "max_vel_theta", "min_in_place_vel_theta", "yaw_goal_tolerance")
+#: spin_recovery weighs the free area within this many circumscribed radii on either side
+SPIN_FREE_SPACE_RADII = 2.0
+
+
+def _in_local_frame(node, poses: np.ndarray) -> np.ndarray | None:
+    """Poses given in the global costmap's frame (as move_base steps recoveries), moved into the local
+    costmap's by where each costmap sees the robot now; None without both poses."""
+    if node.local_costmap.global_frame == node.global_costmap.global_frame:
+        return poses
+    here, there = node.global_costmap.get_robot_pose(), node.local_costmap.get_robot_pose()
+    if here is None or there is None:
+        return None
+    turn = there[2] - here[2]
+    c, s = np.cos(turn), np.sin(turn)
+    dx, dy = poses[:, 0] - here[0], poses[:, 1] - here[1]
+    return np.column_stack([there[0] + c * dx - s * dy, there[1] + s * dx + c * dy, poses[:, 2] + turn])
+
+
+def _footprint_clear(node):
+    """Per pose: the local costmap's footprint check passes (no lethal or unknown cell on the outline);
+    all False when the poses cannot be placed on it."""
+    local = node.local_costmap
+
+    def clear(poses: np.ndarray) -> np.ndarray:
+        poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+        placed = _in_local_frame(node, poses)
+        if placed is None:
+            return np.zeros(len(poses), dtype=bool)
+        with local.lock:
+            return footprint_costs(local.costmap, local.footprint, placed) >= 0
+
+    return clear
 
 
 def rotate_recovery(node, name: str, params: dict) -> RotateRecovery:
     borrowed = given_parameter_tree(node).get("TrajectoryPlannerROS", {})
     params = {**{k: borrowed[k] for k in ROTATE_BORROWED if k in borrowed}, **params}
+    return RotateRecovery(name, params, _footprint_clear(node))
+
+
+def backup_recovery(node, name: str, params: dict) -> BackUpRecovery:
+    return BackUpRecovery(name, params, _footprint_clear(node), node.trail)
+
+
+def spin_recovery(node, name: str, params: dict) -> SpinRecovery:
     local = node.local_costmap
 
-    def footprint_free(poses: np.ndarray) -> bool:
+    def free_space(pose) -> tuple[float, float]:
+        placed = _in_local_frame(node, np.asarray([pose], dtype=float))
+        if placed is None:
+            return 0.0, 0.0
         with local.lock:
-            return bool((footprint_costs(local.costmap, local.footprint, poses) >= 0).all())
+            return free_area_left_right(local.costmap, placed[0],
+                                        SPIN_FREE_SPACE_RADII * local.circumscribed_radius)
 
-    return RotateRecovery(name, params, footprint_free)
+    return SpinRecovery(name, params, _footprint_clear(node), free_space)
 
 
 def clear_costmap_recovery(node, name: str, params: dict) -> ClearCostmapRecovery:

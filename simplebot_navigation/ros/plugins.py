@@ -3,17 +3,21 @@ recovery behaviours, each a PluginRegistry (as costmap/plugins.py is for costmap
 
 from __future__ import annotations
 
-from simplebot_navigation.move_base.plugins import (CLEAR_COSTMAP_RECOVERY, GLOBAL_PLANNER, NAVFN, ROTATE_RECOVERY,
-                                                    TEB_LOCAL_PLANNER, PluginRegistry)
+from simplebot_navigation.move_base.plugins import (BACKUP_RECOVERY, CLEAR_COSTMAP_RECOVERY, GLOBAL_PLANNER, NAVFN,
+                                                    ROTATE_RECOVERY, SPIN_RECOVERY, TEB_LOCAL_PLANNER,
+                                                    PluginRegistry)
 from simplebot_navigation.ros.global_planner_ros import GlobalPlannerROS
-from simplebot_navigation.ros.move_base_recoveries import clear_costmap_recovery, rotate_recovery
+from simplebot_navigation.ros.move_base_recoveries import (backup_recovery, clear_costmap_recovery, rotate_recovery,
+                                                           spin_recovery)
 from simplebot_navigation.ros.teb_local_planner_ros import TebLocalPlannerROS
 
 GLOBAL_PLANNERS = PluginRegistry("base_global_planner", {GLOBAL_PLANNER: GlobalPlannerROS, NAVFN: GlobalPlannerROS})
 LOCAL_PLANNERS = PluginRegistry("base_local_planner", {TEB_LOCAL_PLANNER: TebLocalPlannerROS})
 #: factories (node, name, params) -> recovery behaviour
 RECOVERY_BEHAVIORS = PluginRegistry("recovery_behaviors", {CLEAR_COSTMAP_RECOVERY: clear_costmap_recovery,
-                                                           ROTATE_RECOVERY: rotate_recovery})
+                                                           ROTATE_RECOVERY: rotate_recovery,
+                                                           BACKUP_RECOVERY: backup_recovery,
+                                                           SPIN_RECOVERY: spin_recovery})
 
 
 class LocalPlannerAdapter:

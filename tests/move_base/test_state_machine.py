@@ -99,12 +99,21 @@ def test_max_planning_retries_short_circuits_the_patience():
     assert next(i for i, (_, out) in enumerate(outputs) if out.event) == 2
 
 
-def test_failed_control_replans_at_once_and_clears_after_controller_patience():
+def test_failed_control_replans_once_a_second_not_every_cycle():
+    controller = ScriptedController([ControlResult(False, message="no trajectory")] * 10_000)
+    core, log = make_core(controller=controller, controller_patience=10.0)
+    outputs = run(core, 9.9)
+    assert log == []
+    assert core.replans == 10                      # at 0, 1, ..., 9 s; 198 failed cycles in between
+    kept = [out.message for _, out in outputs if "keeping the global plan" in out.message]
+    assert len(kept) > 150 and all(out.cmd == (0.0, 0.0) for _, out in outputs[1:])
+
+
+def test_failed_control_clears_after_controller_patience():
     failing = [ControlResult(False, message="no trajectory")] * 10_000
     controller = ScriptedController(failing)
     core, log = make_core(controller=controller, controller_patience=2.0)
     outputs = run(core, 30.0)
-    assert core.replans > 10                      # every failure sends move_base back to PLANNING
     first = next(t for t, out in outputs if out.event.startswith("executing recovery"))
     assert first == pytest.approx(2.1, abs=0.11)
     t, last = outputs[-1]
@@ -143,8 +152,8 @@ def test_a_new_plan_restarts_the_recovery_sequence_once_the_robot_gets_closer():
     assert log == ["conservative_reset"] and core.trigger == Trigger.PLANNING_R
     run(core, 0.2, start=6.0)            # plans again, but no nearer to the goal
     assert core.recovery_index == 1
-    run(core, 0.2, start=6.2, pose=(0.55, 0.0, 0.0))    # 0.45 m: more than oscillation_distance (0.5) closer
-    assert core.recovery_index == 0
+    run(core, 1.2, start=6.2, pose=(0.55, 0.0, 0.0))    # 0.45 m: more than oscillation_distance (0.5) closer,
+    assert core.recovery_index == 0                        # and a plan a second after the last one
 
 
 def test_plans_that_keep_failing_near_an_unreachable_goal_end_in_an_abort():
@@ -336,3 +345,27 @@ def test_progress_timeout_zero_lets_the_robot_circle():
         t = i * 0.05
         assert not core.cycle(t, (1.0 + 2.0 * math.cos(0.2 * t), 2.0 * math.sin(0.2 * t), 0.0), True).outcome
     assert log == []
+
+
+def test_backing_out_of_a_dead_end_along_a_new_plan_is_progress():
+    """The robot drove 3 m into a dead end towards the goal, then follows a new plan back out, slowly,
+    through squares it has been in and away from the goal: the plan it follows gets shorter."""
+    into = np.column_stack([np.linspace(0.0, 5.0, 51), np.zeros(51), np.zeros(51)])
+    out = np.vstack([np.column_stack([np.linspace(3.0, 0.0, 31), np.full(31, 0.0), np.full(31, math.pi)]),
+                     np.column_stack([np.linspace(0.0, 5.0, 51), np.full(51, 3.0), np.zeros(51)])])
+    plans = {"now": into}
+    core, log = make_core(plan=lambda goal: plans["now"], planner_frequency=1.0, progress_timeout=20.0)
+    core.set_goal((5.0, 0.0, 0.0), 0.0)
+    t = 0.0
+    for i in range(60):                            # 3 m in at 1 m/s
+        assert not core.cycle(t, (0.05 * i, 0.0, 0.0), True).outcome
+        t += 0.05
+    plans["now"] = out
+    for i in range(1200):                          # 3 m back out at 0.05 m/s: 60 s
+        assert not core.cycle(t, (3.0 - 0.0025 * i, 0.0, math.pi), True).outcome
+        t += 0.05
+    assert log == []
+    for i in range(500):                           # then 25 s turning in place
+        core.cycle(t, (0.0, 0.0, math.pi + 0.01 * i), True)
+        t += 0.05
+    assert log == ["conservative_reset"]
