@@ -267,7 +267,7 @@ def test_an_exhausted_cycle_budget_postpones_the_alternatives_and_is_reported_on
         assert result.ok and planner.planner.bands_optimized == 1
     # the seeds explored around the wall were never optimised: each was dropped, the followed band kept
     assert len(planner.candidate_bands) == 1
-    assert len(notices) == 1 and "postponed" in notices[0]
+    assert len(notices) == 1 and notices[0][0] == "warn" and "postponed" in notices[0][1]
     assert planner.pop_notices() == []
 
 
