@@ -51,4 +51,4 @@ class FailureDetector:
         v, omega = np.array(self._buffer).T
         sign = np.sign(omega)
         crossings = int(np.count_nonzero(sign[1:] != sign[:-1]))
-        return abs(v.mean()) < v_eps and abs(omega.mean()) < omega_eps and crossings > 1
+        return bool(abs(v.mean()) < v_eps and abs(omega.mean()) < omega_eps and crossings > 1)
