@@ -123,8 +123,8 @@ class TebLocalPlanner:
 
     # -- the control cycle --------------------------------------------------------------------
     def pop_notices(self) -> list[tuple[str, str]]:
-        """Messages for the log since the last call, as (level, message); each situation is
-        reported once."""
+        """Messages for the log since the last call, as (level, message); each event is reported
+        once, not every cycle it lasts."""
         notices, self._notices = self._notices, []
         return notices
 

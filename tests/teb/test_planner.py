@@ -339,6 +339,11 @@ def test_no_preference_without_oscillation_recovery_and_none_after_a_reset():
     # the old commands are gone too: detection needs half a window of new ones
     assert [oscillating for oscillating, _ in rock(planner, [0.02 * (-1) ** k for k in range(11)])] == \
         [False] * 9 + [True] * 2
+    # switched off while it holds a preference: the preference goes with it
+    planner.reconfigure(TebConfig.from_params({**LAB_PARAMS, **ROCKING, "oscillation_recovery": False}))
+    planner.pop_notices()
+    assert rock(planner, [0.02])[-1][1] == planner.planner.optimizer.prefer_rotdir == RotType.none
+    assert planner.pop_notices() == [("info", "TEB: oscillation recovery disabled")]
 
 
 def test_a_live_filter_duration_resizes_the_detector_window():
