@@ -115,8 +115,8 @@ class TebLocalPlannerROS:
             result = self.planner.compute_velocity_commands(pose[:3], self._robot_velocity(),
                                                             self.costmap_ros.costmap)
         self._unpublished = True
-        for notice in self.planner.pop_notices():
-            self.logger.warn(notice)
+        for level, notice in self.planner.pop_notices():
+            getattr(self.logger, level)(notice)
         return ControlResult(result.ok, result.v, result.omega, result.message)
 
     def is_goal_reached(self) -> bool:

@@ -17,7 +17,6 @@ _HOLONOMIC = "holonomic motion (vy) is not modelled"
 _CAR_LIKE = "car-like kinematics are not modelled (diff-drive edges are used)"
 _DYNAMIC = "dynamic obstacles are not modelled"
 _HCP = "the simplified homotopy planner seeds bands left and right of obstacle clusters (teb/homotopy.py)"
-_OSCILLATION = "oscillation recovery is not implemented"
 _PROXIMITY = "the speed is not scaled down near obstacles"
 _CONVERTER = "costmap cells are used as point obstacles"
 _LEGACY = "the left/right closest obstacle association is used"
@@ -139,8 +138,8 @@ class TebConfig:
     weight_velocity_obstacle_ratio: float = param(0.0, "", "weight of the speed limit near obstacles", ge=0,
                                                   not_implemented=_PROXIMITY)
     weight_viapoint: float = param(1.0, "", "weight of the distance to via-points", ge=0)
-    weight_prefer_rotdir: float = param(50.0, "", "weight of a preferred turning direction", ge=0,
-                                        not_implemented=_OSCILLATION + " (it sets the preferred direction)")
+    weight_prefer_rotdir: float = param(50.0, "", "weight of the turning direction oscillation recovery prefers",
+                                        ge=0)
     weight_adapt_factor: float = param(2.0, "", "factor the obstacle weight grows by per outer iteration", ge=1)
     obstacle_cost_exponent: float = param(1.0, "", "exponent of the obstacle cost (1: linear)", gt=0)
     # -- homotopy class planning ------------------------------------------------
@@ -185,16 +184,13 @@ class TebConfig:
     # -- recovery ---------------------------------------------------------------
     shrink_horizon_backup: bool = param(True, "", "halve the horizon while the band is infeasible")
     shrink_horizon_min_duration: float = param(10.0, "s", "how long the horizon stays halved after that", ge=0)
-    oscillation_recovery: bool = param(True, "", "detect oscillation and prefer one turning direction",
-                                       not_implemented=_OSCILLATION)
-    oscillation_v_eps: float = param(0.1, "", "mean |v|/max_vel_x below which the robot oscillates", ge=0,
-                                     not_implemented=_OSCILLATION)
-    oscillation_omega_eps: float = param(0.1, "", "mean |omega|/max_vel_theta threshold", ge=0,
-                                         not_implemented=_OSCILLATION)
-    oscillation_recovery_min_duration: float = param(10.0, "s", "how long a turning direction is kept", ge=0,
-                                                     not_implemented=_OSCILLATION)
-    oscillation_filter_duration: float = param(10.0, "s", "window of the oscillation detector", ge=0,
-                                               not_implemented=_OSCILLATION)
+    oscillation_recovery: bool = param(True, "", "detect oscillation and prefer one turning direction")
+    oscillation_v_eps: float = param(0.1, "", "mean |v|/max_vel_x below which the robot oscillates", ge=0)
+    oscillation_omega_eps: float = param(0.1, "", "mean |omega|/max_vel_theta below which the robot oscillates",
+                                         ge=0)
+    oscillation_recovery_min_duration: float = param(10.0, "s", "turning direction kept this long after an "
+                                                     "oscillation", ge=0)
+    oscillation_filter_duration: float = param(10.0, "s", "window of the oscillation detector", ge=0)
     divergence_detection_enable: bool = param(False, "", "reject solutions whose error diverges",
                                               not_implemented="solver divergence is not detected")
     divergence_detection_max_chi_squared: float = param(10.0, "", "error above which a solution diverged", ge=0,

@@ -35,21 +35,26 @@ from simplebot_navigation.teb.footprint_kernels import footprint_distance_trig
 BANDWIDTH = 10
 MIN_TIME_DIFF = 1e-3
 #: Edge families, in the order of the residual vector and of the per-family chi2.
-FAMILIES = ("vel", "acc", "acc_start", "acc_goal", "kin", "time", "obstacle", "via")
-F_VEL, F_ACC, F_ACC_START, F_ACC_GOAL, F_KIN, F_TIME, F_OBSTACLE, F_VIA = range(8)
+FAMILIES = ("vel", "acc", "acc_start", "acc_goal", "kin", "time", "obstacle", "via", "prefer_rotdir")
+F_VEL, F_ACC, F_ACC_START, F_ACC_GOAL, F_KIN, F_TIME, F_OBSTACLE, F_VIA, F_PREFER_ROTDIR = range(9)
+N_FAMILIES = len(FAMILIES)
+#: Rotations at the start of the band a preferred turning direction applies to (AddEdgesPreferRotDir).
+PREFER_ROTDIR_ROTATIONS = 3
 
 # Slots of the edge parameter vector (see edge_parameters).
 (P_EPS, P_VEL_W_X, P_VEL_W_TH, P_VEL_LO_X, P_VEL_LO_TH, P_VEL_HI_X, P_VEL_HI_TH, P_ACC_W_X, P_ACC_W_TH,
  P_ACC_LIM_X, P_ACC_LIM_TH, P_START_V, P_START_OMEGA, P_FREE_GOAL, P_W_NH, P_W_FD, P_W_TIME, P_W_OBSTACLE,
- P_MIN_OBSTACLE, P_EXPONENT, P_INFLATION, P_W_INFLATION, P_INFLATION_DIST, P_W_VIA, N_PARAMS) = range(25)
+ P_MIN_OBSTACLE, P_EXPONENT, P_INFLATION, P_W_INFLATION, P_INFLATION_DIST, P_W_VIA, P_ROTDIR, P_W_ROTDIR,
+ N_PARAMS) = range(27)
 
 _TWO_PI = 2.0 * math.pi
 
 
 def edge_parameters(cfg, obstacle_weight: float, start_velocity, free_goal_vel: bool,
-                    with_inflation: bool) -> np.ndarray:
+                    with_inflation: bool, rotdir: int = 0) -> np.ndarray:
     """The scalars every edge family needs, square roots of the weights included (a residual is
-    sqrt(weight) * error, so chi2 carries the weight)."""
+    sqrt(weight) * error, so chi2 carries the weight). rotdir: the preferred turning direction,
+    +1 left, -1 right, 0 none; without one the prefer_rotdir weight is 0 and the family is skipped."""
     p = np.zeros(N_PARAMS)
     p[P_EPS] = cfg.penalty_epsilon
     p[P_VEL_W_X], p[P_VEL_W_TH] = math.sqrt(cfg.weight_max_vel_x), math.sqrt(cfg.weight_max_vel_theta)
@@ -66,13 +71,16 @@ def edge_parameters(cfg, obstacle_weight: float, start_velocity, free_goal_vel: 
     p[P_INFLATION] = float(with_inflation)
     p[P_W_INFLATION], p[P_INFLATION_DIST] = math.sqrt(cfg.weight_inflation), cfg.inflation_dist
     p[P_W_VIA] = math.sqrt(cfg.weight_viapoint)
+    p[P_ROTDIR] = float(rotdir)
+    p[P_W_ROTDIR] = math.sqrt(cfg.weight_prefer_rotdir) if rotdir else 0.0
     return p
 
 
 def residual_count(n: int, n_obstacle: int, n_via: int, params: np.ndarray) -> int:
     """Length of the residual vector of a band with n time differences."""
     return (2 * n + (2 * (n - 1) if n >= 2 else 0) + 2 + (0 if params[P_FREE_GOAL] else 2) + 3 * n
-            + n_obstacle * (2 if params[P_INFLATION] else 1) + 2 * n_via)
+            + n_obstacle * (2 if params[P_INFLATION] else 1) + 2 * n_via
+            + (min(n, PREFER_ROTDIR_ROTATIONS) if params[P_W_ROTDIR] else 0))
 
 
 # -- edges -----------------------------------------------------------------------------------------
@@ -308,6 +316,21 @@ def evaluate(poses, dts, params, edges, model, jacobian, r, chi2, h, g, work):
                 cols[0], jac[0] = (c + axis if c >= 0 else -1), w
                 _accumulate(h, g, cols[:1], jac[:1], res)
     row += 2 * nv
+
+    # preferred turning direction (oscillation recovery): the first rotations must not turn the
+    # other way, error max(0, -s * dtheta) with s = +1 left, -1 right
+    w, s = params[P_W_ROTDIR], params[P_ROTDIR]
+    if w != 0.0:
+        for i in range(min(n, PREFER_ROTDIR_ROTATIONS)):
+            e = max(-s * normalize_angle(poses[i + 1, 2] - poses[i, 2]), 0.0)
+            r[row] = w * e
+            chi2[F_PREFER_ROTDIR] += r[row] * r[row]
+            if jacobian and e > 0.0:
+                _set_segment_cols(cols, i, n)
+                jac[:6] = 0.0
+                jac[2], jac[5] = w * s, -w * s
+                _accumulate(h, g, cols[:6], jac[:6], r[row])
+            row += 1
     return chi2.sum()
 
 
@@ -316,7 +339,7 @@ def workspace(n, n_res):
     """Outputs (r, chi2, h, g) and scratch of evaluate for a band with n time differences."""
     n_vars = 4 * n - 3
     scratch = (np.empty((2, n)), np.empty((2, n, 7)), np.empty((2, n + 1)), np.empty(16, np.int64), np.empty(16))
-    return np.empty(n_res), np.zeros(8), np.zeros((BANDWIDTH + 1, n_vars)), np.zeros(n_vars), scratch
+    return np.empty(n_res), np.zeros(N_FAMILIES), np.zeros((BANDWIDTH + 1, n_vars)), np.zeros(n_vars), scratch
 
 
 @njit(cache=True, nogil=True)

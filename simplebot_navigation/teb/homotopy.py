@@ -29,7 +29,7 @@ from scipy import ndimage
 
 from simplebot_navigation.geometry import normalize_theta
 from simplebot_navigation.teb.band import TimedElasticBand
-from simplebot_navigation.teb.optimizer import TebOptimizer
+from simplebot_navigation.teb.optimizer import RotType, TebOptimizer
 
 
 @dataclass
@@ -112,6 +112,11 @@ class HomotopyClassPlanner:
 
     def best_band(self) -> TimedElasticBand | None:
         return self.best.band if self.best else None
+
+    def set_preferred_turning_dir(self, rotdir: RotType) -> None:
+        """Every candidate band is optimised with it (they share the optimiser), so the selection
+        compares them under the same prefer_rotdir edges."""
+        self.optimizer.prefer_rotdir = rotdir
 
     # -- one planning cycle -----------------------------------------------------------------
     def plan(self, initial_plan: np.ndarray, obstacles: np.ndarray, via_points, start_velocity,

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from enum import IntEnum
 
 import numpy as np
 
@@ -42,14 +43,24 @@ class EdgeSet:
                 np.ascontiguousarray(self.via_point, dtype=float).reshape(-1, 2))
 
 
+class RotType(IntEnum):
+    """A preferred turning direction (oscillation recovery); the value is the sign of the rotation
+    the prefer_rotdir edges let through."""
+    none = 0
+    left = 1
+    right = -1
+
+
 class TebOptimizer:
-    """Optimises one band in place; keeps only the config and the footprint model."""
+    """Optimises one band in place; keeps only the config, the footprint model and the preferred
+    turning direction the oscillation recovery sets."""
 
     def __init__(self, cfg, model):
         self.cfg = cfg
         self.model = model
         self.start_velocity = (0.0, 0.0)
         self.free_goal_vel = False
+        self.prefer_rotdir = RotType.none
 
     # -- outer loop -------------------------------------------------------------------------
     def optimize(self, band: TimedElasticBand, obstacles: np.ndarray, via_points: np.ndarray | None,
@@ -114,7 +125,7 @@ class TebOptimizer:
 
     def parameters(self, edges: EdgeSet) -> np.ndarray:
         return edge_kernels.edge_parameters(self.cfg, edges.obstacle_weight, self.start_velocity, self.free_goal_vel,
-                                       self.with_inflation)
+                                            self.with_inflation, int(self.prefer_rotdir))
 
     def residual_count(self, edges: EdgeSet, params: np.ndarray) -> int:
         return edge_kernels.residual_count(edges.n, len(edges.obst_pose), len(edges.via_pose), params)

@@ -14,10 +14,12 @@ import numpy as np
 from simplebot_navigation.geometry import normalize_theta
 from simplebot_navigation.parameters import fields_of
 from simplebot_navigation.teb.config import TebConfig
+from simplebot_navigation.teb.failure_detector import FailureDetector, buffer_length
 from simplebot_navigation.teb.feasibility import footprint_inscribed_radius, is_trajectory_feasible
 from simplebot_navigation.teb.footprint import FootprintModel
 from simplebot_navigation.teb.homotopy import HomotopyClassPlanner
 from simplebot_navigation.teb.obstacles import behind_robot_filter, costmap_point_obstacles
+from simplebot_navigation.teb.optimizer import RotType
 
 GOAL_ORIENTATION_AVERAGE = 3
 #: Share of controller_period after which a cycle optimises no more alternative bands (the
@@ -65,7 +67,15 @@ class TebLocalPlanner:
         #: (the shell hands in no clock; move_base calls once per controller period)
         self._infeasible_in_a_row = 0
         self._since_infeasible = math.inf
-        self._notices: list[str] = []
+        #: oscillation recovery: the detector fed with the command of the previous cycle, the
+        #: seconds (counted like _since_infeasible) since it last reported an oscillation, and the
+        #: turning direction the optimiser prefers meanwhile
+        self.failure_detector = FailureDetector(buffer_length(config.oscillation_filter_duration, controller_period))
+        self._last_command = (0.0, 0.0)
+        self._since_oscillation = math.inf
+        self.preferred_rotdir = RotType.none
+        #: (level, message) pairs, level "warn" or "info"
+        self._notices: list[tuple[str, str]] = []
         self._budget_reported = False
 
     # -- run-time changes -----------------------------------------------------------------------
@@ -76,12 +86,17 @@ class TebLocalPlanner:
         for name, spec in fields_of(TebConfig).items():
             if spec.dynamic:
                 setattr(self.cfg, name, getattr(config, name))
+        self.failure_detector.set_buffer_length(buffer_length(self.cfg.oscillation_filter_duration,
+                                                              self.controller_period))
 
     def set_controller_period(self, controller_period: float) -> None:
-        """A new controller_frequency: the acceleration window and the cycle budget follow it."""
+        """A new controller_frequency: the acceleration window, the cycle budget and the oscillation
+        detector's window (in commands) follow it."""
         if not controller_period > 0:
             raise ValueError(f"controller_period must be > 0, got {controller_period}")
         self.controller_period = float(controller_period)
+        self.failure_detector.set_buffer_length(buffer_length(self.cfg.oscillation_filter_duration,
+                                                              self.controller_period))
 
     def set_costmap_footprint(self, costmap_footprint) -> None:
         """The local costmap's padded footprint changed: the feasibility check uses the new one."""
@@ -97,12 +112,19 @@ class TebLocalPlanner:
         self.goal_reached = False
 
     def reset(self) -> None:
-        """Drop every band (recovery behaviours and new goals start from the plan again)."""
+        """Drop every band (recovery behaviours and new goals start from the plan again), and the
+        commands and turning preference of the oscillation recovery, which belong to the old
+        situation."""
         self.planner.clear()
+        self.failure_detector.clear()
+        self._last_command = (0.0, 0.0)
+        self._since_oscillation = math.inf
+        self._set_preferred_rotdir(RotType.none)
 
     # -- the control cycle --------------------------------------------------------------------
-    def pop_notices(self) -> list[str]:
-        """One-time messages for the log since the last call (each situation is reported once)."""
+    def pop_notices(self) -> list[tuple[str, str]]:
+        """Messages for the log since the last call, as (level, message); each event is reported
+        once, not every cycle it lasts."""
         notices, self._notices = self._notices, []
         return notices
 
@@ -116,11 +138,17 @@ class TebLocalPlanner:
             return VelocityCommandResult(0.0, 0.0, False, "no global plan set")
         self._prune_global_plan(pose)
         self._since_infeasible += self.controller_period
+        self._since_oscillation += self.controller_period
         transformed, goal_idx = self._shrink_horizon(*self._transform_global_plan(pose, costmap))
         self.via_points = self._via_points(transformed)
         if self.is_goal_reached(pose, vel):
             self.goal_reached = True
             return VelocityCommandResult(0.0, 0.0, True, "goal reached", goal_reached=True)
+        if cfg.oscillation_recovery:
+            self._oscillation_recovery(vel[1])
+        elif self.preferred_rotdir != RotType.none:
+            self._set_preferred_rotdir(RotType.none)
+            self._notices.append(("info", "TEB: oscillation recovery disabled"))
         local_goal = transformed[-1].copy()
         if cfg.global_plan_overwrite_orientation:
             local_goal[2] = self._estimate_local_goal_orientation(local_goal, goal_idx)
@@ -139,11 +167,11 @@ class TebLocalPlanner:
                                     class_obstacles=lethal, deadline=deadline)
         if self.planner.postponed and not self._budget_reported:
             self._budget_reported = True
-            self._notices.append(
+            self._notices.append(("warn",
                 f"TEB: a control cycle used up its budget ({budget * 1000:.0f} ms, {CYCLE_BUDGET_FRACTION:.0%} of "
                 f"controller_period) before the homotopy alternatives were optimised; {self.planner.postponed} "
                 "alternative band(s) postponed to the next cycle. The followed band is always optimised. "
-                "Reported once; later occurrences are not logged.")
+                "Reported once; later occurrences are not logged."))
         if not planned:
             return self._infeasible("planner failed to find a trajectory")
 
@@ -160,6 +188,7 @@ class TebLocalPlanner:
         if command is None:
             return self._infeasible("velocity command invalid. Resetting planner...")
         v, omega = self._saturate(*command, vel)
+        self._last_command = (v, omega)
         return VelocityCommandResult(v, omega, True, "")
 
     def _infeasible(self, message: str) -> VelocityCommandResult:
@@ -167,6 +196,7 @@ class TebLocalPlanner:
         self.planner.clear()
         self._infeasible_in_a_row += 1
         self._since_infeasible = 0.0
+        self._last_command = (0.0, 0.0)
         return VelocityCommandResult(0.0, 0.0, False, message)
 
     def is_goal_reached(self, robot_pose, robot_velocity) -> bool:
@@ -251,6 +281,33 @@ class TebLocalPlanner:
         if keep < 1:
             return transformed, goal_idx
         return transformed[:keep], goal_idx - reduction
+
+    def _oscillation_recovery(self, measured_omega: float) -> None:
+        """oscillation_recovery (TEB's configureBackupModes): when the commands of the last
+        oscillation_filter_duration oscillate, the optimiser prefers the direction the robot turns
+        in now, so the band stops flipping between two ways round an obstacle; the preference is
+        kept while the oscillation lasts and for oscillation_recovery_min_duration after it."""
+        cfg = self.cfg
+        v, omega = self._last_command
+        oscillating = self.failure_detector.update(v, omega, cfg.max_vel_x, cfg.max_vel_x_backwards,
+                                                   cfg.max_vel_theta, cfg.oscillation_v_eps,
+                                                   cfg.oscillation_omega_eps)
+        recently = self._since_oscillation < cfg.oscillation_recovery_min_duration
+        if oscillating:
+            if not recently:
+                rotdir = RotType.left if measured_omega > 0 else RotType.right
+                self._notices.append(("warn", "TEB: possible oscillation (of the robot or its local plan) detected; "
+                                      f"preferring to turn {rotdir.name} for "
+                                      f"{cfg.oscillation_recovery_min_duration:g} s"))
+                self._set_preferred_rotdir(rotdir)
+            self._since_oscillation = 0.0
+        elif not recently and self.preferred_rotdir != RotType.none:
+            self._set_preferred_rotdir(RotType.none)
+            self._notices.append(("info", "TEB: oscillation recovery expired"))
+
+    def _set_preferred_rotdir(self, rotdir: RotType) -> None:
+        self.preferred_rotdir = rotdir
+        self.planner.set_preferred_turning_dir(rotdir)
 
     def _via_points(self, transformed) -> np.ndarray:
         sep = self.cfg.global_plan_viapoint_sep

@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 from simplebot_navigation.geometry import normalize_theta
-from simplebot_navigation.teb.edge_kernels import MIN_TIME_DIFF
+from simplebot_navigation.teb.edge_kernels import MIN_TIME_DIFF, PREFER_ROTDIR_ROTATIONS
 
 
 def bound_to_interval(value, lower, upper, eps):
@@ -35,7 +35,7 @@ class Layout:
     """Columns of each family's local Jacobian: pose k -> 4k-3..4k-1, dT_i -> 4i, fixed poses -> -1;
     plus the scatter indices of every (i, j) product into banded J^T J."""
 
-    def __init__(self, edges, free_goal_vel: bool, with_inflation: bool):
+    def __init__(self, edges, free_goal_vel: bool, with_inflation: bool, prefer_rotdir: bool = False):
         n = edges.n
         self.n_vars = 4 * n - 3
         pc = np.full((n + 1, 3), -1, dtype=np.int64)
@@ -58,6 +58,8 @@ class Layout:
             cols["obstacle"] = np.vstack([obst, obst]) if with_inflation else obst
         if len(edges.via_pose):
             cols["via"] = np.vstack([pc[edges.via_pose, 0:1], pc[edges.via_pose, 1:2]])
+        if prefer_rotdir:
+            cols["prefer_rotdir"] = seg[:PREFER_ROTDIR_ROTATIONS, :6]
         self.cols = cols
         self.bandwidth = max(_row_span(c) for c in cols.values())
         h, g = zip(*(_scatter_indices(c, self.n_vars, self.bandwidth) for c in cols.values()))
@@ -86,8 +88,11 @@ def _row_span(cols: np.ndarray) -> int:
 class ReferenceEvaluation:
     """The edges of one band (TebOptimizer's EdgeSet) evaluated with numpy."""
 
-    def __init__(self, cfg, model, start_velocity, free_goal_vel: bool):
+    def __init__(self, cfg, model, start_velocity, free_goal_vel: bool, rotdir: int = 0):
+        """rotdir: preferred turning direction, +1 left, -1 right, 0 none."""
         self.cfg = cfg
+        self.rotdir = rotdir
+        self.prefer_rotdir = rotdir != 0 and cfg.weight_prefer_rotdir > 0
         self.model = model
         self.start_velocity = (float(start_velocity[0]), float(start_velocity[1]))
         self.free_goal_vel = free_goal_vel
@@ -100,7 +105,7 @@ class ReferenceEvaluation:
         self._acc_limit = np.array([[cfg.acc_lim_x], [cfg.acc_lim_theta]])
 
     def layout(self, edges) -> Layout:
-        return Layout(edges, self.free_goal_vel, self.with_inflation)
+        return Layout(edges, self.free_goal_vel, self.with_inflation, self.prefer_rotdir)
 
     def evaluate(self, poses: np.ndarray, dts: np.ndarray, edges, with_jacobian: bool) -> dict:
         """Weighted residuals per edge family, name -> (r, J_local or None), in the order of
@@ -220,6 +225,17 @@ class ReferenceEvaluation:
             w = math.sqrt(self.cfg.weight_viapoint)
             diff = poses[edges.via_pose, :2] - edges.via_point
             out["via"] = (w * diff.T.ravel(), np.full((2 * len(diff), 1), w) if with_jacobian else None)
+
+        # preferred turning direction: the first rotations must not turn the other way
+        if self.prefer_rotdir:
+            w = math.sqrt(cfg.weight_prefer_rotdir)
+            k = min(n, PREFER_ROTDIR_ROTATIONS)
+            e, de = bound_from_below(self.rotdir * normalize_theta(np.diff(poses[:k + 1, 2])), 0.0, 0.0)
+            jac = None
+            if with_jacobian:
+                jac = np.zeros((k, 6))
+                jac[:, 2], jac[:, 5] = -w * de * self.rotdir, w * de * self.rotdir
+            out["prefer_rotdir"] = (w * e, jac)
         return out
 
     @staticmethod

@@ -114,5 +114,7 @@ def test_every_parameter_is_described_with_its_value(lab):
     assert len(lines) == len(parameter_table(lab))
     assert "local_costmap.inflation_layer.inflation_radius = 1.5  # distance up to which obstacle cost is " \
            "inflated [m] (>= 0)" in lines
-    assert any(line.startswith("TebLocalPlannerROS.oscillation_recovery = True  # ") and
+    assert any(line.startswith("TebLocalPlannerROS.divergence_detection_enable = False  # ") and
                "accepted, not implemented" in line for line in lines)
+    assert any(line.startswith("TebLocalPlannerROS.oscillation_recovery = True  # ") and
+               "not implemented" not in line for line in lines)

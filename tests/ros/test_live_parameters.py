@@ -164,6 +164,14 @@ def test_a_parameter_without_effect_here_is_refused_saying_so(session):
     assert session.params.get("TebLocalPlannerROS.weight_shortest_path") == 0.0
 
 
+@pytest.mark.parametrize("name, value", [("TebLocalPlannerROS.oscillation_filter_duration", 4.0),
+                                         ("TebLocalPlannerROS.weight_prefer_rotdir", 20.0)])
+def test_the_oscillation_recovery_takes_live_changes(session, name, value):
+    result = session.params.set(name, value)
+    assert result.successful, result.reason
+    assert session.params.get(name) == value
+
+
 def test_a_parameter_another_one_overrides_is_refused_saying_so(session):
     result = session.params.set("local_costmap.robot_radius", 0.6)
     assert not result.successful and "another parameter takes precedence" in result.reason, result.reason

@@ -5,11 +5,12 @@ import math
 import numpy as np
 import pytest
 
+from simplebot_navigation.geometry import normalize_theta
 from simplebot_navigation.teb import edge_kernels, footprint_kernels, solver_kernels, warm_up
 from simplebot_navigation.teb.config import TebConfig
 from simplebot_navigation.teb.footprint import FootprintModel
 from simplebot_navigation.teb.obstacles import FORCE_INCLUSION_SECTORS, GAP_FREE_FRACTION, associate_obstacles
-from simplebot_navigation.teb.optimizer import EdgeSet, TebOptimizer
+from simplebot_navigation.teb.optimizer import EdgeSet, RotType, TebOptimizer
 from simplebot_navigation.teb.reference import ReferenceEvaluation
 from simplebot_navigation.teb.reference import associate_obstacles as reference_association
 
@@ -54,24 +55,26 @@ def dense_lower(banded, n_vars):
 @pytest.mark.parametrize("model", MODELS, ids=IDS)
 @pytest.mark.parametrize("free_goal_vel", [False, True])
 @pytest.mark.parametrize("inflation", [False, True])
-def test_compiled_evaluation_and_normal_equations_match_the_reference(model, free_goal_vel, inflation):
-    rng = np.random.default_rng([len(model.kind), free_goal_vel, inflation])
+@pytest.mark.parametrize("rotdir", list(RotType), ids=[r.name for r in RotType])
+def test_compiled_evaluation_and_normal_equations_match_the_reference(model, free_goal_vel, inflation, rotdir):
+    rng = np.random.default_rng([len(model.kind), free_goal_vel, inflation, rotdir + 1])
     for trial in range(12):
         cfg = TebConfig.from_params({"obstacle_cost_exponent": [1.0, 1.7, 2.0][trial % 3],
                                      "inflation_dist": 0.8 if inflation else 0.4,
-                                     "weight_viapoint": 3.0, "max_vel_x_backwards": 0.15})
+                                     "weight_viapoint": 3.0, "max_vel_x_backwards": 0.15,
+                                     "weight_prefer_rotdir": [50.0, 7.0, 0.0][trial % 3]})
         n = int(rng.integers(1, 30))
         poses, dts = random_band(rng, n)
         start_velocity = tuple(rng.uniform(-0.5, 0.5, 2))
         edges = random_edges(rng, poses, n, 50.0 * 2 ** trial)
-        ref = ReferenceEvaluation(cfg, model, start_velocity, free_goal_vel)
+        ref = ReferenceEvaluation(cfg, model, start_velocity, free_goal_vel, rotdir)
         families = ref.evaluate(poses, dts, edges, True)
         layout = ref.layout(edges)
         h_ref, g_ref = ref.normal_equations(families, layout)
         r_ref = np.concatenate([r for r, _ in families.values()])
 
         opt = TebOptimizer(cfg, model)
-        opt.start_velocity, opt.free_goal_vel = start_velocity, free_goal_vel
+        opt.start_velocity, opt.free_goal_vel, opt.prefer_rotdir = start_velocity, free_goal_vel, rotdir
         params = opt.parameters(edges)
         r, h, g, chi2 = edge_kernels.normal_equations(poses, dts, params, edges.arrays, model.kernel_model,
                                                  opt.residual_count(edges, params))
@@ -84,6 +87,10 @@ def test_compiled_evaluation_and_normal_equations_match_the_reference(model, fre
         per_family = edge_kernels.family_chi2(poses, dts, params, edges.arrays, model.kernel_model, len(r))
         expected = [float(families[f][0] @ families[f][0]) if f in families else 0.0 for f in edge_kernels.FAMILIES]
         np.testing.assert_allclose(per_family, expected, rtol=1e-9, atol=1e-9)
+        # the random headings turn both ways in the first rotations, so a preference costs something
+        turns_away = rotdir * normalize_theta(np.diff(poses[:4, 2])) < 0
+        if rotdir != RotType.none and cfg.weight_prefer_rotdir > 0 and turns_away[:n].any():
+            assert per_family[edge_kernels.F_PREFER_ROTDIR] > 0
 
 
 @pytest.mark.parametrize("model", MODELS, ids=IDS)

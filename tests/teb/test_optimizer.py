@@ -4,7 +4,7 @@ import pytest
 from simplebot_navigation.teb.band import TimedElasticBand
 from simplebot_navigation.teb.config import TebConfig
 from simplebot_navigation.teb.footprint import FootprintModel
-from simplebot_navigation.teb.optimizer import EdgeSet, TebOptimizer
+from simplebot_navigation.teb.optimizer import EdgeSet, RotType, TebOptimizer
 from simplebot_navigation.teb.reference import ReferenceEvaluation
 
 from .scenes import LAB_TWO_CIRCLES, straight_plan
@@ -100,13 +100,33 @@ def test_a_via_point_the_robot_has_passed_does_not_pull_the_band_back():
     assert np.all(np.diff(band.poses[:, 0]) > 0), band.poses[:4]
 
 
+@pytest.mark.parametrize("side", [1, -1])
+def test_a_preferred_turning_direction_stops_the_band_from_starting_the_other_way(side):
+    # a goal 0.1 m to one side: the band starts with a turn towards it (about 0.06 rad); preferring
+    # the other direction, as the oscillation recovery may, its first three rotations go straight
+    cfg = TebConfig()
+    plan = np.column_stack([np.linspace(0.0, 2.0, 30), np.linspace(0.0, side * 0.1, 30), np.zeros(30)])
+    rotations = {}
+    for rotdir in (RotType.none, RotType(-side)):
+        band = band_from(plan, cfg)
+        opt = TebOptimizer(cfg, FootprintModel.from_params(LAB_TWO_CIRCLES))
+        opt.prefer_rotdir = rotdir
+        for _ in range(3):
+            opt.optimize(band, np.zeros((0, 2)), None, (0.0, 0.0), False)
+        rotations[rotdir] = side * np.diff(band.poses[:4, 2])
+        assert abs(band.poses[-1, 1] - side * 0.1) < 0.01          # the goal is reached either way
+    assert rotations[RotType.none][0] > 0.03
+    assert np.all(rotations[RotType(-side)] < 1e-3)
+
+
+@pytest.mark.parametrize("rotdir", list(RotType), ids=[r.name for r in RotType])
 @pytest.mark.parametrize("free_goal_vel", [False, True])
 @pytest.mark.parametrize("model", [FootprintModel.from_params(LAB_TWO_CIRCLES),
                                    FootprintModel.polygon([[0.45, 0.3], [0.45, -0.3], [-0.45, -0.3], [-0.45, 0.3]]),
                                    FootprintModel.line([-0.3, 0.0], [0.3, 0.0])], ids=lambda m: m.kind)
-def test_analytic_jacobian_and_normal_equations_match_finite_differences(model, free_goal_vel):
+def test_analytic_jacobian_and_normal_equations_match_finite_differences(model, free_goal_vel, rotdir):
     cfg = TebConfig.from_params({"obstacle_cost_exponent": 1.5})
-    ref = ReferenceEvaluation(cfg, model, (0.1, 0.05), free_goal_vel)
+    ref = ReferenceEvaluation(cfg, model, (0.1, 0.05), free_goal_vel, rotdir)
     rng = np.random.default_rng(0)
     n = 8
     poses = np.column_stack([np.linspace(0, 2, n + 1), 0.1 * rng.standard_normal(n + 1),

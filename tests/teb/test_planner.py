@@ -4,9 +4,11 @@ import numpy as np
 import pytest
 
 from simplebot_navigation.teb import planner as planner_module
+from simplebot_navigation.teb.config import TebConfig
+from simplebot_navigation.teb.optimizer import RotType
 from simplebot_navigation.teb.planner import TebLocalPlanner
 
-from .scenes import (LAB_FOOTPRINT, LAB_PADDED_FOOTPRINT, PERIOD, RES, box_cells, footprint_hits, lab_planner,
+from .scenes import (LAB_FOOTPRINT, LAB_PADDED_FOOTPRINT, LAB_PARAMS, PERIOD, RES, box_cells, footprint_hits, lab_planner,
                      rolling_costmap, straight_plan, unicycle_step)
 
 
@@ -267,7 +269,7 @@ def test_an_exhausted_cycle_budget_postpones_the_alternatives_and_is_reported_on
         assert result.ok and planner.planner.bands_optimized == 1
     # the seeds explored around the wall were never optimised: each was dropped, the followed band kept
     assert len(planner.candidate_bands) == 1
-    assert len(notices) == 1 and "postponed" in notices[0]
+    assert len(notices) == 1 and notices[0][0] == "warn" and "postponed" in notices[0][1]
     assert planner.pop_notices() == []
 
 
@@ -282,3 +284,76 @@ def test_a_budget_that_suffices_changes_nothing(monkeypatch):
         assert planner.pop_notices() == []
         runs.append(poses)
     np.testing.assert_array_equal(runs[0], runs[1])
+
+
+def rock(planner, omegas):
+    """Cycles at the origin with the odometry turn rates given; with tiny acceleration limits each
+    command stays within 0.001 of the odometry, so the commands rock as the robot does."""
+    free = rolling_costmap(0, 0, np.zeros((0, 2)), size_m=10.0)
+    states = []
+    for omega in omegas:
+        planner.compute_velocity_commands((0.0, 0.0, 0.0), (0.0, omega), free)
+        states.append((planner.failure_detector.oscillating, planner.preferred_rotdir))
+    return states
+
+
+ROCKING = dict(acc_lim_x=0.01, acc_lim_theta=0.01, oscillation_filter_duration=2.0,
+               oscillation_recovery_min_duration=3.0)
+
+
+@pytest.mark.parametrize("phase, expected", [(0, RotType.right), (1, RotType.left)])
+def test_oscillating_commands_make_the_optimiser_prefer_the_measured_turning_direction(phase, expected):
+    planner = lab_planner(**ROCKING)
+    planner.set_plan(straight_plan(0.0, 3.0))
+    # 2 s window at 10 Hz: detection from the 10th command on (the first is the zero command
+    # before any was sent, as in TEB)
+    states = rock(planner, [0.02 * (-1) ** (k + phase) for k in range(30)])
+    first = [oscillating for oscillating, _ in states].index(True)
+    assert first == 9
+    # the direction the robot turned in at detection, kept while the rocking goes on
+    assert 0.02 * (-1) ** (first + phase) * expected > 0
+    assert [rotdir for _, rotdir in states[first:]] == [expected] * (len(states) - first)
+    assert planner.planner.optimizer.prefer_rotdir == expected
+    notices = planner.pop_notices()
+    assert notices == [("warn", "TEB: possible oscillation (of the robot or its local plan) detected; "
+                                f"preferring to turn {expected.name} for 3 s")]
+    # the robot keeps still: once the rocking has left the window, 3 s later the preference expires
+    states = rock(planner, [0.0] * 80)
+    last = max(k for k, (oscillating, _) in enumerate(states) if oscillating)
+    kept = [rotdir for _, rotdir in states]
+    assert kept[:last + 30] == [expected] * (last + 30)
+    assert kept[last + 30:] == [RotType.none] * (80 - last - 30)
+    assert planner.planner.optimizer.prefer_rotdir == RotType.none
+    assert planner.pop_notices() == [("info", "TEB: oscillation recovery expired")]
+
+
+def test_no_preference_without_oscillation_recovery_and_none_after_a_reset():
+    planner = lab_planner(**ROCKING, oscillation_recovery=False)
+    planner.set_plan(straight_plan(0.0, 3.0))
+    assert {rotdir for _, rotdir in rock(planner, [0.02 * (-1) ** k for k in range(30)])} == {RotType.none}
+    planner = lab_planner(**ROCKING)
+    planner.set_plan(straight_plan(0.0, 3.0))
+    assert rock(planner, [0.02 * (-1) ** k for k in range(12)])[-1][1] != RotType.none
+    planner.reset()
+    assert planner.preferred_rotdir == planner.planner.optimizer.prefer_rotdir == RotType.none
+    # the old commands are gone too: detection needs half a window of new ones
+    assert [oscillating for oscillating, _ in rock(planner, [0.02 * (-1) ** k for k in range(11)])] == \
+        [False] * 9 + [True] * 2
+    # switched off while it holds a preference: the preference goes with it
+    planner.reconfigure(TebConfig.from_params({**LAB_PARAMS, **ROCKING, "oscillation_recovery": False}))
+    planner.pop_notices()
+    assert rock(planner, [0.02])[-1][1] == planner.planner.optimizer.prefer_rotdir == RotType.none
+    assert planner.pop_notices() == [("info", "TEB: oscillation recovery disabled")]
+
+
+def test_a_live_filter_duration_resizes_the_detector_window():
+    planner = lab_planner(**ROCKING)
+    planner.set_plan(straight_plan(0.0, 3.0))
+    planner.reconfigure(TebConfig.from_params({**LAB_PARAMS, **ROCKING, "oscillation_filter_duration": 1.0}))
+    assert [oscillating for oscillating, _ in rock(planner, [0.02 * (-1) ** k for k in range(6)])] == \
+        [False] * 4 + [True] * 2
+    # 1 s is now 5 commands: half full after 2, but two sign changes take 3
+    planner.set_controller_period(2 * PERIOD)
+    planner.reset()
+    assert [oscillating for oscillating, _ in rock(planner, [0.02 * (-1) ** k for k in range(4)])] == \
+        [False] * 2 + [True] * 2
