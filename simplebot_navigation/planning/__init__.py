@@ -1,5 +1,12 @@
 """Global planning: global_planner/GlobalPlanner and navfn/NavfnROS on a Costmap2D."""
 
+from pathlib import Path
+
+from simplebot_navigation.kernel_cache import drop_stale_kernel_caches
+
+drop_stale_kernel_caches(Path(__file__).parent, ("expansion_kernels", "path_kernels"))
+
+
 from .config import GLOBAL_PLANNER, NAVFN, GlobalPlannerConfig, OrientationMode
 from .global_planner import (GlobalPlanner, PlanFailure, PlanResult, make_global_planner,
                              potential_to_occupancy, warm_up)

@@ -1,6 +1,12 @@
 """Timed elastic band local planner (teb_local_planner): numpy, with the optimiser's hot path
 compiled by numba (teb/*_kernels.py; warm_up() compiles or loads it ahead of the first goal)."""
 
+from pathlib import Path
+
+from simplebot_navigation.kernel_cache import drop_stale_kernel_caches
+
+drop_stale_kernel_caches(Path(__file__).parent, ("footprint_kernels", "edge_kernels", "solver_kernels"))
+
 from simplebot_navigation.teb.config import TebConfig
 from simplebot_navigation.teb.footprint import FootprintModel
 from simplebot_navigation.teb.optimizer import warm_up
