@@ -10,6 +10,7 @@ import math
 import numpy as np
 
 from simplebot_navigation.geometry import normalize_theta
+from simplebot_navigation.teb.edge_kernels import MIN_TIME_DIFF
 
 
 def estimate_delta_t(p0, p1, max_vel_x: float, max_vel_theta: float) -> float:
@@ -76,8 +77,9 @@ class TimedElasticBand:
         poses.append(goal)
         poses = np.array(poses)
         self.poses = poses
-        self.time_diffs = np.array([estimate_delta_t(poses[i], poses[i + 1], max_vel_x, max_vel_theta)
-                                    for i in range(len(poses) - 1)])
+        # repeated plan poses (a turn on the spot) would give dT = 0, which the optimiser divides by
+        self.time_diffs = np.maximum([estimate_delta_t(poses[i], poses[i + 1], max_vel_x, max_vel_theta)
+                                      for i in range(len(poses) - 1)], MIN_TIME_DIFF)
 
     def update_and_prune(self, new_start, new_goal, min_samples: int) -> None:
         """Warm start: drop the poses the robot has passed (searching up to 10 ahead for the

@@ -357,3 +357,16 @@ def test_a_live_filter_duration_resizes_the_detector_window():
     planner.reset()
     assert [oscillating for oscillating, _ in rock(planner, [0.02 * (-1) ** k for k in range(4)])] == \
         [False] * 2 + [True] * 2
+
+
+def test_a_plan_that_repeats_a_pose_turns_the_robot_on_the_spot():
+    """A plan whose first poses coincide (start and goal in one cell) must not give the band a zero dT."""
+    planner = lab_planner()
+    planner.set_plan(np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.5]]))
+    pose, vel = np.zeros(3), (0.0, 0.0)
+    for _ in range(100):
+        result = planner.compute_velocity_commands(pose, vel, rolling_costmap(0.0, 0.0, np.zeros((0, 2))))
+        if result.goal_reached:
+            break
+        pose, vel = unicycle_step(pose, result.v, result.omega), (result.v, result.omega)
+    assert result.goal_reached and abs(pose[2] - 1.5) < 0.1 and np.hypot(*pose[:2]) < 0.05
