@@ -9,6 +9,8 @@ from __future__ import annotations
 import math
 import sys
 import time
+import traceback
+from pathlib import Path
 
 from actionlib_msgs.msg import GoalID, GoalStatus as ActionlibStatus, GoalStatusArray
 from diagnostic_msgs.msg import DiagnosticArray
@@ -294,8 +296,12 @@ class MoveBaseNode(MoveBaseSupervision, MoveBaseParameters, Node):
                 return
         else:
             self._waiting_since = None
-        out = self.core.cycle(self._now(), pose[:3], self.local_costmap.is_current(),
-                              ", ".join(f"local_costmap/{s}" for s in stale))
+        try:
+            out = self.core.cycle(self._now(), pose[:3], self.local_costmap.is_current(),
+                                  ", ".join(f"local_costmap/{s}" for s in stale))
+        except Exception as exc:  # noqa: BLE001 - a bug in a planner must stop the robot, not the node
+            self._abort_on_internal_error(goal, exc)
+            return
         if out.cmd is not None:
             self._publish_cmd(*out.cmd)
         if out.event:
@@ -313,6 +319,16 @@ class MoveBaseNode(MoveBaseSupervision, MoveBaseParameters, Node):
             self._last_missed_warning = time.monotonic()
             self.get_logger().warn(f"Control loop missed its desired rate of {self.cfg.controller_frequency:.4f}Hz"
                                    f"... the loop actually took {elapsed:.4f} seconds")
+
+    def _abort_on_internal_error(self, goal: MoveBaseGoal, exc: Exception) -> None:
+        """Stop the robot and end the goal with the error; the node stays up for the next goal."""
+        where = traceback.extract_tb(exc.__traceback__)[-1]
+        text = (f"internal error in the control cycle: {type(exc).__name__}: {exc} "
+                f"({Path(where.filename).name}:{where.lineno}); robot stopped, goal aborted")
+        self.get_logger().error(text + "\n" + "".join(traceback.format_exception(exc)))
+        self.core.reset()
+        self._publish_zero()
+        self._finish(goal, ActionlibStatus.ABORTED, text)
 
     def _publish_cmd(self, v: float, omega: float) -> None:
         twist = Twist()

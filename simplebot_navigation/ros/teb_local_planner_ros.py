@@ -115,8 +115,7 @@ class TebLocalPlannerROS:
             result = self.planner.compute_velocity_commands(pose[:3], self._robot_velocity(),
                                                             self.costmap_ros.costmap)
         self._unpublished = True
-        for level, notice in self.planner.pop_notices():
-            getattr(self.logger, level)(notice)
+        log_notices(self.logger, self.planner.pop_notices())
         return ControlResult(result.ok, result.v, result.omega, result.message)
 
     def is_goal_reached(self) -> bool:
@@ -154,3 +153,13 @@ class TebLocalPlannerROS:
             marker.header.frame_id = self.frame
             marker.header.stamp = stamp
         self.markers_pub.publish(MarkerArray(markers=[obstacles, footprint]))
+
+
+def log_notices(logger, notices) -> None:
+    """The planner's (level, message) notices, one call site per severity: rclpy raises when the
+    severity of a call site changes between calls."""
+    for level, notice in notices:
+        if level == "warn":
+            logger.warn(notice)
+        else:
+            logger.info(notice)
