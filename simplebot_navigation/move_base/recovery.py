@@ -82,6 +82,22 @@ class SpinParams:
     time_allowance: float = param(10.0, "s", "time after which the behaviour gives up", gt=0)
 
 
+class ParameterisedRecovery:
+    """A behaviour whose parameters are the fields of ``PARAMS``, kept as attributes of the same names."""
+    PARAMS: type
+
+    def configure(self, params: dict) -> list[str]:
+        """Take the behaviour's parameters (at start-up, and when they change while running); the warnings."""
+        p, warnings = build(self.PARAMS, params, f"move_base/{self.name}", also_known=[PLUGIN_TYPE_KEY])
+        for key in fields_of(self.PARAMS):
+            setattr(self, key, getattr(p, key))
+        return warnings
+
+    def parameters(self) -> dict:
+        """The parameters it runs with, under their names (to declare on the node)."""
+        return {key: getattr(self, key) for key in fields_of(self.PARAMS)}
+
+
 class PoseTrail:
     """The positions the robot came by, a point every ``spacing``, without loops: coming back within
     ``spacing`` of an earlier point cuts the trail there, so reversing along it never leads back
@@ -131,7 +147,7 @@ def _unicycle_poses(pose, v: float, omega: float, duration: float, step: float) 
     return np.column_stack([x, y, yaw])
 
 
-class BackUpRecovery:
+class BackUpRecovery(ParameterisedRecovery):
     """Reverse backup_dist along the robot's recent path (straight back when it has none).
 
     footprint_clear(poses) says per (x, y, yaw) row whether the footprint is collision free; the
@@ -139,6 +155,8 @@ class BackUpRecovery:
     Nav2 gives up as soon as a collision shows up in that window; here the robot keeps reversing
     until the collision is STOP_MARGIN_S away, because in a tight spot every centimetre counts.
     """
+
+    PARAMS = BackUpParams
 
     LOOKAHEAD_M = 0.15   # carrot distance along the trail: short, because the trail is what is known free
     CHECK_STEP_M = 0.01
@@ -154,17 +172,6 @@ class BackUpRecovery:
         self._driven = 0.0
         self._last = (0.0, 0.0)
         self.warnings = self.configure(params)
-
-    def configure(self, params: dict) -> list[str]:
-        """Take the behaviour's parameters (at start-up, and when they change while running); the warnings."""
-        p, warnings = build(BackUpParams, params, f"move_base/{self.name}", also_known=[PLUGIN_TYPE_KEY])
-        for key in fields_of(BackUpParams):
-            setattr(self, key, getattr(p, key))
-        return warnings
-
-    def parameters(self) -> dict:
-        """The parameters it runs with, under their names (to declare on the node)."""
-        return {key: getattr(self, key) for key in fields_of(BackUpParams)}
 
     def start(self, now: float, pose) -> None:
         x, y, yaw = pose
@@ -221,13 +228,15 @@ def free_area_left_right(costmap, pose, radius: float) -> tuple[float, float]:
     return float(free[lateral > 0].sum() * res * res), float(free[lateral < 0].sum() * res * res)
 
 
-class SpinRecovery:
+class SpinRecovery(ParameterisedRecovery):
     """Turn spin_dist in place towards the side with more free space, or as far as the footprint can.
 
     free_space(pose) gives the free area on the robot's left and right; footprint_clear(poses)
     checks each (x, y, yaw) row. Where a full circle is blocked, part of a turn still changes
     what the local planner can start from.
     """
+
+    PARAMS = SpinParams
 
     def __init__(self, name: str, params: dict, footprint_clear: Callable[[np.ndarray], np.ndarray],
                  free_space: Callable[[tuple[float, float, float]], tuple[float, float]]):
@@ -240,17 +249,6 @@ class SpinRecovery:
         self._start = 0.0
         self._refused = ""
         self.warnings = self.configure(params)
-
-    def configure(self, params: dict) -> list[str]:
-        """Take the behaviour's parameters (at start-up, and when they change while running); the warnings."""
-        p, warnings = build(SpinParams, params, f"move_base/{self.name}", also_known=[PLUGIN_TYPE_KEY])
-        for key in fields_of(SpinParams):
-            setattr(self, key, getattr(p, key))
-        return warnings
-
-    def parameters(self) -> dict:
-        """The parameters it runs with, under their names (to declare on the node)."""
-        return {key: getattr(self, key) for key in fields_of(SpinParams)}
 
     def _reachable(self, pose, direction: float) -> float:
         """How far (rad, up to spin_dist) the footprint turns in ``direction`` before a collision."""
@@ -349,12 +347,14 @@ class ClearCostmapRecovery:
         return RecoveryStep(None, True, f"{self.name}: cleared {what} {side} a {self.reset_distance:.2f} m square")
 
 
-class RotateRecovery:
+class RotateRecovery(ParameterisedRecovery):
     """Turn a full circle in place (counter-clockwise) to let the sensors see everything around.
 
     footprint_clear(poses) says per (x, y, yaw) row whether the footprint is collision free on the
     local costmap; the remaining turn is checked every sim_granularity before each step, as ROS 1 does.
     """
+
+    PARAMS = RotateParams
 
     def __init__(self, name: str, params: dict, footprint_clear: Callable[[np.ndarray], np.ndarray]):
         self.name = name
@@ -363,17 +363,6 @@ class RotateRecovery:
         self._turned = 0.0
         self._last_yaw = 0.0
         self.warnings = self.configure(params)
-
-    def configure(self, params: dict) -> list[str]:
-        """Take the behaviour's parameters (at start-up, and when they change while running); the warnings."""
-        p, warnings = build(RotateParams, params, f"move_base/{self.name}", also_known=[PLUGIN_TYPE_KEY])
-        for key in fields_of(RotateParams):
-            setattr(self, key, getattr(p, key))
-        return warnings
-
-    def parameters(self) -> dict:
-        """The parameters it runs with, under their names (to declare on the node)."""
-        return {key: getattr(self, key) for key in fields_of(RotateParams)}
 
     def start(self, now: float, pose) -> None:
         self._start_yaw = self._last_yaw = pose[2]
