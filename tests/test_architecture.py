@@ -17,7 +17,7 @@ import pytest
 PACKAGE = "simplebot_navigation"
 ROOT = Path(__file__).resolve().parents[1] / PACKAGE
 LAYERS = [
-    {"geometry", "paths", "parameters", ""},
+    {"geometry", "paths", "parameters", "kernel_cache", ""},
     {"costmap", "planning", "teb", "sim", "move_base"},
     {"ros"},
     {"launch", "scenarios", "viewer", "testing"},

@@ -16,12 +16,12 @@ from the 0.2 m global costmap):
   between two routes. Such replans come at most once per BLOCKED_REPLAN_INTERVAL_S, so a robot
   discovering a forest cell by cell does not replan every cycle;
 - ``progress_timeout`` (30 s; 0 disables): a robot that has for that long neither come
-  oscillation_distance closer to the goal, nor shortened the rest of its current plan by as
-  much (a new plan of about the same length continues the count, another route restarts it),
-  nor entered a square metre it had not been in during this goal runs the recovery
-  behaviours (trigger PROGRESS_R). Nav2's progress checker counts any movement, but circling is
-  movement too. Creeping through clutter, backing out of a dead end along a new plan, or a detour
-  through new space is progress; turning back and forth in place is not;
+  oscillation_distance closer to the goal, nor got the plan length left to drive
+  oscillation_distance below the least it has been during this goal, nor entered a square metre
+  it had not been in during this goal runs the recovery behaviours (trigger PROGRESS_R). Nav2's
+  progress checker counts any movement, but circling is movement too. Creeping along a winding
+  plan through clutter, or a detour through new space, is progress; turning back and forth in
+  place, or circling where plans come and go, is not;
 - a local planner that fails sends move_base back to PLANNING only when its plan is at least
   MIN_REPLAN_INTERVAL_S old; until then it keeps the plan and stops the robot. ROS 1 replans
   after every failed cycle, which in clutter means hundreds of identical plans a minute while
@@ -118,7 +118,7 @@ class MoveBaseCore:
         self.plan: np.ndarray | None = None
         self._plan_to_go = np.empty(0)     # plan length from each pose to the plan's end
         self._plan_made_at = -math.inf
-        self._best_to_go = math.inf        # least plan length left since the plan was made
+        self._best_to_go = math.inf        # least plan length left to drive during this goal
         self.goal: tuple[float, float, float] | None = None
         self.state = State.IDLE
         self.trigger = Trigger.PLANNING_R
@@ -158,6 +158,7 @@ class MoveBaseCore:
         self._progress_time = now
         self._visited.clear()
         self._plan_made_at = -math.inf
+        self._best_to_go = math.inf
         self.plan = None
         self.last_plan_failure = ""
         self.controller.reset()
@@ -265,14 +266,14 @@ class MoveBaseCore:
             if not self.controller.set_plan(plan):
                 self.reset()
                 return "Failed to pass global plan to the controller, aborting."
-            before = self._plan_left(pose)
             self.plan = plan
             steps = np.hypot(*np.diff(plan[:, :2], axis=0).T)
             self._plan_to_go = np.concatenate([np.cumsum(steps[::-1])[::-1], [0.0]])
             self._plan_made_at = now
-            after = self._plan_left(pose)
-            if not abs(after - before) <= self.cfg.oscillation_distance:   # another route: measure from here
-                self._best_to_go = after
+            # Only the goal's first plan sets the mark: a longer route restarting the count would let plans
+            # that come and go round a table pass for progress, a replan lowering it would hide creeping.
+            if self._best_to_go == math.inf:
+                self._best_to_go = self._plan_left(pose)
             self._blocked_at_plan = (self._plan_blocked(plan, pose) if self._plan_blocked is not None
                                      else np.zeros(len(plan), dtype=bool))
             if self.trigger == Trigger.PLANNING_R and self._progress_since_recoveries():

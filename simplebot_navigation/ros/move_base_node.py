@@ -9,8 +9,6 @@ from __future__ import annotations
 import math
 import sys
 import time
-import traceback
-from pathlib import Path
 
 from actionlib_msgs.msg import GoalID, GoalStatus as ActionlibStatus, GoalStatusArray
 from diagnostic_msgs.msg import DiagnosticArray
@@ -319,16 +317,6 @@ class MoveBaseNode(MoveBaseSupervision, MoveBaseParameters, Node):
             self._last_missed_warning = time.monotonic()
             self.get_logger().warn(f"Control loop missed its desired rate of {self.cfg.controller_frequency:.4f}Hz"
                                    f"... the loop actually took {elapsed:.4f} seconds")
-
-    def _abort_on_internal_error(self, goal: MoveBaseGoal, exc: Exception) -> None:
-        """Stop the robot and end the goal with the error; the node stays up for the next goal."""
-        where = traceback.extract_tb(exc.__traceback__)[-1]
-        text = (f"internal error in the control cycle: {type(exc).__name__}: {exc} "
-                f"({Path(where.filename).name}:{where.lineno}); robot stopped, goal aborted")
-        self.get_logger().error(text + "\n" + "".join(traceback.format_exception(exc)))
-        self.core.reset()
-        self._publish_zero()
-        self._finish(goal, ActionlibStatus.ABORTED, text)
 
     def _publish_cmd(self, v: float, omega: float) -> None:
         twist = Twist()

@@ -1,4 +1,5 @@
-"""What move_base does when its inputs fail: a stopped clock, missing data, a backward time jump.
+"""What move_base does when its inputs fail: a stopped clock, missing data, a backward time jump, and
+when its own planners fail with an exception.
 
 A mixin of MoveBaseNode: it works on the node's goal, state machine, costmaps and controller, and is
 kept apart so the node's file stays about its interfaces.
@@ -7,14 +8,28 @@ kept apart so the node's file stays about its interfaces.
 from __future__ import annotations
 
 import time
+import traceback
+from pathlib import Path
 
 from actionlib_msgs.msg import GoalStatus as ActionlibStatus
 from rclpy.clock import JumpHandle, JumpThreshold, TimeJump
 from rclpy.duration import Duration
 
+from simplebot_navigation.ros.move_base_goal import MoveBaseGoal
+
 
 class MoveBaseSupervision:
-    """The watchdog (steady clock), max_wait, and the reaction to time jumping back."""
+    """The watchdog (steady clock), max_wait, the reaction to time jumping back, and internal errors."""
+
+    def _abort_on_internal_error(self, goal: MoveBaseGoal, exc: Exception) -> None:
+        """Stop the robot and end the goal with the error; the node stays up for the next goal."""
+        where = traceback.extract_tb(exc.__traceback__)[-1]
+        text = (f"internal error in the control cycle: {type(exc).__name__}: {exc} "
+                f"({Path(where.filename).name}:{where.lineno}); robot stopped, goal aborted")
+        self.get_logger().error(text + "\n" + "".join(traceback.format_exception(exc)))
+        self.core.reset()
+        self._publish_zero()
+        self._finish(goal, ActionlibStatus.ABORTED, text)
 
     def _watch_for_time_jumps(self) -> JumpHandle:
         return self.get_clock().create_jump_callback(

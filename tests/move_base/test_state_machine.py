@@ -347,25 +347,38 @@ def test_progress_timeout_zero_lets_the_robot_circle():
     assert log == []
 
 
-def test_backing_out_of_a_dead_end_along_a_new_plan_is_progress():
-    """The robot drove 3 m into a dead end towards the goal, then follows a new plan back out, slowly,
-    through squares it has been in and away from the goal: the plan it follows gets shorter."""
-    into = np.column_stack([np.linspace(0.0, 5.0, 51), np.zeros(51), np.zeros(51)])
-    out = np.vstack([np.column_stack([np.linspace(3.0, 0.0, 31), np.full(31, 0.0), np.full(31, math.pi)]),
-                     np.column_stack([np.linspace(0.0, 5.0, 51), np.full(51, 3.0), np.zeros(51)])])
-    plans = {"now": into}
-    core, log = make_core(plan=lambda goal: plans["now"], planner_frequency=1.0, progress_timeout=20.0)
-    core.set_goal((5.0, 0.0, 0.0), 0.0)
-    t = 0.0
-    for i in range(60):                            # 3 m in at 1 m/s
-        assert not core.cycle(t, (0.05 * i, 0.0, 0.0), True).outcome
-        t += 0.05
-    plans["now"] = out
-    for i in range(1200):                          # 3 m back out at 0.05 m/s: 60 s
-        assert not core.cycle(t, (3.0 - 0.0025 * i, 0.0, math.pi), True).outcome
-        t += 0.05
+def winding_plan() -> np.ndarray:
+    """Rows 1.9 m long and 0.3 m apart, back and forth across the way to a goal 10 m to the north."""
+    rows = []
+    for k in range(4):
+        xs = np.linspace(0.0, 1.9, 39)
+        rows.append(np.column_stack([xs if k % 2 == 0 else xs[::-1], np.full(39, 0.3 * k), np.zeros(39)]))
+    return np.vstack(rows + [[[0.0, 10.0, 0.0]]])
+
+
+def along(plan: np.ndarray, s: float) -> tuple[float, float, float]:
+    steps = np.hypot(*np.diff(plan[:, :2], axis=0).T)
+    i = int(np.searchsorted(np.cumsum(steps), s))
+    return float(plan[i + 1, 0]), float(plan[i + 1, 1]), 0.0
+
+
+def test_creeping_along_a_winding_plan_is_progress_and_a_route_that_comes_and_goes_is_not():
+    """At 0.05 m/s along rows across the way to the goal the robot gets no nearer and stays in two squares
+    for 80 s: the plan left to drive is what shrinks. Plans that alternate with a longer route do not
+    restart that count, so a robot circling where plans come and go still runs out of progress."""
+    plan = winding_plan()
+    core, log = make_core(plan=lambda goal: plan, planner_frequency=1.0, progress_timeout=30.0)
+    core.set_goal((0.95, 10.0, 0.0), 0.0)
+    for i in range(1600):
+        assert not core.cycle(i * 0.05, along(plan, 0.0025 * i), True).outcome
     assert log == []
-    for i in range(500):                           # then 25 s turning in place
-        core.cycle(t, (0.0, 0.0, math.pi + 0.01 * i), True)
-        t += 0.05
-    assert log == ["conservative_reset"]
+
+    routes = [plan, np.vstack([[[0.0, 0.0, 0.0], [-5.0, 0.0, 0.0], [-5.0, 10.0, 0.0]], plan[-1:]])]
+    core, log = make_core(plan=lambda goal: routes[int(core_time[0]) % 2], planner_frequency=1.0,
+                          progress_timeout=30.0)
+    core_time = [0.0]
+    core.set_goal((0.95, 10.0, 0.0), 0.0)
+    for i in range(1600):            # back and forth along the first 0.6 m of the winding rows
+        core_time[0] = i * 0.05
+        core.cycle(i * 0.05, along(plan, 0.3 - 0.3 * math.cos(0.05 * i)), True)
+    assert log[:1] == ["conservative_reset"]
