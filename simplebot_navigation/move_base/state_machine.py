@@ -266,14 +266,17 @@ class MoveBaseCore:
             if not self.controller.set_plan(plan):
                 self.reset()
                 return "Failed to pass global plan to the controller, aborting."
+            before = self._plan_left(pose)
             self.plan = plan
             steps = np.hypot(*np.diff(plan[:, :2], axis=0).T)
             self._plan_to_go = np.concatenate([np.cumsum(steps[::-1])[::-1], [0.0]])
             self._plan_made_at = now
-            # Only the goal's first plan sets the mark: a longer route restarting the count would let plans
-            # that come and go round a table pass for progress, a replan lowering it would hide creeping.
-            if self._best_to_go == math.inf:
-                self._best_to_go = self._plan_left(pose)
+            after = self._plan_left(pose)
+            # Progress along plans is driven, not planned: a shortcut (through cells grazing rays erased from
+            # a table's edge) lowers the mark without counting, a longer route leaves it where it was, and a
+            # replan of about the same length keeps the count of a robot creeping along it.
+            if self._best_to_go == math.inf or after < before - self.cfg.oscillation_distance:
+                self._best_to_go = min(self._best_to_go, after)
             self._blocked_at_plan = (self._plan_blocked(plan, pose) if self._plan_blocked is not None
                                      else np.zeros(len(plan), dtype=bool))
             if self.trigger == Trigger.PLANNING_R and self._progress_since_recoveries():

@@ -373,12 +373,13 @@ def test_creeping_along_a_winding_plan_is_progress_and_a_route_that_comes_and_go
         assert not core.cycle(i * 0.05, along(plan, 0.0025 * i), True).outcome
     assert log == []
 
-    routes = [plan, np.vstack([[[0.0, 0.0, 0.0], [-5.0, 0.0, 0.0], [-5.0, 10.0, 0.0]], plan[-1:]])]
-    core, log = make_core(plan=lambda goal: routes[int(core_time[0]) % 2], planner_frequency=1.0,
-                          progress_timeout=30.0)
-    core_time = [0.0]
-    core.set_goal((0.95, 10.0, 0.0), 0.0)
-    for i in range(1600):            # back and forth along the first 0.6 m of the winding rows
-        core_time[0] = i * 0.05
-        core.cycle(i * 0.05, along(plan, 0.3 - 0.3 * math.cos(0.05 * i)), True)
-    assert log[:1] == ["conservative_reset"]
+    longer = np.vstack([[[0.0, 0.0, 0.0], [-5.0, 0.0, 0.0], [-5.0, 10.0, 0.0]], plan[-1:]])
+    for other in (longer, plan[[0, -1]]):        # a longer route, and a shortcut straight to the goal
+        core_time = [0.0]
+        core, log = make_core(plan=lambda goal: (plan, other)[int(core_time[0]) % 2], planner_frequency=1.0,
+                              progress_timeout=30.0)
+        core.set_goal((0.95, 10.0, 0.0), 0.0)
+        for i in range(1600):            # back and forth along the first 0.6 m of the winding rows
+            core_time[0] = i * 0.05
+            core.cycle(i * 0.05, along(plan, 0.3 - 0.3 * math.cos(0.05 * i)), True)
+        assert log[:1] == ["conservative_reset"]
