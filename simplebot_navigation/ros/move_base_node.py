@@ -96,7 +96,7 @@ class MoveBaseNode(MoveBaseSupervision, MoveBaseParameters, Node):
         self.cycle_stats = ControlLoopStats(self.period)
         self._last_missed_warning = -math.inf
         self._control_timer = self.create_timer(self.period, self._control_cycle)
-        self._last_cycle_wall = time.monotonic()
+        self.watchdog = self._start_watchdog()
         self._watchdog_tripped = False
         self._waiting_since: float | None = None   # node time since when the goal lacks its pose or sensors
         self._jump_handle = self._watch_for_time_jumps()
@@ -188,7 +188,7 @@ class MoveBaseNode(MoveBaseSupervision, MoveBaseParameters, Node):
         goal.status = ActionlibStatus.ACTIVE
         self.goal = goal
         self.core.events.goal(self._now(), goal.id)
-        self._last_cycle_wall = time.monotonic()  # the watchdog judges the loop from this goal on
+        self.watchdog.beat()  # the watchdog judges the loop from this goal on
         self._waiting_since = None
         reason = validate_goal(goal.pose)
         target = None
@@ -260,7 +260,7 @@ class MoveBaseNode(MoveBaseSupervision, MoveBaseParameters, Node):
             self._publish_diagnostics()
 
     def _control_cycle(self) -> None:
-        self._last_cycle_wall = time.monotonic()
+        self.watchdog.beat()
         self._apply_parameter_changes()
         if self._watchdog_tripped:
             self._watchdog_tripped = False

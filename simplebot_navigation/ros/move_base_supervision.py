@@ -7,9 +7,11 @@ kept apart so the node's file stays about its interfaces.
 
 from __future__ import annotations
 
+import threading
 import time
 import traceback
 from pathlib import Path
+from typing import Callable
 
 from actionlib_msgs.msg import GoalStatus as ActionlibStatus
 from rclpy.clock import JumpHandle, JumpThreshold, TimeJump
@@ -18,8 +20,47 @@ from rclpy.duration import Duration
 from simplebot_navigation.ros.move_base_goal import MoveBaseGoal
 
 
+class CommandWatchdog:
+    """Zero velocity from a thread of its own when the control loop has been silent for ``timeout()`` seconds of
+    wall time while ``active()``.
+
+    The executor's thread cannot keep this promise: a dead /clock stops its timers, and a long callback (a
+    costmap rebuilt after a parameter change, a burst of messages on a loaded machine) delays everything queued
+    behind it, so the last command would stand. This thread only needs the GIL, which the compiled kernels
+    release and the interpreter hands over every few milliseconds.
+    """
+
+    def __init__(self, publish_zero: Callable[[], None], timeout: Callable[[], float], active: Callable[[], bool],
+                 period_s: float = 0.05):
+        self._publish_zero, self._timeout, self._active, self._period = publish_zero, timeout, active, period_s
+        self.last_beat = time.monotonic()
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="move_base watchdog", daemon=True)
+        self._thread.start()
+
+    def beat(self) -> None:
+        """The control loop ran."""
+        self.last_beat = time.monotonic()
+
+    def silent_for(self) -> float:
+        return time.monotonic() - self.last_beat
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=1.0)
+
+    def _run(self) -> None:
+        while not self._stop.wait(self._period):
+            timeout = self._timeout()
+            if timeout > 0 and self._active() and self.silent_for() >= timeout:
+                try:
+                    self._publish_zero()
+                except Exception:  # noqa: BLE001 - the node is shutting down under this thread
+                    return
+
+
 class MoveBaseSupervision:
-    """The watchdog (steady clock), max_wait, the reaction to time jumping back, and internal errors."""
+    """The watchdog, max_wait, the reaction to time jumping back, and internal errors."""
 
     def _abort_on_internal_error(self, goal: MoveBaseGoal, exc: Exception) -> None:
         """Stop the robot and end the goal with the error; the node stays up for the next goal."""
@@ -36,13 +77,19 @@ class MoveBaseSupervision:
             JumpThreshold(min_forward=None, min_backward=Duration(nanoseconds=-1), on_clock_change=False),
             post_callback=self._on_time_jump)
 
+    def _start_watchdog(self) -> CommandWatchdog:
+        return CommandWatchdog(self._publish_zero, lambda: self.cfg.watchdog_timeout, lambda: self.goal is not None)
+
+    def destroy_node(self) -> None:
+        self.watchdog.stop()
+        super().destroy_node()
+
     def _watchdog(self) -> None:
-        """Stop the robot when the control loop has not run for watchdog_timeout of wall time while a goal is
-        active: the loop runs on /clock, so a dead simulator (or time source) would leave the last command standing."""
-        silent = time.monotonic() - self._last_cycle_wall
+        """Say why the robot was stopped, and abort after max_wait. The loop runs on /clock, so a dead simulator
+        (or time source) silences it; the watchdog's thread has already sent the zero command."""
+        silent = self.watchdog.silent_for()
         if self.goal is None or silent < self.cfg.watchdog_timeout:
             return
-        self._publish_zero()
         if not self._watchdog_tripped:
             self._watchdog_tripped = True
             self.get_logger().error(f"no control cycle for {silent:.2f} s of wall time (is /clock running? "

@@ -13,6 +13,8 @@ import time
 
 import pytest
 
+from tests.conftest import process_running
+
 from simplebot_navigation.launch.loader import LaunchError, load_launch
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -70,11 +72,7 @@ def rest_of_output(proc: subprocess.Popen) -> list[str]:
 
 
 def alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    return True
+    return process_running(pid)
 
 
 def child_pids(lines: list[str]) -> list[int]:

@@ -26,7 +26,6 @@ import pytest
 
 pytestmark = [pytest.mark.timeout(240), pytest.mark.e2e]
 
-DOMAIN_ID = "97"                  # private: nothing else is on these namespaces' network anyway
 DDS_MULTICAST = "239.255.0.1"     # the RTPS default discovery group
 WORLD = "empty"
 GOAL = (1.5, 0.5, 1.57)           # x, y, yaw: a short drive with a turn
@@ -128,7 +127,7 @@ def dds_env(static_peer: str | None) -> dict[str, str]:
     """What a user sets on both hosts (README, "Two hosts"), plus UDP only: shared memory would carry the samples
     past the veth (both namespaces share /dev/shm), and this Fast DDS (2.14) honours FASTDDS_BUILTIN_TRANSPORTS."""
     env = {k: v for k, v in os.environ.items() if k not in ("ROS_STATIC_PEERS", "ROS_LOCALHOST_ONLY")}
-    env.update(ROS_DOMAIN_ID=DOMAIN_ID, ROS_AUTOMATIC_DISCOVERY_RANGE="SUBNET", FASTDDS_BUILTIN_TRANSPORTS="UDPv4",
+    env.update(ROS_AUTOMATIC_DISCOVERY_RANGE="SUBNET", FASTDDS_BUILTIN_TRANSPORTS="UDPv4",
                PYTHONUNBUFFERED="1", **({"ROS_STATIC_PEERS": static_peer} if static_peer else {}))
     return env
 
