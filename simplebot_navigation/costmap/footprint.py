@@ -12,9 +12,15 @@ import numpy as np
 
 from simplebot_navigation.geometry import transform_points
 
+#: bounds of a footprint a user may give (docs/reference.md §2.2): more vertices cost every collision check,
+#: and a robot's outline lies within a few metres of its base frame
+MAX_FOOTPRINT_POINTS = 64
+MAX_FOOTPRINT_EXTENT_M = 5.0
+
 
 def parse_footprint(value, name: str = "footprint") -> np.ndarray:
-    """Footprint from a string "[[x, y], ...]" or a list of [x, y] pairs; at least three points.
+    """Footprint from a string "[[x, y], ...]" or a list of [x, y] pairs: 3 to 64 distinct points within 5 m of
+    the base frame, outlining a simple polygon (no edge crosses another; not all on one line).
 
     An empty string or "[]" means "no footprint" and returns an empty (0, 2) array, so the
     caller falls back to robot_radius as costmap_2d does.
@@ -42,7 +48,45 @@ def parse_footprint(value, name: str = "footprint") -> np.ndarray:
             if isinstance(coord, bool) or not isinstance(coord, (int, float)) or not math.isfinite(coord):
                 raise ValueError(f"{name}: point {i} must contain two finite numbers, got {point!r}")
         points.append((float(point[0]), float(point[1])))
+    check_outline(np.array(points), name)
     return np.array(points)
+
+
+def check_outline(points: np.ndarray, name: str = "footprint") -> None:
+    """ValueError unless ``points`` outline a simple polygon of MAX_FOOTPRINT_POINTS distinct vertices at most,
+    within MAX_FOOTPRINT_EXTENT_M of the origin."""
+    if len(points) > MAX_FOOTPRINT_POINTS:
+        raise ValueError(f"{name}: a footprint has at most {MAX_FOOTPRINT_POINTS} points, got {len(points)}")
+    far = np.flatnonzero(np.abs(points).max(axis=1) > MAX_FOOTPRINT_EXTENT_M)
+    if far.size:
+        raise ValueError(f"{name}: point {far[0]} {points[far[0]].tolist()} is more than "
+                         f"{MAX_FOOTPRINT_EXTENT_M:g} m from the base frame")
+    if len(np.unique(points, axis=0)) != len(points):
+        raise ValueError(f"{name}: the footprint repeats a point: {points.tolist()}")
+    n = len(points)
+    for i in range(n):
+        for j in range(i + 2, n):
+            if (j + 1) % n != i and _segments_cross(points[i], points[(i + 1) % n], points[j], points[(j + 1) % n]):
+                raise ValueError(f"{name}: edges {i} and {j} of the footprint cross (not a simple polygon): "
+                                 f"{points.tolist()}")
+    x, y = points[:, 0], points[:, 1]
+    if abs(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))) < 1e-9:
+        raise ValueError(f"{name}: the footprint's points lie on one line (no area): {points.tolist()}")
+
+
+def _segments_cross(a, b, c, d) -> bool:
+    """Whether segments ab and cd, which share no end point, touch or cross."""
+    def orient(p, q, r):
+        return np.sign((q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0]))
+
+    def on_segment(p, q, r):  # r on pq, given the three are collinear
+        return min(p[0], q[0]) <= r[0] <= max(p[0], q[0]) and min(p[1], q[1]) <= r[1] <= max(p[1], q[1])
+
+    o1, o2, o3, o4 = orient(a, b, c), orient(a, b, d), orient(c, d, a), orient(c, d, b)
+    if o1 != o2 and o3 != o4:
+        return True
+    return any(o == 0 and on_segment(p, q, r) for o, p, q, r in ((o1, a, b, c), (o2, a, b, d),
+                                                                   (o3, c, d, a), (o4, c, d, b)))
 
 
 def footprint_from_radius(radius: float) -> np.ndarray:

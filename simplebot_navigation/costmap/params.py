@@ -10,6 +10,7 @@ Nothing is logged here: warnings come back as strings for the ROS shell to log.
 from __future__ import annotations
 
 import copy
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -65,8 +66,8 @@ class CostmapConfig:
     track_unknown_space: bool = param(False, "", "the master grid starts unknown instead of free", restart=True)
     always_send_full_costmap: bool = param(False, "", "publish the whole grid on every publish cycle")
     transform_tolerance: float = param(0.3, "s", "tolerated age of the robot pose transform", ge=0)
-    update_frequency: float = param(5.0, "Hz", "map update rate (0: never)", ge=0)
-    publish_frequency: float = param(0.0, "Hz", "map publish rate (0: never)", ge=0)
+    update_frequency: float = param(5.0, "Hz", "map update rate (0: never)", ge=0, le=100.0)
+    publish_frequency: float = param(0.0, "Hz", "map publish rate (0: never)", ge=0, le=100.0)
     width: int = param(10, "m", "map width (an int, rounded like ROS 1)", ge=0, rounds=True, restart=True)
     height: int = param(10, "m", "map height (an int, rounded like ROS 1)", ge=0, rounds=True, restart=True)
     resolution: float = param(0.05, "m/cell", "cell size", gt=0, restart=True)
@@ -243,6 +244,8 @@ def resolve_costmap_params(params: dict, name: str = "costmap", parents=()) -> C
             layer, layer_warnings = load(fields_of(LAYER_PARAMS[kind]), layer_tree, path, also_known=[PLUGIN_TYPE_KEY])
             warnings += layer_warnings
             params_ = {**_defaults(LAYER_PARAMS[kind]), **layer}
+        if kind == "InflationLayer":
+            _check_inflation_radius(params_["inflation_radius"], cfg, path)
         cfg.plugins.append(PluginConfig(plugin_name, plugin_type, kind, params_))
     cfg.warnings = warnings
     return cfg
@@ -292,6 +295,15 @@ def _convert_pre_hydro(tree: dict, cfg: CostmapConfig):
         move("inflation_layer", key)
     plugins.append(("inflation_layer", "costmap_2d::InflationLayer", "InflationLayer"))
     return plugins
+
+
+def _check_inflation_radius(radius: float, cfg: CostmapConfig, path: str) -> None:
+    """Inflation reaches at most across the whole map: a larger radius only costs memory and time (its kernel
+    grows with the square of it), which can stall the costmap's thread for seconds."""
+    diagonal = math.hypot(cfg.width, cfg.height)
+    if radius > diagonal:
+        raise ParameterError(f"{path}/inflation_radius: {radius:g} m is more than the costmap's diagonal "
+                             f"({diagonal:.3g} m for {cfg.width:g} x {cfg.height:g} m)")
 
 
 def _obstacle_params(layer_tree: dict, path: str, cfg: CostmapConfig, chain, warnings: list) -> dict:

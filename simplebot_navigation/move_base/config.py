@@ -25,8 +25,9 @@ class MoveBaseConfig:
     # ROS 1's default, base_local_planner/TrajectoryPlannerROS, does not exist here: TEB is the default.
     base_local_planner: str = param(TEB_LOCAL_PLANNER, "", "local planner plugin",
                                     restart=True)
-    planner_frequency: float = param(0.0, "Hz", "replanning rate while driving (0: only when needed)", ge=0)
-    controller_frequency: float = param(20.0, "Hz", "control loop rate", gt=0)
+    planner_frequency: float = param(0.0, "Hz", "replanning rate while driving (0: only when needed)", ge=0,
+                                     le=100.0)
+    controller_frequency: float = param(20.0, "Hz", "control loop rate", ge=0.5, le=100.0)
     planner_patience: float = param(5.0, "s", "time to find a plan before recovering", ge=0)
     controller_patience: float = param(15.0, "s", "time without a valid command before recovering", ge=0)
     max_planning_retries: int = param(-1, "", "failed plans before recovering (-1: use planner_patience)", ge=-1)

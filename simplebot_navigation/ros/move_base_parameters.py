@@ -19,7 +19,7 @@ from rclpy.parameter import Parameter
 from simplebot_navigation.move_base.live_parameters import (GLOBAL_PLANNER, LOCAL_PLANNER, MOVE_BASE,
                                                             LiveParameters, update_move_base_config)
 from simplebot_navigation.parameters import ParameterError
-from simplebot_navigation.ros.params import describe_declared, given_parameter_tree
+from simplebot_navigation.ros.params import describe_declared, given_parameter_tree, refuse_unknown_parameters
 
 #: parameters of every rclpy node, handled by rclpy itself
 NODE_LEVEL = ("use_sim_time", "start_type_description_service")
@@ -48,6 +48,7 @@ class MoveBaseParameters:
         self._live_lock = threading.Lock()   # a set request may come from another thread than the cycle
         describe_declared(self, self._live.table)
         self._prepared = None
+        refuse_unknown_parameters(self)
         self.add_pre_set_parameters_callback(self._normalize_parameters)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.add_post_set_parameters_callback(self._on_parameters_set)
@@ -58,22 +59,28 @@ class MoveBaseParameters:
         with self._live_lock:
             for param in params:
                 value = ros1_value(param.value)
-                normal = self._live.normalized(param.name, value) if _ours(param.name) else value
+                try:
+                    normal = self._live.normalized(param.name, value) if _ours(param.name) else value
+                except Exception:  # noqa: BLE001 - the checks of _on_set_parameters say what is wrong with it
+                    normal = value
                 same = type(normal) is type(value) and normal == value
                 out.append(param if same else Parameter(param.name, value=normal))
         return out
 
     def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
-        """Accept or refuse a change as a whole, with the reason; it is kept once rclpy has stored it."""
+        """Accept or refuse a change as a whole, with the reason; it is kept once rclpy has stored it. Any
+        exception in the checks is a refusal that says what failed: the caller always gets an answer, and the
+        node keeps running with what it had."""
         changes = _changes(params)
         if not changes:
             return SetParametersResult(successful=True)
         with self._live_lock:
             try:
                 self._prepared = self._live.prepare(changes)
-            except ParameterError as err:
-                self.get_logger().warn(f"parameter change refused: {err}")
-                return SetParametersResult(successful=False, reason=str(err))
+            except Exception as err:  # noqa: BLE001 - see the docstring
+                reason = str(err) if isinstance(err, ParameterError) else f"{type(err).__name__}: {err}"
+                self.get_logger().warn(f"parameter change refused: {reason}")
+                return SetParametersResult(successful=False, reason=reason)
         return SetParametersResult(successful=True)
 
     def _on_parameters_set(self, params: list[Parameter]) -> None:
@@ -86,7 +93,7 @@ class MoveBaseParameters:
             try:
                 warnings = self._live.commit(prepared if prepared is not None and prepared.assignments == changes
                                              else self._live.prepare(changes))
-            except ParameterError as err:     # only if another thread's change got in between: say so
+            except Exception as err:  # noqa: BLE001 - only if another thread's change got in between: say so
                 self.get_logger().error(f"parameter change stored but not applied: {err}")
                 return
         for warning in warnings:
@@ -98,6 +105,15 @@ class MoveBaseParameters:
             change = self._live.take()
         if change is None:
             return
+        try:
+            self._apply(change)
+        except Exception as err:  # noqa: BLE001 - a failed reconfiguration must not end the control loop
+            self.get_logger().error(f"parameter change not fully applied ({change.describe()}): "
+                                    f"{type(err).__name__}: {err}")
+            return
+        self.get_logger().info(f"parameters changed: {change.describe()}")
+
+    def _apply(self, change) -> None:
         configs, parts = change.configs, change.parts
         if MOVE_BASE in parts and "controller_frequency" in update_move_base_config(self.cfg, configs.move_base):
             self._set_controller_frequency(self.cfg.controller_frequency)
@@ -115,7 +131,6 @@ class MoveBaseParameters:
             if name in parts:
                 for warning in recovery.configure(configs.recoveries[name]):
                     self.get_logger().warn(warning)
-        self.get_logger().info(f"parameters changed: {change.describe()}")
 
     def _set_controller_frequency(self, hz: float) -> None:
         """The control timer, its statistics and the local planner follow the new rate from now on."""

@@ -10,10 +10,12 @@ and ``ros2 param describe`` tell the truth.
 
 from __future__ import annotations
 
+import difflib
 import math
 from typing import Any
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rclpy.exceptions import ParameterNotDeclaredException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
@@ -92,3 +94,18 @@ def declare_checked(node: Node, defaults: dict[str, Any], label: str = "paramete
         spec = Param(type(default), default, "Hz" if rate else "", name, low=0.0 if rate else None, low_open=rate)
         values[name] = spec.check(value, f"{label} {name!r}")
     return values
+
+
+def refuse_unknown_parameters(node: Node) -> None:
+    """Refuse a set request for a name the node does not have, naming it and the closest one it has: rclpy's own
+    refusal says "undeclared parameter(s): []". (rclpy turns the exception into the request's failed result.)"""
+    def check(params: list[Parameter]) -> list[Parameter]:
+        unknown = [param.name for param in params if not node.has_parameter(param.name)]
+        if unknown:
+            known = node.list_parameters([], 0).names
+            raise ParameterNotDeclaredException("; ".join(
+                f"'{name}' is not a parameter of {node.get_fully_qualified_name()}"
+                + "".join(f" (did you mean '{match}'?)" for match in difflib.get_close_matches(name, known, n=1))
+                for name in unknown))
+        return params
+    node.add_pre_set_parameters_callback(check)

@@ -24,12 +24,13 @@ import time
 import numpy as np
 import yourdfpy
 from rclpy.clock import Clock, ClockType
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock as ClockMsg
 
 from simplebot_description import robot_description
 from simplebot_navigation.ros.node_main import SetUpNode, run_node
-from simplebot_navigation.ros.params import declare_checked
+from simplebot_navigation.ros.params import declare_checked, refuse_unknown_parameters
 from simplebot_navigation.ros.simulator_faults import SimulatorFaults
 from simplebot_navigation.ros.simulator_robot import SimulatedRobotIO, set_stamp
 from simplebot_navigation.ros.tf import StaticTransformBroadcaster, TransformBroadcaster
@@ -84,6 +85,8 @@ class SimulatorNode(SetUpNode):
         wheel_joints = self._wheel_geometry()
         self.robots = [SimulatedRobotIO(self, self.sim, i, ns, wheel_joints) for i, ns in enumerate(namespaces)]
         self.faults = SimulatorFaults(self, self.description.scans)
+        refuse_unknown_parameters(self)
+        self.add_on_set_parameters_callback(self._refuse_restart_only)
         self.tf_broadcaster = TransformBroadcaster(self)
         StaticTransformBroadcaster(self).send_transform([tf for robot in self.robots
                                                          for tf in robot.static_transforms()])
@@ -102,6 +105,15 @@ class SimulatorNode(SetUpNode):
         self.get_logger().info(
             f"world '{self.world.name}', {self.description.body} robot {robots}, physics {p['physics_rate']:g} Hz, "
             + (f"real-time factor {self.rtf:g}" if self.rtf > 0 else "lockstep (stepped by its driver)"))
+
+    def _refuse_restart_only(self, params: list[Parameter]) -> SetParametersResult:
+        """The world, the robots and the stepping are built from these at start-up: a change would answer
+        "successful" and do nothing. Only the faults change while running."""
+        fixed = [param.name for param in params if param.name in PARAMETERS or param.name == "use_sim_time"]
+        if fixed:
+            return SetParametersResult(successful=False, reason=f"{', '.join(fixed)}: requires restart (the simulator "
+                                                                f"reads {'it' if len(fixed) == 1 else 'them'} at start-up only)")
+        return SetParametersResult(successful=True)
 
     def _checked_parameters(self) -> dict:
         """Declared parameters, checked before anything is built (pybullet, publishers)."""

@@ -13,6 +13,10 @@ from typing import Any
 
 from simplebot_navigation.parameters import ParameterError, build, param
 
+#: physical bounds of a velocity limit: the fastest drive this stack is built for (a 2 m/s Jackal-class base;
+#: the simulated box reaches 1.05 m/s and about 4.5 rad/s); beyond them a limit is a typing error, not a robot
+MAX_DRIVE_SPEED = 2.0
+MAX_DRIVE_TURN_RATE = 6.0
 _HOLONOMIC = "holonomic motion (vy) is not modelled"
 _CAR_LIKE = "car-like kinematics are not modelled (diff-drive edges are used)"
 _DYNAMIC = "dynamic obstacles are not modelled"
@@ -51,12 +55,12 @@ class TebConfig:
     min_resolution_collision_check_angular: float = param(math.pi, "rad", "max turn between checked poses",
                                                           gt=0)
     # -- robot ------------------------------------------------------------------
-    max_vel_x: float = param(0.4, "m/s", "maximum forward speed", gt=0)
-    max_vel_x_backwards: float = param(0.2, "m/s", "maximum reverse speed", ge=0)
+    max_vel_x: float = param(0.4, "m/s", "maximum forward speed", gt=0, le=MAX_DRIVE_SPEED)
+    max_vel_x_backwards: float = param(0.2, "m/s", "maximum reverse speed", ge=0, le=MAX_DRIVE_SPEED)
     max_vel_y: float = param(0.0, "m/s", "maximum sideways speed", ge=0, not_for_this_robot=_HOLONOMIC)
     max_vel_trans: float = param(0.0, "m/s", "maximum combined speed of a holonomic robot", ge=0,
                                  not_for_this_robot=_HOLONOMIC)
-    max_vel_theta: float = param(0.3, "rad/s", "maximum turn rate", gt=0)
+    max_vel_theta: float = param(0.3, "rad/s", "maximum turn rate", gt=0, le=MAX_DRIVE_TURN_RATE)
     acc_lim_x: float = param(0.5, "m/s^2", "maximum linear acceleration", gt=0)
     acc_lim_y: float = param(0.5, "m/s^2", "maximum sideways acceleration", ge=0, not_for_this_robot=_HOLONOMIC)
     acc_lim_theta: float = param(0.5, "rad/s^2", "maximum angular acceleration", gt=0)

@@ -34,7 +34,7 @@ def test_a_move_base_parameter_reaches_the_costmaps_that_search_for_it(live):
 
 
 def test_a_refused_change_changes_nothing(live):
-    with pytest.raises(ParameterError, match=r"TebLocalPlannerROS.max_vel_theta: must be > 0, got -1.0"):
+    with pytest.raises(ParameterError, match=r"TebLocalPlannerROS.max_vel_theta: must be in \(0, 6\], got -1.0"):
         live.change([("TebLocalPlannerROS.max_vel_x", 0.2), ("TebLocalPlannerROS.max_vel_theta", -1.0)])
     assert live.take() is None
     assert live.configs.local_planner.max_vel_x == 0.4 and "max_vel_x" not in live.tree["TebLocalPlannerROS"]

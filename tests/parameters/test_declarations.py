@@ -71,8 +71,11 @@ def test_nan_inf_and_wrong_types_are_rejected_naming_the_key(cls, name, bad):
 
 
 def test_ranges_are_checked_with_the_bound_in_the_message():
-    with pytest.raises(ParameterError, match=r"TebLocalPlannerROS/max_vel_x: must be > 0, got -0.1"):
-        LOADERS[next(c for c in LOADERS if c.__name__ == "TebConfig")]({"max_vel_x": -0.1})
+    teb = LOADERS[next(c for c in LOADERS if c.__name__ == "TebConfig")]
+    with pytest.raises(ParameterError, match=r"TebLocalPlannerROS/max_vel_x: must be in \(0, 2\], got -0.1"):
+        teb({"max_vel_x": -0.1})
+    with pytest.raises(ParameterError, match=r"TebLocalPlannerROS/max_vel_x: must be in \(0, 2\], got 1e\+308"):
+        teb({"max_vel_x": 1e308})
     with pytest.raises(ParameterError, match=r"GlobalPlanner/lethal_cost: must be in \[1, 255\], got 300"):
         LOADERS[next(c for c in LOADERS if c.__name__ == "GlobalPlannerConfig")]({"lethal_cost": 300})
 

@@ -39,7 +39,7 @@ def test_overrides_set_checked_values_without_touching_the_given_tree(lab):
 @pytest.mark.parametrize("assignment, message", [
     ("TebLocalPlannerROS.max_vel_x=.nan", r"TebLocalPlannerROS.max_vel_x: expected a number \(finite\), got nan"),
     ("TebLocalPlannerROS.max_vel_x=fast", r"TebLocalPlannerROS.max_vel_x: expected a number, got 'fast'"),
-    ("TebLocalPlannerROS.max_vel_x=-1", r"TebLocalPlannerROS.max_vel_x: must be > 0, got -1.0"),
+    ("TebLocalPlannerROS.max_vel_x=-1", r"TebLocalPlannerROS.max_vel_x: must be in \(0, 2\], got -1.0"),
     ("TebLocalPlannerROS.max_samples=2", r"max_samples: must be >= min_samples \(3\)"),
     ("TebLocalPlannerROS.max_vel_xx=1", r"TebLocalPlannerROS.max_vel_xx: no such parameter; "
                                         r"did you mean 'TebLocalPlannerROS.max_vel_x'\?"),

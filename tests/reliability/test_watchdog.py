@@ -1,8 +1,14 @@
-"""The simulator dies in the middle of a goal: move_base's control loop runs on /clock, which stops with it."""
+"""The simulator dies in the middle of a goal, or move_base's executor is blocked: the watchdog stops the robot."""
 
+import subprocess
+import sys
+import threading
 import time
 
 import pytest
+import rclpy
+from geometry_msgs.msg import Twist
+from rclpy.executors import SingleThreadedExecutor
 
 from simplebot_navigation.scenarios.session import NavigationSession
 from simplebot_navigation.sim.world import Pose2D
@@ -51,3 +57,51 @@ def test_a_goal_waiting_for_a_dead_clock_is_aborted_after_max_wait(capfd):
         assert run.status == "ABORTED"
         err = capfd.readouterr().err
         assert "Aborting the goal: no control cycle for" in err and "(is /clock running?) (max_wait 1 s)" in err
+
+
+class CommandObserver:
+    """cmd_vel as it arrives, in a context and thread of its own: it hears move_base while the session's
+    executor (the test's thread) is blocked."""
+
+    def __init__(self):
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)
+        self.node = rclpy.create_node("command_observer", context=self.context)
+        self.commands: list[tuple[float, float, float]] = []
+        self.node.create_subscription(Twist, "/simplebot_controller/cmd_vel", lambda m: self.commands.append(
+            (time.monotonic(), m.linear.x, m.angular.z)), 50)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
+        self.thread.start()
+
+    def close(self) -> None:
+        self.executor.shutdown()
+        self.node.destroy_node()
+        self.context.try_shutdown()
+        self.thread.join(timeout=5.0)
+
+
+@pytest.mark.timeout(240)
+def test_move_base_stops_the_robot_while_its_executor_is_blocked_on_a_loaded_machine():
+    """Nothing of move_base's executor runs (a callback that takes seconds), and two busy loops load the
+    machine: the watchdog's own thread still sends zero velocity within half a second."""
+    observer = CommandObserver()
+    busy = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(2)]
+    try:
+        with NavigationSession("lab", rtf=1.0) as session:
+            session.wait_ready(wall_timeout_s=120.0)
+            session.send_goal(Pose2D(4.0, 0.0, 0.0, "corridor"))
+            session.run_for(4.0, wall_timeout_s=60.0)
+            assert any(abs(v) > 0.05 for _, v, _ in observer.commands[-10:]), "the robot should be driving"
+            blocked = time.monotonic()
+            time.sleep(1.5)   # the test's thread is the session's executor: every callback waits
+            stops = [t - blocked for t, v, w in observer.commands if t > blocked and v == 0.0 and w == 0.0]
+            late = [(v, w) for t, v, w in observer.commands if t > blocked + 0.5 and (v != 0.0 or w != 0.0)]
+    finally:
+        for process in busy:
+            process.kill()
+            process.wait()
+        observer.close()
+    assert stops and stops[0] <= 0.5, f"first zero command {stops[:1]} s after the executor blocked"
+    assert not late, f"commands other than zero while the executor was blocked: {late[:3]}"

@@ -108,7 +108,7 @@ def test_max_vel_x_set_while_driving_limits_cmd_vel_within_half_a_second(session
 
 
 @pytest.mark.parametrize("value, why", [
-    (math.nan, "nan"), (math.inf, "inf"), (-math.inf, "-inf"), (-0.1, "-0.1"), (0.0, "must be > 0, got 0.0"),
+    (math.nan, "nan"), (math.inf, "inf"), (-math.inf, "-inf"), (-0.1, "-0.1"), (0.0, "must be in (0, 2], got 0.0"),
     ("fast", "expected a number, got 'fast'"), (True, "expected a number, got True"),
 ])
 def test_a_bad_value_is_refused_naming_the_parameter_and_the_value_and_the_old_value_stays(session, value, why):
@@ -227,8 +227,8 @@ def test_describe_parameters_gives_each_parameter_its_description_and_range(sess
     max_vel_x, inflation, plugin, frame = session.params.describe(
         [MAX_VEL_X, "local_costmap.inflation_layer.inflation_radius", "local_costmap.obstacles.plugin",
          "local_costmap.global_frame"])
-    assert max_vel_x.description == "maximum forward speed [m/s] (> 0)"
-    assert [(r.from_value, r.to_value) for r in max_vel_x.floating_point_range] == [(0.0, math.inf)]
+    assert max_vel_x.description == "maximum forward speed [m/s] (in (0, 2])"
+    assert [(r.from_value, r.to_value) for r in max_vel_x.floating_point_range] == [(0.0, 2.0)]
     assert inflation.description.startswith("distance up to which obstacle cost is inflated [m] (>= 0)")
     assert [r.from_value for r in inflation.floating_point_range] == [0.0]
     assert plugin.description.endswith("requires restart") and frame.description.endswith("requires restart")
@@ -327,3 +327,30 @@ def test_an_inflation_change_changes_the_cost_around_an_obstacle():
                  ("local_costmap.inflation_layer.cost_scaling_factor", 2.0)])
     costmap.reconfigure(live.take().configs.costmaps["local_costmap"])
     assert _cost_beside_an_obstacle(costmap, 0.6) > before   # a slower decay: more cost at the same distance
+
+
+@pytest.mark.parametrize("name, value, why", [
+    ("local_costmap.footprint", "robot", "cannot parse footprint string 'robot'"),
+    ("local_costmap.footprint", "[[0, 0], [1, 1]]", "needs at least three points"),
+    ("local_costmap.footprint", "[[0, 0], [nan, 1], [1, 0]]", "cannot parse footprint string"),
+    ("local_costmap.footprint", "[[0.1, 0.1], [0.1, 0.1], [0.1, 0.1]]", "repeats a point"),
+    ("local_costmap.footprint", "[[0, 0], [0.2, 0.2], [0.4, 0.4]]", "lie on one line"),
+    ("local_costmap.footprint", "[[0, 0], [0.3, 0.3], [0.3, 0], [0, 0.3]]", "cross (not a simple polygon)"),
+    ("local_costmap.footprint", "[[0, 0], [1e308, 0], [0, 1]]", "more than 5 m from the base frame"),
+    ("local_costmap.footprint", str([[math.cos(a) * 0.3, math.sin(a) * 0.3]
+                                     for a in np.linspace(0, 2 * math.pi, 100, endpoint=False)]), "at most 64 points"),
+    ("local_costmap.inflation_layer.inflation_radius", 1e6, "more than the costmap's diagonal"),
+    ("controller_frequency", 1e308, "Parameter controller_frequency out of range Min: 0.5, Max: 100.0"),
+    ("controller_frequency", 1e-300, "Parameter controller_frequency out of range Min: 0.5, Max: 100.0"),
+    ("controller_frequency", 1e-6, "Parameter controller_frequency out of range Min: 0.5, Max: 100.0"),
+    ("local_costmap.inflation_layer.inflaton_radius", 1.0, "'local_costmap.inflation_layer.inflaton_radius' is not "
+     "a parameter of /move_base (did you mean 'local_costmap.inflation_layer.inflation_radius'?)"),
+])
+def test_a_hostile_value_is_refused_with_the_reason_and_move_base_drives_on(session, name, value, why):
+    """What once killed move_base or stalled its loop (probes of a running launch): a refusal that says why,
+    and the next goal is driven as before."""
+    result = session.params.set(name, value)
+    assert not result.successful and why in result.reason, result.reason
+    run = session.send_goal(Pose2D(session.pose().x + 0.5, 0.0, 0.0, "half a metre on"))
+    session.run_for(30.0, lambda: run.done, wall_timeout_s=WALL_GUARD_S)
+    assert run.status == "SUCCEEDED", (run.status, run.reason)

@@ -9,6 +9,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import Log
+from rclpy.exceptions import ParameterNotDeclaredException
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -353,3 +354,20 @@ def test_bad_parameters_fail_with_a_clear_message(context, name, value, message)
 def test_own_process_refuses_what_it_cannot_run(capfd, param, message):
     assert simulator_main(["simulator", "--ros-args", "-p", param]) == 2
     assert message in capfd.readouterr().err
+
+
+@pytest.mark.parametrize("name, value", [("real_time_factor", -1.0), ("real_time_factor", math.nan),
+                                         ("physics_rate", 0.0), ("world", "doors"), ("seed", 3),
+                                         ("use_sim_time", True)])
+def test_start_up_parameters_are_refused_while_running_as_requiring_a_restart(lockstep, name, value):
+    before = lockstep.sim.get_parameter(name).value
+    result = lockstep.sim.set_parameters([Parameter(name, value=value)])[0]
+    assert not result.successful and f"{name}: requires restart" in result.reason, result.reason
+    assert lockstep.sim.get_parameter(name).value == before
+
+
+def test_an_unknown_parameter_is_refused_naming_it_and_the_closest_one(lockstep):
+    with pytest.raises(ParameterNotDeclaredException, match=r"'real_time_factr' is not a parameter of /simulator "
+                                                            r"\(did you mean 'real_time_factor'\?\)"):
+        lockstep.sim.set_parameters([Parameter("real_time_factr", value=1.0)])
+    assert lockstep.sim.set_parameters([Parameter("faults.tf_delay", value=0.0)])[0].successful
