@@ -83,7 +83,7 @@ def test_ranges_are_checked_with_the_bound_in_the_message():
 def test_describe_gives_doc_unit_range_and_status():
     from simplebot_navigation.teb.config import TebConfig
     specs = fields_of(TebConfig)
-    assert specs["max_vel_x"].describe() == "maximum forward speed [m/s] (> 0)"
+    assert specs["max_vel_x"].describe() == "maximum forward speed [m/s] (in (0, 2])"
     assert "accepted, not for a differential-drive robot" in specs["max_vel_y"].describe()
     assert specs["footprint_model"].describe().endswith("-- requires restart")
 
