@@ -8,6 +8,7 @@ overridden below.
 """
 
 from simplebot_navigation.launch.description import Arg, Group, Include, Param, Remap, RosParam
+from simplebot_navigation.launch.simplebot_args import NAMESPACE
 from simplebot_navigation.launch.simplebot_args import TIGHT as TIGHT_ARG
 
 CONFIG = "$(find simplebot_navigation)/config"
@@ -28,8 +29,7 @@ LAUNCH = [
     TIGHT_ARG,
     Arg("respawn", default="true", choices=("true", "false"),
         doc="restart move_base when it exits (roslaunch's respawn)"),
-    Arg("namespace", default="",
-        doc="the robot's namespace (e.g. robot1): topics under it, frames prefixed with it; empty: none"),
+    NAMESPACE,
 
     Param("/use_sim_time", True),
 

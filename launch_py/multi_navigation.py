@@ -12,9 +12,12 @@ from simplebot_navigation.launch.description import Arg, Include
 from simplebot_navigation.launch.simplebot_args import RADIUS, ROBOT, RTF, TIGHT, WORLD
 
 LAUNCH_DIR = "$(find simplebot_navigation)/launch_py"
+DEFAULT_MAX_ROBOTS = 32
 
 ARGS = [
-    Arg("robots", default="3", doc="how many robots (robot1 .. robot<N>)"),
+    Arg("robots", default="3", doc="how many robots (robot1 .. robot<N>), at most max_robots"),
+    Arg("max_robots", default=str(DEFAULT_MAX_ROBOTS),
+        doc="the most robots:= may ask for (each robot is a move_base process of about 250 MB and a core's third)"),
     WORLD,
     Arg("starts", default="",
         doc="x,y,yaw;x,y,yaw;... in the world frame, one per robot (empty: the world file's starts list)"),
@@ -28,8 +31,11 @@ ARGS = [
 
 
 def generate(args: dict[str, str]) -> list:
-    if not args["robots"].isdigit() or int(args["robots"]) < 1:
-        raise ValueError(f"robots:={args['robots']!r} must be a whole number >= 1")
+    if not args["max_robots"].isdigit() or int(args["max_robots"]) < 1:
+        raise ValueError(f"max_robots:={args['max_robots']!r} must be a whole number >= 1")
+    if not args["robots"].isdigit() or not 1 <= int(args["robots"]) <= int(args["max_robots"]):
+        raise ValueError(f"robots:={args['robots']!r} must be a whole number from 1 to max_robots "
+                         f"({args['max_robots']}; max_robots:=N raises it)")
     namespaces = [f"robot{i}" for i in range(1, int(args["robots"]) + 1)]
     return [
         Include(file=f"{LAUNCH_DIR}/simulator.py", args={

@@ -1,7 +1,7 @@
 """navigation.launch: the simulated simplebot plus move_base_local.launch, all on simulated time."""
 
 from simplebot_navigation.launch.description import Arg, Include, Node, Param
-from simplebot_navigation.launch.simplebot_args import RADIUS, ROBOT, RTF, TIGHT, WORLD
+from simplebot_navigation.launch.simplebot_args import NAMESPACE, RADIUS, ROBOT, RTF, TIGHT, WORLD
 
 LAUNCH_DIR = "$(find simplebot_navigation)/launch_py"
 
@@ -17,8 +17,7 @@ LAUNCH = [
     TIGHT,
     Arg("respawn", default="true", choices=("true", "false"),
         doc="restart the simulator and move_base when they exit (roslaunch's respawn)"),
-    Arg("namespace", default="",
-        doc="the robot's namespace (e.g. robot1): topics under it, frames prefixed with it; empty: none"),
+    NAMESPACE,
 
     Include(file=f"{LAUNCH_DIR}/simulator.py", args={
         "world": "$(arg world)", "robot": "$(arg robot)", "radius": "$(arg radius)", "rtf": "$(arg rtf)",

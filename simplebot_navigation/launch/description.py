@@ -10,16 +10,18 @@ A file whose items depend on an argument (one group per robot) has ``ARGS`` and
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Callable
 
 
 @dataclass
 class Arg:
-    """``<arg name default doc>``; a value given on the command line wins over the default."""
+    """``<arg name default doc>``; a value given on the command line wins over the default. ``check`` says
+    what is wrong with a value (None: nothing), before any node starts."""
     name: str
     default: str | None = None
     doc: str = ""
     choices: tuple[str, ...] = ()
+    check: Callable[[str], str | None] | None = None
 
 
 @dataclass

@@ -205,6 +205,9 @@ def _resolve_args(path: str, declared: list[Arg], given: dict[str, str]) -> dict
             raise LaunchError(f"{path}: required argument '{arg.name}' not given ({arg.doc})")
         if arg.choices and value not in arg.choices:
             raise LaunchError(f"{path}: argument {arg.name}={value!r} is not one of {', '.join(arg.choices)}")
+        problem = arg.check(value) if arg.check is not None else None
+        if problem:
+            raise LaunchError(f"{path}: argument {arg.name}={value!r}: {problem}")
         args[arg.name] = value
     return args
 

@@ -23,6 +23,8 @@ from simplebot_navigation.launch.loader import LaunchConfig, NodeSpec
 from simplebot_navigation.launch.nodes import Executable, ExecutableNotFound, resolve_executable
 
 SHUTDOWN_GRACE_S = 5.0
+#: what a node's main() returns when it cannot be built from its parameters (ros/node_main.py: run_node)
+EXIT_BAD_CONFIGURATION = 2
 #: respawns are also counted over this window, so a node that keeps dying stands out in the log
 RESPAWN_WINDOW_S = 60.0
 
@@ -156,6 +158,7 @@ class ProcessLauncher:
             return 2
         previous = {sig: signal.signal(sig, self.request_stop) for sig in (signal.SIGINT, signal.SIGTERM)}
         failed: list[str] = []
+        bad_configuration = False
         try:
             for proc in self.processes:
                 self._start(proc)
@@ -177,7 +180,14 @@ class ProcessLauncher:
                     for thread in proc.threads:
                         thread.join(timeout=1.0)
                     _log(f"process {proc.spec.full_name} (pid {proc.popen.pid}) ended with exit code {code}")
-                    if proc.spec.respawn:
+                    if code == EXIT_BAD_CONFIGURATION:
+                        # Respawning cannot mend a configuration: it would fail the same way for ever.
+                        _log(f"{proc.spec.full_name} could not start with its configuration (exit code {code}): "
+                             "not respawned; stopping the launch")
+                        failed.append(f"{proc.spec.full_name} (configuration error)")
+                        bad_configuration = True
+                        self._stop.set()
+                    elif proc.spec.respawn:
                         self._schedule_respawn(proc)
                         alive += 1
                     elif code != 0:
@@ -194,7 +204,7 @@ class ProcessLauncher:
                 signal.signal(sig, handler)
         if failed:
             _log("failed: " + ", ".join(failed))
-            return 1
+            return EXIT_BAD_CONFIGURATION if bad_configuration else 1
         return 0
 
     def _schedule_respawn(self, proc: _Process) -> None:

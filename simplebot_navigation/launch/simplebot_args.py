@@ -4,10 +4,27 @@ As in roslaunch every file declares the arguments it takes (an included file get
 launch_py/navigation.py, simulator.py, move_base.py and multi_navigation.py list these same objects.
 """
 
-from simplebot_navigation.launch.description import Arg
+import re
 
-WORLD = Arg("world", default="lab",
+from simplebot_navigation.launch.description import Arg
+from simplebot_description import world_name_problem
+
+#: a relative or absolute ROS 2 namespace: tokens of letters, digits and underscores, not starting with a digit
+_NAMESPACE = re.compile(r"/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*")
+MAX_NAMESPACE_LENGTH = 200
+
+
+def namespace_problem(value: str) -> str | None:
+    if value and (len(value) > MAX_NAMESPACE_LENGTH or not _NAMESPACE.fullmatch(value)):
+        return (f"not a valid ROS namespace (tokens of letters, digits and '_' separated by '/', none starting "
+                f"with a digit, at most {MAX_NAMESPACE_LENGTH} characters)")
+    return None
+
+
+WORLD = Arg("world", default="lab", check=world_name_problem,
             doc="built-in world name (lab, doors, clutter, empty), forest:<seed> or a world/map YAML path")
+NAMESPACE = Arg("namespace", default="", check=namespace_problem,
+                doc="the robot's namespace (e.g. robot1): topics under it, frames prefixed with it; empty: none")
 ROBOT = Arg("robot", default="box", choices=("box", "round"), doc="robot body: the lab's 0.9 x 0.6 m box, or round")
 RADIUS = Arg("radius", default="0.3", doc="radius of the round body in metres")
 RTF = Arg("rtf", default="1.0", doc="real-time factor of the simulation (0: as fast as the nodes allow)")

@@ -24,6 +24,9 @@ def run_node(label: str, build: Callable[[], Node], args=None,
         print(f"{label}: {err}", file=sys.stderr, flush=True)
         rclpy.try_shutdown()
         return 2
+    except (KeyboardInterrupt, ExternalShutdownException):   # stopped while starting (the launch is ending)
+        rclpy.try_shutdown()
+        return 0
     # Start-up objects (yourdfpy's trimesh/scipy/networkx among them) live as long as the process.
     # Frozen, they drop out of Python's full collections, which otherwise stall every node for ~80 ms.
     gc.freeze()

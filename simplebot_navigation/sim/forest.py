@@ -13,11 +13,12 @@ exit code 1 if a world was unsolvable.
 from __future__ import annotations
 
 import argparse
-import re
 import sys
 import time
 
 import numpy as np
+
+from simplebot_description import GENERATED_WORLD
 
 from .world import World
 from .world_gen import forest_world
@@ -27,7 +28,6 @@ BENCHMARK_ROBOT_RADIUS = 0.25
 OCCUPANCY_RANGE = (0.008, 0.025)     # the top end is past what the passage rule lets fit: densest fields
 MIN_PASSAGE_RANGE = (0.65, 0.9)
 _KNOB_STREAM = 14                    # keeps the knob draws apart from the layout's generator
-_NAME = re.compile(r"forest(?::(\d+))?")
 
 
 def benchmark_knobs(seed: int) -> dict:
@@ -44,7 +44,7 @@ def benchmark_forest(seed: int) -> World:
 
 def generated_world(name: str) -> World | None:
     """The world a generated-family name stands for ("forest", "forest:12"), or None for other names."""
-    match = _NAME.fullmatch(name)
+    match = GENERATED_WORLD.fullmatch(name)
     if match is None:
         return None
     return benchmark_forest(int(match.group(1) or 0))

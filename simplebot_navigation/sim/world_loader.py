@@ -8,7 +8,7 @@ from pathlib import Path
 
 import yaml
 
-from simplebot_description import builtin_worlds, world_path
+from simplebot_description import builtin_worlds, world_name_problem, world_path
 
 from .forest import generated_world
 from .map_import import world_from_map
@@ -30,13 +30,10 @@ def load_world(name_or_path: str | Path, robot_radius: float = 0.0) -> World:
     if world is not None:
         check_clearance(world, robot_radius)
         return world
-    path = Path(name_or_path)
-    if str(name_or_path) in builtin_worlds():
-        path = world_path(str(name_or_path))
-    elif not path.is_file():
-        raise ValueError(
-            f"unknown world {str(name_or_path)!r}: no such file, and not a built-in world "
-            f"({', '.join(builtin_worlds())}) or a generated one (forest, forest:<seed>)")
+    problem = world_name_problem(str(name_or_path))
+    if problem:
+        raise ValueError(f"world {str(name_or_path)!r}: {problem}")
+    path = world_path(str(name_or_path)) if str(name_or_path) in builtin_worlds() else Path(name_or_path)
     try:
         data = yaml.safe_load(path.read_text())
     except yaml.YAMLError as exc:

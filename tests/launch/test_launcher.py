@@ -275,3 +275,48 @@ def test_bad_respawn_attributes_are_named(tmp_path, attributes, message):
     """)
     with pytest.raises(LaunchError, match=re.escape(f"{launch}: {message}")):
         load_launch(launch)
+
+
+def test_a_node_that_cannot_start_with_its_configuration_is_not_respawned(tmp_path):
+    """Exit code 2 is a node's "cannot be built from these parameters": respawning would fail the same way for
+    ever, so the launch stops with that code."""
+    launch = write_launch(tmp_path, """
+        Node(pkg="python", type="tests.launch.dummy_node", name="misconfigured", respawn=True, respawn_delay=0.2,
+             params=[Param("exit_after", 0.2), Param("exit_code", 2)]),
+        Node(pkg="python", type="tests.launch.dummy_node", name="bystander"),
+    """)
+    proc = start(launch)
+    try:
+        out, _ = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert proc.returncode == 2, out
+    assert "/misconfigured could not start with its configuration (exit code 2): not respawned" in out
+    assert "respawning /misconfigured" not in out
+
+
+@pytest.mark.parametrize("args, message", [
+    (["world:=../../etc/passwd"], "argument world='../../etc/passwd': not a built-in world"),
+    (["world:=/nonexistent/office.yaml"], "argument world='/nonexistent/office.yaml': no such file"),
+    (["namespace:=a b"], "argument namespace='a b': not a valid ROS namespace"),
+    (["namespace:=1robot"], "argument namespace='1robot': not a valid ROS namespace"),
+])
+def test_bad_launch_arguments_are_one_line_and_exit_2_before_anything_starts(args, message):
+    out = subprocess.run([sys.executable, "-m", "simplebot_navigation.launch", "navigation", *args], cwd=REPO,
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 2 and message in out.stderr, out.stderr
+    assert "started" not in out.stdout
+
+
+@pytest.mark.parametrize("args, code, message", [
+    (["robots:=1000"], 2, "robots:='1000' must be a whole number from 1 to max_robots (32; max_robots:=N raises it)"),
+    (["robots:=99999999999"], 2, "robots:='99999999999' must be a whole number from 1 to max_robots"),
+    (["robots:=40", "--max-robots", "40", "--print-params"], 0, ""),
+])
+def test_the_number_of_robots_is_bounded(args, code, message):
+    out = subprocess.run([sys.executable, "-m", "simplebot_navigation.launch", "multi_navigation", *args], cwd=REPO,
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == code and message in out.stderr, out.stderr
+    if code == 0:
+        assert "/robot40/move_base/" in out.stdout

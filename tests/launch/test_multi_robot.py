@@ -53,7 +53,7 @@ def test_without_namespace_the_lab_frames_stay():
 @pytest.mark.parametrize("robots", ["0", "three", "-1"])
 def test_bad_robot_count_is_named(robots):
     with pytest.raises(LaunchError, match=rf"multi_navigation.py: generate\(\): ValueError: robots:='{robots}' "
-                                          "must be a whole number >= 1"):
+                                          "must be a whole number from 1 to max_robots"):
         load_launch("multi_navigation", {"robots": robots})
 
 

@@ -137,7 +137,7 @@ def test_bad_world_files_name_file_and_entry(tmp_path, text, message):
 
 
 def test_unknown_world_name_lists_builtins():
-    with pytest.raises(ValueError, match=r"unknown world 'attic': no such file, and not a built-in world "
+    with pytest.raises(ValueError, match=r"world 'attic': not a built-in world "
                                          r"\(clutter, doors, empty, lab\)"):
         load_world("attic")
 
