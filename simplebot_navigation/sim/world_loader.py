@@ -32,7 +32,7 @@ def load_world(name_or_path: str | Path, robot_radius: float = 0.0) -> World:
         return world
     problem = world_name_problem(str(name_or_path))
     if problem:
-        raise ValueError(f"world {str(name_or_path)!r}: {problem}")
+        raise ValueError(f"unknown world {str(name_or_path)!r}: {problem}")
     path = world_path(str(name_or_path)) if str(name_or_path) in builtin_worlds() else Path(name_or_path)
     try:
         data = yaml.safe_load(path.read_text())
