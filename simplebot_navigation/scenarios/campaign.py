@@ -24,6 +24,7 @@ from .campaign_spec import CampaignSpec, Run, SpecError, params_label, plan, spe
 from .campaign_stats import compare, comparison_table, summarize, summary_table
 
 POLL_S = 1.0
+MAX_JOBS = 256
 
 
 class Progress:
@@ -182,6 +183,10 @@ def main(argv: list[str] | None = None) -> int:
         folder = os.path.dirname(os.path.abspath(path)) if path else None
         if folder and not os.path.isdir(folder):
             parser.error(f"{option} {path}: directory {folder} does not exist")
+        if folder and not os.access(folder, os.W_OK | os.X_OK):
+            parser.error(f"{option} {path}: directory {folder} is not writable")
+    if args.jobs > MAX_JOBS:
+        parser.error(f"--jobs must be at most {MAX_JOBS}, got {args.jobs}")
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     try:
         runs = plan(spec)

@@ -29,6 +29,7 @@ from .campaign_spec import Run
 DOMAIN_IDS = range(0, 102)       # valid Fast DDS domain ids on one host
 LOCK_FOLDER = os.path.join(tempfile.gettempdir(), "simplebot-ros-domains")
 LEASE_POLL_S = 0.5
+RAY_CONNECT_TIMEOUT_S = 30.0
 LOG_TAIL_LINES = 30
 WORKER_MODULE = ("-u", "-m", "simplebot_navigation.scenarios.campaign_worker")
 
@@ -131,6 +132,19 @@ class LocalExecutor(_Executor):
         self.pool.shutdown(wait=True, cancel_futures=True)
 
 
+def check_reachable(address: str, timeout_s: float = RAY_CONNECT_TIMEOUT_S) -> None:
+    """CampaignError unless something accepts a connection at a Ray address (ray://host:port or host:port) within
+    timeout_s: ray.init waits for ever on an address where nothing answers."""
+    host, _, port = address.removeprefix("ray://").rpartition(":")
+    if not host or not port.isdigit():
+        raise CampaignError(f"--ray {address}: expected local, auto, host:port or ray://host:port")
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=timeout_s).close()
+    except OSError as err:
+        raise CampaignError(f"--ray {address}: nothing answers there within {timeout_s:g} s "
+                            f"({err.strerror or err})") from err
+
+
 class RayExecutor(_Executor):
     """--ray: one Ray task (one CPU) per run, on the cluster at ``address`` or a local Ray instance.
 
@@ -149,6 +163,8 @@ class RayExecutor(_Executor):
         self.ray = ray
         self.started_ray = not ray.is_initialized()
         if self.started_ray:
+            if address not in ("local", "auto"):
+                check_reachable(address)
             try:
                 ray.init(address=None if address == "auto" else address,
                          **({"include_dashboard": False} if address == "local" else {}))

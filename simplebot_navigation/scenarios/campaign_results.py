@@ -72,16 +72,28 @@ class ResultsFile:
             self._truncate_cut_line()
             for record in records:
                 self._count(record)
-        self.handle = open(self.path, "a", encoding="utf-8")
+        try:
+            self.handle = open(self.path, "a", encoding="utf-8")
+        except OSError as err:
+            raise CampaignError(f"--out {self.path}: cannot write there: {err.strerror}") from err
         if not exists:
             self._write({"format": FORMAT, "spec": self.spec.to_dict()})
 
     def _truncate_cut_line(self) -> None:
-        """A killed writer can leave a partial last line; cut it so appends start on a line of their own."""
+        """A killed writer can leave a partial last line: cut it (read_results dropped it, so its run is done again)
+        so that appends start on a line of their own. A last record that is whole but lost only its newline is
+        kept (read_results counted it) and gets the newline."""
         with open(self.path, "rb+") as handle:
             data = handle.read()
-            if data and not data.endswith(b"\n"):
-                handle.truncate(data.rfind(b"\n") + 1)
+            if not data or data.endswith(b"\n"):
+                return
+            start = data.rfind(b"\n") + 1
+            try:
+                json.loads(data[start:])
+            except ValueError:
+                handle.truncate(start)
+            else:
+                handle.write(b"\n")
 
     def _count(self, record: dict) -> None:
         key = Run.from_dict(record).key

@@ -30,6 +30,10 @@ SHIPPED_SETS = ("tight",)          # launch arguments of the navigation launch t
 SPEC_KEYS = ("worlds", "seeds", "robots", "params", "goals", "run_timeout")
 FAMILY_RANGE = re.compile(r"^(?P<family>[A-Za-z_][\w-]*):(?P<a>\d+)-(?P<b>\d+)$")
 DEFAULT_RUN_TIMEOUT_S = 900.0
+#: bounds of what a spec may ask for (README, "Campaigns"): values in one range (seeds, a world family), and
+#: runs in all (worlds x robots x parameter sets x seeds, before goals; each run is minutes of a core)
+MAX_RANGE_VALUES = 10_000
+MAX_RUNS = 100_000
 
 
 class SpecError(ValueError):
@@ -50,7 +54,7 @@ class CampaignSpec:
 
 
 def integer_range(text: str, key: str) -> list[int]:
-    """'0-9' -> 0..9, '3' -> [3], '0-2,7' -> [0, 1, 2, 7]."""
+    """'0-9' -> 0..9, '3' -> [3], '0-2,7' -> [0, 1, 2, 7]; at most MAX_RANGE_VALUES of them."""
     values: list[int] = []
     for part in str(text).split(","):
         match = re.fullmatch(r"\s*(\d+)\s*(?:-\s*(\d+)\s*)?", part)
@@ -59,6 +63,8 @@ def integer_range(text: str, key: str) -> list[int]:
         a, b = int(match[1]), int(match[2] if match[2] is not None else match[1])
         if b < a:
             raise SpecError(f"{key}: range {part.strip()!r} runs backwards")
+        if len(values) + b - a + 1 > MAX_RANGE_VALUES:
+            raise SpecError(f"{key}: {text!r} holds more than {MAX_RANGE_VALUES} values")
         values += range(a, b + 1)
     return values
 
@@ -188,6 +194,10 @@ def spec_from_dict(data, source: str = "spec") -> CampaignSpec:
     for name, values in (("worlds", worlds), ("seeds", seeds), ("robots", robots), ("params", params)):
         if len(set(values)) != len(values):
             raise SpecError(f"{name}: listed twice in {values!r}")
+    runs = len(worlds) * len(seeds) * len(robots) * len(params)
+    if runs > MAX_RUNS:
+        raise SpecError(f"{len(worlds)} worlds x {len(seeds)} seeds x {len(robots)} robots x {len(params)} parameter "
+                        f"sets is {runs} runs, more than {MAX_RUNS}")
     return CampaignSpec(tuple(worlds), tuple(seeds), tuple(robots), tuple(params),
                         None if goals in (None, "all") else tuple(goals), float(timeout))
 

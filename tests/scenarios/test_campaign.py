@@ -92,11 +92,25 @@ def test_the_command_names_the_bad_flag_or_key(tmp_path, capsys):
     for argv, message in (([str(spec), "--out", str(tmp_path / "r.jsonl")], "robot: unknown key in"),
                           (["--worlds", "lab", "--seeds", "2-1", "--out", "r.jsonl"], "seeds: range '2-1'"),
                           (["--worlds", "lab", "--jobs", "0", "--out", "r.jsonl"], "--jobs must be >= 1"),
+                          (["--worlds", "lab", "--jobs", "1000", "--out", "r.jsonl"], "--jobs must be at most 256"),
+                          (["--worlds", "lab", "--seeds", "0-99999999999", "--out", "r.jsonl"],
+                           "seeds: '0-99999999999' holds more than 10000 values"),
+                          (["--worlds", "forest:0-9999", "--seeds", "0-99", "--out", "r.jsonl"],
+                           "10000 worlds x 100 seeds x 1 robots x 1 parameter sets is 1000000 runs, more than 100000"),
+                          (["--worlds", "lab", "--out", "/nonexistent/r.jsonl"], "directory /nonexistent does not exist"),
                           (["--worlds", "lab"], "--out is required")):
         with pytest.raises(SystemExit) as exit_:
             main(argv)
         assert exit_.value.code == 2
         assert message in capsys.readouterr().err.splitlines()[-1]
+
+
+def test_a_ray_address_where_nothing_answers_is_an_error_not_a_hang(tmp_path, capsys):
+    pytest.importorskip("ray")
+    assert main(["--worlds", "lab", "--goals", "library", "--out", str(tmp_path / "r.jsonl"),
+                 "--ray", "127.0.0.1:1"]) == 2
+    assert "--ray 127.0.0.1:1: nothing answers there within 30 s" in capsys.readouterr().err
+    assert not (tmp_path / "r.jsonl").exists()
 
 
 # -- executors and the results file, with a scripted worker ----------------------------------------
@@ -177,6 +191,19 @@ def test_a_killed_campaign_loses_no_finished_run_and_resume_completes_it(tmp_pat
     assert len(after) == 6                                   # and nothing finished was run again
     rerun = [int(line.split()[0]) for line in fake_worker.read_text().splitlines()[started:]]
     assert sorted(rerun) == sorted(set(range(6)) - {r["seed"] for r in before})
+
+
+def test_resume_keeps_a_whole_last_record_that_lost_its_newline(tmp_path, fake_worker):
+    out = tmp_path / "results.jsonl"
+    spec = spec_from_dict({"worlds": "lab", "goals": "library", "seeds": "0-2"})
+    run_campaign(spec, str(out), LocalExecutor(1, command=FAKE_WORKER))
+    out.write_bytes(out.read_bytes().rstrip(b"\n"))          # a whole record, its newline lost
+    attempts = len(fake_worker.read_text().splitlines())
+    records = run_campaign(spec, str(out), LocalExecutor(1, command=FAKE_WORKER), resume=True)
+    assert sorted(r["seed"] for r in records) == [0, 1, 2]
+    assert len(fake_worker.read_text().splitlines()) == attempts   # nothing run again
+    _, kept = read_results(str(out))
+    assert sorted(r["seed"] for r in kept) == [0, 1, 2] and out.read_bytes().endswith(b"\n")
 
 
 # -- statistics ------------------------------------------------------------------------------------
