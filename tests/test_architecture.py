@@ -1,7 +1,7 @@
 """The package's layering, read from the source with ast: who may import whom, no cycles, small files.
 
 Layers, lowest first; a module may import its own layer and the layers below, never one above:
-  geometry, paths, parameters                       shared math, file locations, the parameter layer
+  geometry, paths, parameters, web_host             shared math, file locations, the parameter layer, Host checks
   costmap, planning, teb, sim, move_base            the navigation core: plain Python, no ROS
   ros                                               the nodes and their ROS shells
   launch, scenarios, viewer, testing                what a user runs (and what tests and benches share)
@@ -17,7 +17,7 @@ import pytest
 PACKAGE = "simplebot_navigation"
 ROOT = Path(__file__).resolve().parents[1] / PACKAGE
 LAYERS = [
-    {"geometry", "paths", "parameters", "kernel_cache", ""},
+    {"geometry", "paths", "parameters", "kernel_cache", "web_host", ""},
     {"costmap", "planning", "teb", "sim", "move_base"},
     {"ros"},
     {"launch", "scenarios", "viewer", "testing"},

@@ -13,11 +13,9 @@ an HTML form cannot send.
 
 from __future__ import annotations
 
-import ipaddress
 import json
 import math
 import re
-import socket
 import threading
 import time
 from http import HTTPStatus
@@ -27,6 +25,9 @@ from typing import Callable
 from urllib.parse import parse_qs, urlsplit
 
 from simplebot_navigation.viewer.scene import Lookup, Scene
+from simplebot_navigation.web_host import is_own_host, machine_names
+
+_DIGITS = re.compile(r"[0-9]+")
 
 STATIC = {"/": ("index.html", "text/html; charset=utf-8"),
           "/index.html": ("index.html", "text/html; charset=utf-8"),
@@ -36,44 +37,6 @@ LONG_POLL_S = 1.0
 MAX_BODY = 4096
 #: a client that stops sending mid-request frees its thread after this long
 REQUEST_TIMEOUT_S = 10.0
-_DIGITS = re.compile(r"[0-9]+")
-
-
-def _ip(name: str):
-    try:
-        return ipaddress.ip_address(name)
-    except ValueError:
-        return None
-
-
-def split_authority(authority: str) -> tuple[str, int | None]:
-    """A Host header as (lower-case host name, port); the port is 80 when absent, None when malformed."""
-    authority = authority.strip().lower()
-    if authority.startswith("["):
-        host, _, rest = authority[1:].partition("]")
-        port = rest[1:] if rest.startswith(":") else ("80" if not rest else "")
-    else:
-        host, colon, port = authority.partition(":")
-        port = port if colon else "80"
-    return host, int(port) if _DIGITS.fullmatch(port) else None
-
-
-def is_own_host(authority: str, bound: str, port: int, machine_names: frozenset[str]) -> bool:
-    """Whether a Host header addresses the server bound to bound:port.
-
-    A loopback server answers to any loopback address and "localhost"; one on every interface
-    (0.0.0.0) to any IP address and this machine's names; others to their address and the
-    machine's names. A domain name from elsewhere is what a DNS-rebinding page sends.
-    """
-    name, asked_port = split_authority(authority)
-    if asked_port != port:
-        return False
-    address, bound_ip = _ip(name), ipaddress.ip_address(bound)
-    if bound_ip.is_loopback:
-        return name == "localhost" or (address is not None and address.is_loopback)
-    if bound_ip.is_unspecified:
-        return address is not None or name == "localhost" or name in machine_names
-    return address == bound_ip or name in machine_names
 
 
 class _HTTPServer(ThreadingHTTPServer):
@@ -98,8 +61,7 @@ class ViewerServer:
         self.httpd = _HTTPServer((host, port), self._handler_class())
         self._thread: threading.Thread | None = None
         bound = self.httpd.server_address[0]
-        self._machine_names = frozenset() if ipaddress.ip_address(bound).is_loopback else \
-            frozenset(n.lower() for n in (socket.gethostname(), socket.getfqdn()))
+        self._machine_names = machine_names(bound)
 
     @property
     def url(self) -> str:

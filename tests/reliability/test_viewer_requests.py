@@ -8,7 +8,8 @@ import pytest
 
 from simplebot_navigation.viewer import server as viewer_server
 from simplebot_navigation.viewer.scene import Scene
-from simplebot_navigation.viewer.server import ViewerServer, is_own_host
+from simplebot_navigation.viewer.server import ViewerServer
+from simplebot_navigation.web_host import is_own_host
 
 GOAL = b'{"x": 1.0, "y": 2.0, "yaw": 0.5}'
 
