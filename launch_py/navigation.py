@@ -2,8 +2,10 @@
 
 from simplebot_navigation.launch.description import Arg, Include, Node, Param
 from simplebot_navigation.launch.simplebot_args import NAMESPACE, RADIUS, ROBOT, RTF, TIGHT, WORLD
+from simplebot_navigation.web_host import FOXGLOVE_ALLOWED_ORIGINS
 
 LAUNCH_DIR = "$(find simplebot_navigation)/launch_py"
+
 
 LAUNCH = [
     WORLD,
@@ -14,6 +16,9 @@ LAUNCH = [
     Arg("foxglove", default="false", doc="also serve every topic to the Foxglove app over WebSocket"),
     Arg("foxglove_host", default="127.0.0.1", doc="address of the Foxglove WebSocket server (0.0.0.0: every one)"),
     Arg("foxglove_port", default="8766", doc="port of the Foxglove WebSocket server (0: a free one)"),
+    Arg("foxglove_allowed_origins", default=" ".join(FOXGLOVE_ALLOWED_ORIGINS),
+        doc="browser pages (origins, space-separated) that may connect to the Foxglove server; a client that sends "
+            "no Origin (not a browser) always may"),
     TIGHT,
     Arg("respawn", default="true", choices=("true", "false"),
         doc="restart the simulator and move_base when they exit (roslaunch's respawn)"),
@@ -31,5 +36,6 @@ LAUNCH = [
          if_="$(arg foxglove)", params=[
         Param("host", "$(arg foxglove_host)"),
         Param("port", "$(arg foxglove_port)"),
+        Param("allowed_origins", "$(arg foxglove_allowed_origins)"),
     ]),
 ]

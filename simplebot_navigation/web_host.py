@@ -8,6 +8,9 @@ import re
 import socket
 
 _DIGITS = re.compile(r"[0-9]+")
+#: browser pages that may open the Foxglove WebSocket by default: the Foxglove app, and pages of the robot's own
+#: viewer at its default address (a client that sends no Origin is not a browser, and always may)
+FOXGLOVE_ALLOWED_ORIGINS = ("https://app.foxglove.dev", "http://127.0.0.1:8765", "http://localhost:8765")
 
 
 def _ip(name: str):

@@ -10,9 +10,12 @@ subscribes, so that it too gets the last message (those already subscribed get i
 
 Clients may publish, but only on the topics of CLIENT_TOPICS (RViz's and the 3D panel's goal, pose
 estimate and clicked point), with the topic's type, encoded as CDR or JSON. Anything else is refused
-with a warning naming the topic; a message that does not decode is dropped with a warning that says
-why. The server calls back from threads of its own: the callbacks only queue what happened and
-trigger a guard condition, and the node acts on it in its executor, so lockstep keeps its order.
+with a warning naming the topic, in the log and to that client as a status message; a message that does
+not decode is dropped the same way. Only clients whose browser page comes from an allowed origin
+(``allowed_origins``: the Foxglove app and this robot's viewer by default; no Origin at all is a
+non-browser client) and that address this server by its own name get past the handshake
+(ros/foxglove_server.py). The server calls back from a thread of its own: the callbacks only queue what
+happened and trigger a guard condition, and the node acts on it in its executor, so lockstep keeps its order.
 """
 
 from __future__ import annotations
@@ -21,20 +24,21 @@ import queue
 import sys
 from dataclasses import dataclass, field
 
-import foxglove
-from foxglove.websocket import Capability
 from geometry_msgs.msg import PointStamped, PoseStamped, PoseWithCovarianceStamped
 from rclpy.clock import Clock, ClockType
 from rclpy.qos import DurabilityPolicy
 from rclpy.serialization import deserialize_message
 from rclpy.subscription import Subscription
 
+from simplebot_navigation.ros.foxglove_server import STATUS_WARNING, FoxgloveServer
 from simplebot_navigation.ros.message_json import message_from_json
 from simplebot_navigation.ros.node_main import SetUpNode, run_node
 from simplebot_navigation.ros.params import declare_checked
 from simplebot_navigation.ros.raw_topics import RawTopic, TopicDiscovery, publisher_qos
+from simplebot_navigation.web_host import FOXGLOVE_ALLOWED_ORIGINS
 
-PARAMETERS = {"host": "127.0.0.1", "port": 8766}
+#: ``allowed_origins``: browser pages that may connect, space-separated (the launch file's foxglove_allowed_origins)
+PARAMETERS = {"host": "127.0.0.1", "port": 8766, "allowed_origins": " ".join(FOXGLOVE_ALLOWED_ORIGINS)}
 #: the only topics clients may publish on, with their types
 CLIENT_TOPICS = {"/move_base_simple/goal": PoseStamped, "/initialpose": PoseWithCovarianceStamped,
                  "/clicked_point": PointStamped}
@@ -48,7 +52,7 @@ class _Channel:
     """A topic served to clients: its Foxglove channel and, while clients subscribe, its ROS subscription."""
 
     topic: RawTopic
-    channel: foxglove.Channel
+    channel: int
     clients: set[int] = field(default_factory=set)
     subscription: Subscription | None = None
     latched: bool = False
@@ -58,28 +62,6 @@ class _Channel:
 class _ClientChannel:
     topic: str
     encoding: str       # cdr or json
-
-
-class _Listener:
-    """The server's callbacks (on its threads): queue the event, wake the node."""
-
-    def __init__(self, post):
-        self._post = post
-
-    def on_subscribe(self, client, channel) -> None:
-        self._post(("subscribe", client.id, channel.id))
-
-    def on_unsubscribe(self, client, channel) -> None:
-        self._post(("unsubscribe", client.id, channel.id))
-
-    def on_client_advertise(self, client, channel) -> None:
-        self._post(("advertise", client.id, (channel.id, channel.topic, channel.encoding, channel.schema_name)))
-
-    def on_client_unadvertise(self, client, client_channel_id) -> None:
-        self._post(("unadvertise", client.id, client_channel_id))
-
-    def on_message_data(self, client, client_channel_id, data) -> None:
-        self._post(("data", client.id, (client_channel_id, data)))
 
 
 class FoxgloveBridge(SetUpNode):
@@ -92,7 +74,6 @@ class FoxgloveBridge(SetUpNode):
         p = declare_checked(self, PARAMETERS, label="foxglove_bridge parameter")
         if not 0 <= p["port"] <= 65535:
             raise ValueError(f"foxglove_bridge parameter 'port' must be 0..65535, got {p['port']}")
-        self._foxglove = foxglove.Context()
         self._events: queue.SimpleQueue = queue.SimpleQueue()
         self._wake = self.create_guard_condition(self._handle_events)
         self._client_channels: dict[tuple[int, int], _ClientChannel] = {}
@@ -101,13 +82,11 @@ class FoxgloveBridge(SetUpNode):
         self._time_sent: int | None = None
         self.discovery = TopicDiscovery(self, self._skip)
         try:
-            self.server = foxglove.start_server(
-                name="simplebot_navigation", host=p["host"], port=p["port"], context=self._foxglove,
-                capabilities=[Capability.ClientPublish, Capability.Time], supported_encodings=["cdr", "json"],
-                server_listener=_Listener(self._post))
-        except RuntimeError as err:
-            raise OSError(f"foxglove_bridge cannot listen on {p['host']}:{p['port']}: {err} "
-                          "(set the 'port' parameter, 0 picks a free one)") from err
+            self.server = FoxgloveServer("simplebot_navigation", p["host"], p["port"], self._post,
+                                         tuple(p["allowed_origins"].split()), self.get_logger().warn,
+                                         metadata={"ROS_DISTRO": "jazzy"})
+        except OSError as err:
+            raise OSError(f"foxglove_bridge: {err} (set the 'port' parameter, 0 picks a free one)") from err
         self.discover()
         self.create_timer(DISCOVERY_PERIOD_S, self.discover, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.get_logger().info(f"Foxglove WebSocket server on {self.url}")
@@ -123,9 +102,8 @@ class FoxgloveBridge(SetUpNode):
     # -- channels ---------------------------------------------------------------------------------
     def discover(self) -> None:
         for topic in self.discovery.poll():
-            schema = foxglove.Schema(name=topic.type_name, encoding="ros2msg", data=topic.definition.encode("utf-8"))
-            channel = foxglove.Channel(topic.name, message_encoding="cdr", schema=schema, context=self._foxglove)
-            self._channels[channel.id()] = _Channel(topic, channel)
+            channel = self.server.add_channel(topic.name, "cdr", topic.type_name, topic.definition, "ros2msg")
+            self._channels[channel] = _Channel(topic, channel)
 
     def _skip(self, topic: str, why: str) -> None:
         self.get_logger().warn(f"not serving {topic} to Foxglove: {why}")
@@ -159,32 +137,31 @@ class FoxgloveBridge(SetUpNode):
         if self._time_sent is None or abs(now - self._time_sent) >= TIME_PERIOD_NS:
             self.server.broadcast_time(now)
             self._time_sent = now
-        served.channel.log(data, log_time=now)
+        self.server.log(served.channel, data, now)
 
     # -- what clients publish ---------------------------------------------------------------------
     def _advertise(self, client: int, channel_id: int, topic: str, encoding: str, schema_name: str) -> None:
         msg_class = CLIENT_TOPICS.get(topic)
         if msg_class is None:
-            self.get_logger().warn(f"Foxglove client {client} may not publish on {topic}: clients publish only on "
-                                   + ", ".join(CLIENT_TOPICS))
-            return
+            return self._refuse(client, f"may not publish on {topic}: clients publish only on "
+                                + ", ".join(CLIENT_TOPICS))
         type_name = _type_name(msg_class)
         if schema_name not in (type_name, type_name.replace("/msg/", "/")):
-            self.get_logger().warn(f"Foxglove client {client} advertised {topic} as {schema_name!r}; "
-                                   f"it takes {type_name}")
-            return
+            return self._refuse(client, f"advertised {topic} as {schema_name!r}; it takes {type_name}")
         if encoding not in ("cdr", "json"):
-            self.get_logger().warn(f"Foxglove client {client} advertised {topic} in encoding {encoding!r}; "
-                                   "it takes cdr or json")
-            return
+            return self._refuse(client, f"advertised {topic} in encoding {encoding!r}; it takes cdr or json")
         self._client_channels[(client, channel_id)] = _ClientChannel(topic, encoding)
+
+    def _refuse(self, client: int, why: str, throttled: bool = False) -> None:
+        """A refused client request: said to that client, which the app shows, and in the log (at most every
+        WARN_EVERY_S for what a client may send many of)."""
+        self.server.status(client, STATUS_WARNING, why)
+        self.get_logger().warn(f"Foxglove client {client} {why}", throttle_duration_sec=WARN_EVERY_S if throttled else 0)
 
     def _publish(self, client: int, channel_id: int, data: bytes) -> None:
         channel = self._client_channels.get((client, channel_id))
         if channel is None:
-            self.get_logger().warn(f"Foxglove client {client}: message on channel {channel_id}, which it has not "
-                                   "advertised or which was refused; dropped", throttle_duration_sec=WARN_EVERY_S)
-            return
+            return self._refuse(client, f"message on channel {channel_id}, which was refused; dropped", throttled=True)
         msg_class = CLIENT_TOPICS[channel.topic]
         try:
             if channel.encoding == "json":
@@ -192,10 +169,8 @@ class FoxgloveBridge(SetUpNode):
             else:
                 msg = deserialize_message(data, msg_class)
         except Exception as err:  # noqa: BLE001 - rclpy raises RMWError, UnicodeDecodeError...: any bad bytes
-            self.get_logger().warn(f"Foxglove client {client}: {channel.encoding} message on {channel.topic} "
-                                   f"does not decode as {_type_name(msg_class)} ({err}); dropped",
-                                   throttle_duration_sec=WARN_EVERY_S)
-            return
+            return self._refuse(client, f"{channel.encoding} message on {channel.topic} does not decode as "
+                                f"{_type_name(msg_class)} ({err}); dropped", throttled=True)
         self._client_publishers[channel.topic].publish(msg)
         self.get_logger().info(f"Foxglove client {client} published on {channel.topic}")
 
@@ -225,8 +200,6 @@ class FoxgloveBridge(SetUpNode):
         if self.server is not None:
             self.server.stop()
             self.server = None
-        for served in self._channels.values():
-            served.channel.close()
         super().destroy_node()
 
 

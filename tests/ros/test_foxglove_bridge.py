@@ -3,6 +3,7 @@ channels with ros2msg schemas, TF that decodes, goals published from the app tha
 and hostile clients refused without harm."""
 
 import json
+import socket
 import struct
 import subprocess
 import sys
@@ -17,6 +18,7 @@ from geometry_msgs.msg import PoseStamped
 from rclpy.parameter import Parameter
 from rclpy.serialization import deserialize_message, serialize_message
 from tf2_msgs.msg import TFMessage
+from websockets.exceptions import InvalidStatus
 from websockets.sync.client import connect
 
 from simplebot_navigation.launch.loader import load_launch
@@ -26,7 +28,7 @@ from simplebot_navigation.ros.raw_topics import message_definition
 from simplebot_navigation.scenarios.session import NavigationSession
 
 LAYOUT = Path(__file__).resolve().parents[2] / "config" / "simplebot.foxglove.json"
-SUBPROTOCOL = "foxglove.sdk.v1"   # what foxglove-sdk 0.30 accepts (the app offers it too)
+SUBPROTOCOL = "foxglove.sdk.v1"   # one of the two the Foxglove app offers
 GOAL = "/move_base_simple/goal"
 SHOWN = {"/tf": "tf2_msgs/msg/TFMessage", "/tf_static": "tf2_msgs/msg/TFMessage",
          "/global_costmap/costmap": "nav_msgs/msg/OccupancyGrid",
@@ -47,6 +49,7 @@ class FoxgloveClient:
         self.channels: dict[str, dict] = {}
         self.messages: dict[int, list[tuple[int, bytes]]] = defaultdict(list)  # subscription -> (log time, data)
         self.times: list[int] = []
+        self.statuses: list[str] = []
         self._next_id = 0
         self.pump(lambda: GOAL in self.channels, "the server's channels")
 
@@ -60,6 +63,8 @@ class FoxgloveClient:
                 message = json.loads(frame)
                 if message["op"] == "advertise":
                     self.channels.update({c["topic"]: c for c in message["channels"]})
+                elif message["op"] == "status":
+                    self.statuses.append(message["message"])
             elif frame[0] == 1:   # message data: subscription id, log time, payload
                 subscription, log_time = struct.unpack_from("<IQ", frame, 1)
                 self.messages[subscription].append((log_time, frame[13:]))
@@ -217,7 +222,11 @@ def test_hostile_clients_are_refused_with_a_warning_and_the_bridge_carries_on(se
     client.publish(as_json, b'{"pose": {"position": {"x": "far"}}}')
     warned("json message on /move_base_simple/goal", "pose.position.x must be of type double, got str")
     client.publish(999, b"{}")
+    client.pump(lambda: any("channel 999" in m for m in client.statuses), "a status about channel 999")
     assert not goals   # nothing reached ROS
+    told = "\n".join(client.statuses)    # each refusal also went to the client that made it, which the app shows
+    assert "may not publish on /simplebot_controller/cmd_vel" in told and "encoding 'protobuf'" in told
+    assert "cdr message on /move_base_simple/goal does not decode" in told
     # the next good goal still goes through
     client.publish(cdr, serialize_message(goal_message(0.0, 0.0)))
     client.pump(lambda: goals, "the good goal on /move_base_simple/goal")
@@ -248,6 +257,25 @@ def test_the_layout_shows_topics_of_the_run_and_publishes_where_the_bridge_liste
     assert plotted == {"/simplebot_controller/cmd_vel"} and plotted <= set(client.channels)
 
 
+@pytest.mark.parametrize("origin", ["https://evil.example", "http://127.0.0.1:9999", "null"])
+def test_a_page_of_another_origin_cannot_connect(bridge, origin):
+    with pytest.raises(InvalidStatus, match="HTTP 403"):
+        connect(bridge.url, subprotocols=[SUBPROTOCOL], origin=origin, open_timeout=10)
+
+
+@pytest.mark.parametrize("origin", ["https://app.foxglove.dev", "http://localhost:8765", None])
+def test_the_app_the_viewer_and_non_browser_clients_can_connect(bridge, origin):
+    with connect(bridge.url, subprotocols=[SUBPROTOCOL], origin=origin, open_timeout=10) as ws:
+        assert json.loads(ws.recv(timeout=10))["op"] == "serverInfo"
+
+
+@pytest.mark.parametrize("host", ["evil.example", "robot.attacker.net", "10.0.0.1"])
+def test_a_foreign_host_name_is_refused_against_dns_rebinding(bridge, host):
+    with pytest.raises(InvalidStatus, match="HTTP 403"):
+        connect(f"ws://{host}:{bridge.port}", sock=socket.create_connection(("127.0.0.1", bridge.port)),
+                subprotocols=[SUBPROTOCOL], open_timeout=10)
+
+
 def test_the_launch_file_starts_the_bridge_on_request():
     nodes = {n.name: n for n in load_launch("navigation", {"foxglove": "true", "foxglove_port": "9001"}).nodes}
     assert (nodes["foxglove_bridge"].type, nodes["foxglove_bridge"].parameters["port"]) == ("foxglove_bridge", 9001)
@@ -258,7 +286,7 @@ def test_the_launch_file_starts_the_bridge_on_request():
 def test_a_bad_or_busy_port_is_named(context, bridge):
     with pytest.raises(ValueError, match="foxglove_bridge parameter 'port' must be 0..65535, got 70000"):
         FoxgloveBridge(context=context, parameter_overrides=[Parameter("port", value=70000)])
-    with pytest.raises(OSError, match=f"cannot listen on 127.0.0.1:{bridge.port}: .*Address already in use"):
+    with pytest.raises(OSError, match=f"cannot listen on 127.0.0.1:{bridge.port}: .*(?i:address already in use)"):
         FoxgloveBridge(context=context, parameter_overrides=[Parameter("port", value=bridge.port)])
 
 

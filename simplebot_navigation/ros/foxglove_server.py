@@ -1,0 +1,227 @@
+"""The Foxglove WebSocket protocol (ws-protocol v1, as the Foxglove app speaks it), server side, with the checks a
+server on the robot's computer needs: the handshake's ``Origin`` must be allowed and its ``Host`` must name this
+server. Browsers let any page open a WebSocket to localhost; without these checks any web page (or a DNS-rebinding
+one) open on the robot's computer could subscribe to everything and publish goals.
+
+What it speaks: serverInfo, advertise and status to clients; message data and time as binary frames; subscribe,
+unsubscribe, client advertise/unadvertise and client message data from them. It runs an asyncio loop on a thread
+of its own and tells its owner what clients do through ``post((kind, client_id, args))``, from that thread; the
+owner's calls (add_channel, log, broadcast_time, status) may come from any thread.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import itertools
+import json
+import struct
+import threading
+from dataclasses import dataclass, field
+from typing import Callable
+
+from websockets.asyncio.server import ServerConnection, serve
+from websockets.exceptions import ConnectionClosed
+from websockets.http11 import Request
+
+from simplebot_navigation.web_host import is_own_host, machine_names
+
+SUBPROTOCOLS = ("foxglove.sdk.v1", "foxglove.websocket.v1")
+MESSAGE_DATA, TIME = 1, 2                  # binary opcodes, server to client
+CLIENT_MESSAGE_DATA = 1                    # binary opcode, client to server
+STATUS_INFO, STATUS_WARNING, STATUS_ERROR = 0, 1, 2
+#: frames queued for one client before the oldest message data is dropped (a slow client must not grow memory)
+MAX_BACKLOG = 512
+MAX_CLIENT_FRAME = 1 << 20
+
+
+@dataclass
+class _Client:
+    id: int
+    ws: ServerConnection
+    queue: asyncio.Queue = field(default_factory=lambda: asyncio.Queue(MAX_BACKLOG))
+    subscriptions: dict[int, int] = field(default_factory=dict)     # subscription id -> channel id
+    advertised: set[int] = field(default_factory=set)               # the client's own channel ids
+    dropped: int = 0
+
+    def put(self, frame) -> None:
+        if self.queue.full():
+            self.queue.get_nowait()
+            self.dropped += 1
+        self.queue.put_nowait(frame)
+
+
+class FoxgloveServer:
+    """One Foxglove WebSocket server; OSError when it cannot listen on host:port (port 0: a free one)."""
+
+    def __init__(self, name: str, host: str, port: int, post: Callable[[tuple], None],
+                 allowed_origins: tuple[str, ...], refused: Callable[[str], None],
+                 metadata: dict[str, str] | None = None):
+        self._post, self._refused = post, refused
+        self._allowed_origins = frozenset(o.rstrip("/") for o in allowed_origins)
+        self._host = host
+        self._machine_names = machine_names(host)
+        self._info = {"op": "serverInfo", "name": name, "capabilities": ["clientPublish", "time"],
+                      "supportedEncodings": ["cdr", "json"], "metadata": metadata or {}, "sessionId": name}
+        self._channels: dict[int, dict] = {}
+        self._clients: dict[int, _Client] = {}
+        self._ids = itertools.count(1)
+        self._loop = asyncio.new_event_loop()
+        self._ready = threading.Event()
+        self._error: BaseException | None = None
+        self._server = None
+        self._thread = threading.Thread(target=self._run, args=(port,), name="foxglove-server", daemon=True)
+        self._thread.start()
+        self._ready.wait()
+        if self._error is not None:
+            raise OSError(f"cannot listen on {host}:{port}: {self._error}") from self._error
+
+    @property
+    def port(self) -> int:
+        return self._server.sockets[0].getsockname()[1]
+
+    # -- the owner's side (any thread) --------------------------------------------------------------
+    def add_channel(self, topic: str, encoding: str, schema_name: str, schema: str, schema_encoding: str) -> int:
+        channel = {"id": next(self._ids), "topic": topic, "encoding": encoding, "schemaName": schema_name,
+                   "schema": schema, "schemaEncoding": schema_encoding}
+        self._loop.call_soon_threadsafe(self._advertise, channel)
+        return channel["id"]
+
+    def log(self, channel_id: int, data: bytes, log_time: int) -> None:
+        self._loop.call_soon_threadsafe(self._fan_out, channel_id, bytes(data), log_time)
+
+    def broadcast_time(self, timestamp_ns: int) -> None:
+        frame = struct.pack("<BQ", TIME, timestamp_ns)
+        self._loop.call_soon_threadsafe(lambda: [c.put(frame) for c in self._clients.values()])
+
+    def status(self, client_id: int, level: int, message: str) -> None:
+        """A status message to one client (the app shows it in its problems panel)."""
+        frame = json.dumps({"op": "status", "level": level, "message": message})
+        self._loop.call_soon_threadsafe(lambda: self._clients[client_id].put(frame)
+                                        if client_id in self._clients else None)
+
+    def stop(self) -> None:
+        if self._thread.is_alive():
+            self._loop.call_soon_threadsafe(self._loop.stop)
+            self._thread.join(timeout=5.0)
+
+    # -- the server's thread ------------------------------------------------------------------------
+    def _run(self, port: int) -> None:
+        asyncio.set_event_loop(self._loop)
+        try:
+            self._server = self._loop.run_until_complete(self._listen(port))
+        except (OSError, ValueError) as err:    # a port in use, an address that is not this machine's
+            self._error = err
+            self._ready.set()
+            return
+        self._ready.set()
+        try:
+            self._loop.run_forever()
+        finally:
+            self._server.close()
+            self._loop.run_until_complete(self._server.wait_closed())
+            self._loop.close()
+
+    async def _listen(self, port: int):
+        return await serve(self._serve, self._host, port, subprotocols=list(SUBPROTOCOLS),
+                           process_request=self._check, max_size=MAX_CLIENT_FRAME, compression=None)
+
+    def _check(self, connection: ServerConnection, request: Request):
+        """Refuse a handshake from a page of a foreign origin, or addressed to a foreign name (DNS rebinding)."""
+        hosts, origins = request.headers.get_all("Host"), request.headers.get_all("Origin")
+        host, origin = (hosts or [""])[0], (origins or [None])[0]
+        if len(hosts) != 1 or len(origins) > 1:
+            why = "a handshake needs exactly one Host and at most one Origin header"
+        elif not is_own_host(host, self._host, self.port, self._machine_names):
+            why = f"Host {host!r} is not this server"
+        elif origin is not None and origin.rstrip("/") not in self._allowed_origins:
+            why = f"Origin {origin!r} is not allowed (foxglove_allowed_origins)"
+        else:
+            return None
+        self._refused(f"refused a WebSocket handshake from {connection.remote_address[0]}: {why}")
+        return connection.respond(403, why + "\n")
+
+    def _advertise(self, channel: dict) -> None:
+        self._channels[channel["id"]] = channel
+        frame = json.dumps({"op": "advertise", "channels": [channel]})
+        for client in self._clients.values():
+            client.put(frame)
+
+    def _fan_out(self, channel_id: int, data: bytes, log_time: int) -> None:
+        for client in self._clients.values():
+            for subscription, channel in client.subscriptions.items():
+                if channel == channel_id:
+                    client.put(struct.pack("<BIQ", MESSAGE_DATA, subscription, log_time) + data)
+
+    async def _serve(self, ws: ServerConnection) -> None:
+        client = _Client(next(self._ids), ws)
+        self._clients[client.id] = client
+        client.put(json.dumps(self._info))
+        client.put(json.dumps({"op": "advertise", "channels": list(self._channels.values())}))
+        sender = asyncio.get_running_loop().create_task(self._send(client))
+        try:
+            async for frame in ws:
+                self._receive(client, frame)
+        except ConnectionClosed:
+            pass
+        finally:
+            sender.cancel()
+            del self._clients[client.id]
+            for channel in client.subscriptions.values():
+                self._post(("unsubscribe", client.id, channel))
+            for channel in client.advertised:
+                self._post(("unadvertise", client.id, channel))
+
+    @staticmethod
+    async def _send(client: _Client) -> None:
+        try:
+            while True:
+                await client.ws.send(await client.queue.get())
+        except ConnectionClosed:
+            pass
+
+    def _receive(self, client: _Client, frame) -> None:
+        """One frame from a client; anything malformed is answered with a status message, never acted on."""
+        if isinstance(frame, bytes):
+            if len(frame) < 5 or frame[0] != CLIENT_MESSAGE_DATA:
+                return self._tell(client, f"binary frame with opcode {frame[:1].hex() or 'none'} ignored")
+            channel = struct.unpack_from("<I", frame, 1)[0]
+            if channel not in client.advertised:
+                return self._tell(client, f"message on channel {channel}, which this client has not advertised")
+            return self._post(("data", client.id, (channel, frame[5:])))
+        try:
+            message = json.loads(frame)
+            op = message["op"]
+            if op == "subscribe":
+                for item in message["subscriptions"]:
+                    self._subscribe(client, int(item["id"]), int(item["channelId"]))
+            elif op == "unsubscribe":
+                for subscription in message["subscriptionIds"]:
+                    channel = client.subscriptions.pop(int(subscription), None)
+                    if channel is not None:
+                        self._post(("unsubscribe", client.id, channel))
+            elif op == "advertise":
+                for item in message["channels"]:
+                    channel = int(item["id"])
+                    client.advertised.add(channel)
+                    self._post(("advertise", client.id, (channel, str(item["topic"]), str(item["encoding"]),
+                                                          str(item.get("schemaName", "")))))
+            elif op == "unadvertise":
+                for channel in message["channelIds"]:
+                    client.advertised.discard(int(channel))
+                    self._post(("unadvertise", client.id, int(channel)))
+            else:
+                self._tell(client, f"operation {op!r} is not supported here")
+        except (ValueError, KeyError, TypeError) as err:
+            self._tell(client, f"malformed request ({type(err).__name__}: {err}): ignored")
+
+    def _subscribe(self, client: _Client, subscription: int, channel: int) -> None:
+        if channel not in self._channels:
+            return self._tell(client, f"subscription {subscription}: no channel {channel}")
+        if subscription in client.subscriptions:
+            return self._tell(client, f"subscription {subscription} is already in use")
+        client.subscriptions[subscription] = channel
+        self._post(("subscribe", client.id, channel))
+
+    @staticmethod
+    def _tell(client: _Client, message: str) -> None:
+        client.put(json.dumps({"op": "status", "level": STATUS_WARNING, "message": message}))
