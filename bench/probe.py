@@ -1,0 +1,136 @@
+"""The hostile-input matrix, against a live launch and the command lines: every probe must be refused (or the
+robot stopped), with nothing lost. Run it before each release.
+
+    python bench/probe.py
+
+Starts ``navigation world:=lab rtf:=1 foxglove:=true respawn:=true`` (every node its own process), then, as any
+other node or program on the machine could:
+  - sets hostile move_base and simulator parameters through their parameter services (ros2 param set);
+  - opens Foxglove WebSocket handshakes from a foreign web page and with a rebound host name;
+  - runs the launcher and the campaign runner with unbounded or malformed arguments.
+Afterwards the simulator and move_base must be the processes that started, and an ordinary goal must succeed.
+Prints one row per probe: what was sent, what came back, and whether that is a refusal.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path[0] = str(ROOT)
+
+from simplebot_navigation.scenarios.campaign_exec import domain_lease  # noqa: E402
+
+MOVE_BASE_PROBES = [
+    ("local_costmap.footprint", "robot"),
+    ("local_costmap.footprint", "[[0, 0], [1, 1]]"),
+    ("local_costmap.footprint", "[[0, 0], [nan, 1], [1, 0]]"),
+    ("local_costmap.footprint", "[[0.1, 0.1], [0.1, 0.1], [0.1, 0.1]]"),
+    ("local_costmap.footprint", "[[0, 0], [0.3, 0.3], [0.3, 0], [0, 0.3]]"),
+    ("local_costmap.footprint", "[[0, 0], [1e308, 0], [0, 1]]"),
+    ("local_costmap.footprint", str([[round(0.3 * math.cos(a / 3183), 4), round(0.3 * math.sin(a / 3183), 4)]
+                                     for a in range(20000)])),
+    ("local_costmap.inflation_layer.inflation_radius", 1e6),
+    ("global_costmap.inflation_layer.inflation_radius", 150.0),
+    ("controller_frequency", 1e308),
+    ("controller_frequency", 1e-300),
+    ("controller_frequency", 1e-6),
+    ("TebLocalPlannerROS.max_vel_x", 1e308),
+    ("local_costmap.inflation_layer.inflaton_radius", 1.0),
+]
+SIMULATOR_PROBES = [("real_time_factor", -1.0), ("real_time_factor", math.nan), ("physics_rate", 0.0),
+                    ("world", "doors"), ("seed", 7), ("use_sim_time", True)]
+COMMAND_PROBES = [
+    ["-m", "simplebot_navigation.launch", "multi_navigation", "robots:=1000"],
+    ["-m", "simplebot_navigation.launch", "multi_navigation", "robots:=99999999999"],
+    ["-m", "simplebot_navigation.launch", "navigation", "namespace:=a b"],
+    ["-m", "simplebot_navigation.launch", "navigation", "world:=../../etc/passwd"],
+    ["-m", "simplebot_navigation.scenarios", "campaign", "--worlds", "lab", "--seeds", "0-99999999999",
+     "--out", "/tmp/probe.jsonl"],
+    ["-m", "simplebot_navigation.scenarios", "campaign", "--worlds", "lab", "--goals", "library",
+     "--out", "/tmp/probe_ray.jsonl", "--ray", "127.0.0.1:1"],
+    ["-m", "simplebot_navigation.scenarios", "campaign", "--worlds", "lab", "--goals", "library",
+     "--out", "/proc/probe.jsonl"],
+]
+
+
+def short(value, width: int = 46) -> str:
+    text = repr(value)
+    return text if len(text) <= width else text[:width - 3] + "..."
+
+
+def set_parameter(session, client, name, value) -> tuple[bool, str]:
+    from rclpy.parameter import Parameter
+
+    future = client.set_parameters([Parameter(name, value=value)])
+    if not session.spin_wall(30.0, future.done):
+        return False, "NO ANSWER within 30 s"
+    result = future.result().results[0]
+    return result.successful, result.reason
+
+
+def handshake(port: int, origin: str | None, host: str) -> str:
+    from websockets.exceptions import InvalidStatus
+    from websockets.sync.client import connect
+
+    try:
+        with connect(f"ws://{host}:{port}", sock=socket.create_connection(("127.0.0.1", port)), origin=origin,
+                     subprotocols=["foxglove.sdk.v1"], open_timeout=10):
+            return "connected"
+    except InvalidStatus as err:
+        return f"HTTP {err.response.status_code}"
+
+
+def main() -> int:
+    with domain_lease(os.getpid() % 100, None) as domain:
+        os.environ.update(ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+        return probe()
+
+
+def probe() -> int:
+    from rclpy.parameter_client import AsyncParameterClient
+
+    from simplebot_navigation.scenarios.process_session import ProcessSession
+    from simplebot_navigation.sim.world import Pose2D
+
+    rows: list[tuple[str, str, str, bool]] = []
+    with ProcessSession("lab", rtf=1.0, respawn=True, foxglove_port=0) as session:
+        session.wait_ready(wall_timeout_s=240.0)
+        pids = {name: session.node_pid(name) for name in ("simulator", "move_base", "foxglove_bridge")}
+        for node, probes in (("/move_base", MOVE_BASE_PROBES), ("/simulator", SIMULATOR_PROBES)):
+            client = AsyncParameterClient(session.client, node)
+            for name, value in probes:
+                ok, reason = set_parameter(session, client, name, value)
+                rows.append((f"param set {node} {name}", short(value), reason or "successful", not ok and reason != ""))
+        port = int(next(line.rsplit(":", 1)[1] for line in session.log_text().splitlines()
+                        if "Foxglove WebSocket server on ws://" in line).strip())
+        for origin, host in (("https://evil.example", "127.0.0.1"), (None, "evil.example"),
+                             ("null", "localhost")):
+            outcome = handshake(port, origin, host)
+            rows.append(("Foxglove handshake", f"Origin {origin}, Host {host}", outcome, outcome == "HTTP 403"))
+        same = {name: session.node_pid(name) == pid for name, pid in pids.items()}
+        run = session.send_goal(Pose2D(3.5, 0.0, 0.0, "corridor"))
+        session.spin_wall(120.0, lambda: run.done)
+        rows.append(("the same processes afterwards", ", ".join(pids), str(same), all(same.values())))
+        rows.append(("the next ordinary goal", "corridor (3.5, 0)", f"{run.status} {run.reason}".strip(),
+                     run.status == "SUCCEEDED"))
+    for args in COMMAND_PROBES:
+        out = subprocess.run([sys.executable, *args], capture_output=True, text=True, timeout=120, cwd=ROOT)
+        said = (out.stderr.strip().splitlines() or ["(nothing)"])[-1]
+        rows.append((" ".join(args[1:3]), short(" ".join(args[3:])), f"exit {out.returncode}: {said}",
+                     out.returncode == 2))
+    print(f"{'probe':<58} {'input':<48} {'ok':<4} outcome")
+    for what, given, outcome, refused in rows:
+        print(f"{what:<58} {given:<48} {'yes' if refused else 'NO':<4} {outcome[:150]}")
+    failed = sum(not refused for *_, refused in rows)
+    print(f"\n{len(rows) - failed} of {len(rows)} probes refused or survived as they must")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
