@@ -32,6 +32,13 @@ STATUS_INFO, STATUS_WARNING, STATUS_ERROR = 0, 1, 2
 #: frames queued for one client before the oldest message data is dropped (a slow client must not grow memory)
 MAX_BACKLOG = 512
 MAX_CLIENT_FRAME = 1 << 20
+#: subscription and advertisement changes a client may make: a burst (the app opening a layout subscribes to a few
+#: dozen topics at once), then so many a second. Each change costs the bridge a ROS subscription made or destroyed,
+#: which every node on the graph hears about: a client that churns them must not load the robot's computer.
+CHANGE_BURST, CHANGES_PER_S = 200, 20.0
+#: the operations that change subscriptions or advertisements, and the list each one's changes are in
+CHANGE_ITEMS = {"subscribe": "subscriptions", "unsubscribe": "subscriptionIds", "advertise": "channels",
+                "unadvertise": "channelIds"}
 
 
 @dataclass
@@ -42,6 +49,18 @@ class _Client:
     subscriptions: dict[int, int] = field(default_factory=dict)     # subscription id -> channel id
     advertised: set[int] = field(default_factory=set)               # the client's own channel ids
     dropped: int = 0
+    budget: float = CHANGE_BURST                                     # subscription changes it may still make
+    budget_time: float = 0.0
+    told_over_budget: float = -1.0
+
+    def may_change(self, now: float, changes: int) -> bool:
+        """Take ``changes`` subscription or advertisement changes from the client's budget, if it has them."""
+        self.budget = min(CHANGE_BURST, self.budget + (now - self.budget_time) * CHANGES_PER_S)
+        self.budget_time = now
+        if self.budget < changes:
+            return False
+        self.budget -= changes
+        return True
 
     def put(self, frame) -> None:
         if self.queue.full():
@@ -153,7 +172,7 @@ class FoxgloveServer:
                     client.put(struct.pack("<BIQ", MESSAGE_DATA, subscription, log_time) + data)
 
     async def _serve(self, ws: ServerConnection) -> None:
-        client = _Client(next(self._ids), ws)
+        client = _Client(next(self._ids), ws, budget_time=self._loop.time())
         self._clients[client.id] = client
         client.put(json.dumps(self._info))
         client.put(json.dumps({"op": "advertise", "channels": list(self._channels.values())}))
@@ -191,6 +210,9 @@ class FoxgloveServer:
         try:
             message = json.loads(frame)
             op = message["op"]
+            items = CHANGE_ITEMS.get(op)
+            if items is not None and not self._within_budget(client, op, max(1, len(message[items]))):
+                return
             if op == "subscribe":
                 for item in message["subscriptions"]:
                     self._subscribe(client, int(item["id"]), int(item["channelId"]))
@@ -213,6 +235,16 @@ class FoxgloveServer:
                 self._tell(client, f"operation {op!r} is not supported here")
         except (ValueError, KeyError, TypeError) as err:
             self._tell(client, f"malformed request ({type(err).__name__}: {err}): ignored")
+
+    def _within_budget(self, client: _Client, op: str, changes: int) -> bool:
+        now = self._loop.time()
+        if client.may_change(now, changes):
+            return True
+        if now - client.told_over_budget >= 1.0:
+            client.told_over_budget = now
+            self._tell(client, f"{op} ignored: more than {CHANGES_PER_S:g} subscription or advertisement changes a "
+                               f"second (after a burst of {CHANGE_BURST})")
+        return False
 
     def _subscribe(self, client: _Client, subscription: int, channel: int) -> None:
         if channel not in self._channels:

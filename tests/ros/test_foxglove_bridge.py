@@ -257,6 +257,16 @@ def test_the_layout_shows_topics_of_the_run_and_publishes_where_the_bridge_liste
     assert plotted == {"/simplebot_controller/cmd_vel"} and plotted <= set(client.channels)
 
 
+def test_a_client_that_churns_subscriptions_is_held_to_a_budget(client):
+    """Each subscription change costs the bridge a ROS subscription made or destroyed, which every node hears about."""
+    channel = client.channels["/tf"]["id"]
+    for i in range(150):
+        client.ws.send(json.dumps({"op": "subscribe", "subscriptions": [{"id": 5000 + i, "channelId": channel}]}))
+        client.ws.send(json.dumps({"op": "unsubscribe", "subscriptionIds": [5000 + i]}))
+    client.pump(lambda: any("ignored: more than 20 subscription or advertisement changes a second" in m
+                            for m in client.statuses), "the status about the budget")
+
+
 @pytest.mark.parametrize("origin", ["https://evil.example", "http://127.0.0.1:9999", "null"])
 def test_a_page_of_another_origin_cannot_connect(bridge, origin):
     with pytest.raises(InvalidStatus, match="HTTP 403"):
