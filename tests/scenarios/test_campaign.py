@@ -269,9 +269,12 @@ def test_two_workers_give_the_sequential_results(sequential, tmp_path):
 
 @pytest.mark.e2e
 @pytest.mark.timeout(1800)
-def test_a_local_ray_gives_the_sequential_results(sequential, tmp_path):
+def test_a_local_ray_gives_the_sequential_results(sequential, tmp_path, monkeypatch):
     import ray  # in the test extras, so CI runs this on an embedded Ray
 
+    # Ray starts its workers niced, so on a loaded machine (CI beside busy loops) they wait for every other
+    # process: minutes instead of seconds. The raylet reads this from its environment.
+    monkeypatch.setenv("RAY_worker_niceness", "0")
     ray.init(num_cpus=2, include_dashboard=False)
     try:
         records = run_campaign(spec_from_dict(SHORT_CAMPAIGN), str(tmp_path / "r.jsonl"), RayExecutor("local"))
