@@ -7,8 +7,8 @@ With ``namespace:=robot1`` everything is under /robot1 and the frames are robot1
 overridden below.
 """
 
-from simplebot_navigation.launch.description import Arg, Group, Include, Param, Remap, RosParam
-from simplebot_navigation.launch.simplebot_args import NAMESPACE
+from simplebot_navigation.launch.description import Arg, Group, Include, Node, Param, Remap, RosParam
+from simplebot_navigation.launch.simplebot_args import COLLISION_MONITOR, NAMESPACE
 from simplebot_navigation.launch.simplebot_args import TIGHT as TIGHT_ARG
 
 CONFIG = "$(find simplebot_navigation)/config"
@@ -21,6 +21,9 @@ FRAMES = {f"{costmap}/{key}": frame for costmap in ("global_costmap", "local_cos
           for key, frame in (("global_frame", "odom"), ("robot_base_frame", "base_link"))}
 FRAMES["TebLocalPlannerROS/map_frame"] = "odom"
 LASERS = {"front_laser": "front_scan", "back_laser": "back_scan"}
+MONITOR = "$(arg collision_monitor)"
+#: the lab's box as config/costmap_common.yaml gives it: the collision monitor reads no costmap file
+BOX_FOOTPRINT = "[[0.45, 0.3], [0.45, -0.3], [-0.45, -0.3], [-0.45, 0.3]]"
 
 LAUNCH = [
     Arg("robot", default="box", choices=("box", "round"),
@@ -30,6 +33,7 @@ LAUNCH = [
     Arg("respawn", default="true", choices=("true", "false"),
         doc="restart move_base when it exits (roslaunch's respawn)"),
     NAMESPACE,
+    COLLISION_MONITOR,
 
     Param("/use_sim_time", True),
 
@@ -37,8 +41,11 @@ LAUNCH = [
         # The lab's TEB config reads odometry from /odom; the simulated diff-drive controller
         # publishes it on simplebot_controller/odom, as the lab's Gazebo controller did.
         Group(remaps=[Remap("/odom", "simplebot_controller/odom")], children=[
+            # Its commands go to the collision monitor, or (collision_monitor:=false) straight to the base.
             Include(file="$(find simplebot_navigation)/launch_py/move_base_local.py",
-                    args={"respawn": "$(arg respawn)"}),
+                    args={"respawn": "$(arg respawn)", "cmd_vel": "cmd_vel_nav"}, if_=MONITOR),
+            Include(file="$(find simplebot_navigation)/launch_py/move_base_local.py",
+                    args={"respawn": "$(arg respawn)"}, unless=MONITOR),
         ]),
 
         # The round body: a circular footprint for both costmaps, loaded over the lab's files ...
@@ -66,5 +73,13 @@ LAUNCH = [
         *(Param(f"move_base/{costmap}/obstacles/{laser}/{key}", value, if_=NAMESPACED)
           for costmap in ("global_costmap", "local_costmap") for laser, scan in LASERS.items()
           for key, value in (("sensor_frame", f"{PREFIX}{laser}_link"), ("topic", f"{laser}/{scan}"))),
+
+        # The last word on every command: the scans against the body, in a process of its own.
+        Node(pkg="simplebot_navigation", type="collision_monitor", name="collision_monitor", output="screen",
+             respawn="$(arg respawn)", if_=MONITOR, params=[
+            Param("footprint", BOX_FOOTPRINT, unless=ROUND),
+            Param("robot_radius", "$(arg radius)", if_=ROUND),
+            Param("base_frame", PREFIX + "base_link", if_=NAMESPACED),
+        ]),
     ]),
 ]

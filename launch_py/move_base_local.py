@@ -7,6 +7,8 @@ CONFIG = "$(find simplebot_navigation)/config"
 LAUNCH = [
     Arg("respawn", default="false", choices=("true", "false"),
         doc="restart move_base when it exits (the lab's file: false)"),
+    Arg("cmd_vel", default="simplebot_controller/cmd_vel",
+        doc="where move_base's velocity commands go (the lab's file: the robot controller)"),
 
     # The main node that starts the navigation stack
     Node(pkg="move_base", type="move_base", name="move_base", output="screen", respawn="$(arg respawn)", params=[
@@ -22,6 +24,6 @@ LAUNCH = [
     ], remaps=[
         # The velocity command that is sent to the robot controller (relative: /simplebot_controller/cmd_vel
         # at the root, /robot1/simplebot_controller/cmd_vel for a move_base in namespace robot1)
-        Remap("cmd_vel", "simplebot_controller/cmd_vel"),
+        Remap("cmd_vel", "$(arg cmd_vel)"),
     ]),
 ]

@@ -9,7 +9,7 @@ The number of robots is an argument, so the items come from ``generate(args)``.
 """
 
 from simplebot_navigation.launch.description import Arg, Include
-from simplebot_navigation.launch.simplebot_args import RADIUS, ROBOT, RTF, TIGHT, WORLD
+from simplebot_navigation.launch.simplebot_args import COLLISION_MONITOR, RADIUS, ROBOT, RTF, TIGHT, WORLD
 
 LAUNCH_DIR = "$(find simplebot_navigation)/launch_py"
 DEFAULT_MAX_ROBOTS = 32
@@ -25,6 +25,7 @@ ARGS = [
     RADIUS,
     RTF,
     TIGHT,
+    COLLISION_MONITOR,
     Arg("respawn", default="true", choices=("true", "false"),
         doc="restart the simulator and each move_base when they exit (roslaunch's respawn)"),
 ]
@@ -43,6 +44,6 @@ def generate(args: dict[str, str]) -> list:
             "respawn": "$(arg respawn)", "namespaces": " ".join(namespaces), "starts": "$(arg starts)"}),
         *(Include(file=f"{LAUNCH_DIR}/move_base.py", args={
             "robot": "$(arg robot)", "radius": "$(arg radius)", "tight": "$(arg tight)", "respawn": "$(arg respawn)",
-            "namespace": namespace})
+            "namespace": namespace, "collision_monitor": "$(arg collision_monitor)"})
           for namespace in namespaces),
     ]

@@ -1,7 +1,7 @@
 """navigation.launch: the simulated simplebot plus move_base_local.launch, all on simulated time."""
 
 from simplebot_navigation.launch.description import Arg, Include, Node, Param
-from simplebot_navigation.launch.simplebot_args import NAMESPACE, RADIUS, ROBOT, RTF, TIGHT, WORLD
+from simplebot_navigation.launch.simplebot_args import COLLISION_MONITOR, NAMESPACE, RADIUS, ROBOT, RTF, TIGHT, WORLD
 from simplebot_navigation.web_host import FOXGLOVE_ALLOWED_ORIGINS
 
 LAUNCH_DIR = "$(find simplebot_navigation)/launch_py"
@@ -23,13 +23,14 @@ LAUNCH = [
     Arg("respawn", default="true", choices=("true", "false"),
         doc="restart the simulator and move_base when they exit (roslaunch's respawn)"),
     NAMESPACE,
+    COLLISION_MONITOR,
 
     Include(file=f"{LAUNCH_DIR}/simulator.py", args={
         "world": "$(arg world)", "robot": "$(arg robot)", "radius": "$(arg radius)", "rtf": "$(arg rtf)",
         "respawn": "$(arg respawn)", "namespaces": "$(arg namespace)"}),
     Include(file=f"{LAUNCH_DIR}/move_base.py", args={
         "robot": "$(arg robot)", "radius": "$(arg radius)", "tight": "$(arg tight)", "respawn": "$(arg respawn)",
-        "namespace": "$(arg namespace)"}),
+        "namespace": "$(arg namespace)", "collision_monitor": "$(arg collision_monitor)"}),
 
     Node(pkg="simplebot_navigation", type="viewer", name="viewer", output="screen", if_="$(arg viewer)"),
     Node(pkg="simplebot_navigation", type="foxglove_bridge", name="foxglove_bridge", output="screen",

@@ -65,7 +65,7 @@ class ObservationSource:
                              f"use one of {', '.join(SUPPORTED_DATA_TYPES)}")
 
 
-def _scan_problem(r: np.ndarray, angle_min, angle_increment, range_min, range_max,
+def scan_problem(r: np.ndarray, angle_min, angle_increment, range_min, range_max,
                   sensor_pose) -> tuple[str, str] | None:
     """(field, why) a LaserScan cannot be projected at all, or None: NaN or inf in its geometry would project
     every beam to NaN, and a ranges list longer than one turn would wrap into a phantom ring."""
@@ -94,13 +94,13 @@ def laser_scan_to_observation(ranges, angle_min: float, angle_increment: float, 
     Returns in [range_min, range_max) become hits, but never a negative one (whatever range_min
     says): NaN, negative and other out-of-range values are dropped. With inf_is_valid, +inf becomes
     a clearing-only ray of length range_max - 1e-4 that never marks (docs/design.md §9: costmap_2d would
-    mark a phantom ring there). A scan whose geometry is unusable (see _scan_problem) gives an empty
+    mark a phantom ring there). A scan whose geometry is unusable (see scan_problem) gives an empty
     observation; both kinds of drop are logged as warnings, which the ROS shell throttles.
     """
     r = np.asarray(ranges, dtype=float)
     sx, sy, sz, syaw = (float(v) for v in sensor_pose)
     origin = np.array([sx, sy, sz])
-    problem = _scan_problem(r, angle_min, angle_increment, range_min, range_max, sensor_pose)
+    problem = scan_problem(r, angle_min, angle_increment, range_min, range_max, sensor_pose)
     if problem:
         field, why = problem
         _log.warning("LaserScan dropped: %s", why, extra={"throttle_key": field})

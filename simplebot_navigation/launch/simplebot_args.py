@@ -30,3 +30,6 @@ RADIUS = Arg("radius", default="0.3", doc="radius of the round body in metres")
 RTF = Arg("rtf", default="1.0", doc="real-time factor of the simulation (0: as fast as the nodes allow)")
 TIGHT = Arg("tight", default="false", choices=("true", "false"),
             doc="the narrow-door parameter set (config/tight/) over the lab's files")
+COLLISION_MONITOR = Arg("collision_monitor", default="true", choices=("true", "false"),
+                        doc="put the collision monitor between move_base (cmd_vel_nav) and the base "
+                            "(simplebot_controller/cmd_vel); false: move_base drives the base directly")

@@ -53,6 +53,8 @@ def _parser() -> argparse.ArgumentParser:
                         "(layout: config/simplebot.foxglove.json)")
     p.add_argument("--foxglove-port", type=int, default=8766, metavar="PORT",
                    help="port of the Foxglove WebSocket server (default: 8766; 0: a free one)")
+    p.add_argument("--no-collision-monitor", action="store_true",
+                   help="run without the collision monitor: move_base drives the base directly")
     p.add_argument("--json", metavar="OUT.json", help="write the results as JSON")
     p.add_argument("--plot", metavar="OUT.png", help="draw the trajectories over the world (matplotlib PNG)")
     return p
@@ -87,7 +89,8 @@ def _check(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Scenari
                            repeat=args.repeat, seed=args.seed, range_noise=args.range_noise,
                            time_budget=args.time_budget, processes=args.processes, tight=args.tight,
                            wall_timeout_s=args.wall_timeout, overrides=tuple(args.set),
-                           foxglove_port=args.foxglove_port if args.foxglove else None)
+                           foxglove_port=args.foxglove_port if args.foxglove else None,
+                           collision_monitor=not args.no_collision_monitor)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -48,7 +48,7 @@ class RemoteSession(_Session):
     """
 
     def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, launch: LaunchConfig | None = None,
-                 namespace: str = ""):
+                 namespace: str = "", collision_monitor: bool = True):
         self.description = robot_description(robot, radius)
         self.world = load_world(world, robot_radius=self.description.inscribed_radius)
         self.launch = launch or load_launch("move_base", {"robot": robot})
@@ -98,7 +98,7 @@ class ProcessSession(RemoteSession):
                  namespace: str = ""):
         if not (math.isfinite(rtf) and rtf > 0):
             raise ValueError(f"separate processes need rtf > 0 (lockstep is single-process), got {rtf!r}")
-        args = launch_args(world, robot, radius, rtf, tight, respawn, foxglove_port)
+        args = launch_args(world, robot, radius, rtf, tight, respawn, foxglove_port, collision_monitor)
         if namespace:  # the launch file's namespace argument: the robot's topics and frames under it
             args["namespace"] = namespace
         launch = load_launch(launch_file, args)

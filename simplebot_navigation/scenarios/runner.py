@@ -84,6 +84,7 @@ class ScenarioOptions:
     wall_timeout_s: float | None = None  # per goal, a guard against hangs
     overrides: tuple[str, ...] = ()      # --set NAME=VALUE for move_base
     foxglove_port: int | None = None     # serve the run to the Foxglove app on this port (0: a free one)
+    collision_monitor: bool = True       # False: move_base drives the base directly
 
 
 # -- goals -----------------------------------------------------------------------------------------
@@ -278,7 +279,8 @@ def run_scenarios(options: ScenarioOptions, progress: Callable[[str], None] = pr
         with tempfile.TemporaryDirectory(prefix="simplebot_scenarios_") as folder, \
                 session_class(world_for_run(options.world, seed, folder), options.robot, options.radius,
                               options.rtf, seed, options.range_noise, tight=options.tight,
-                              overrides=options.overrides, foxglove_port=options.foxglove_port) as session:
+                              overrides=options.overrides, foxglove_port=options.foxglove_port,
+                              collision_monitor=options.collision_monitor) as session:
             goals = parse_goals(options.goals, session.world)
             worlds.append(session.world)
             session.wait_ready(wall_timeout_s=options.wall_timeout_s or 120.0)

@@ -246,12 +246,14 @@ class _Session(abc.ABC):
 
 
 def launch_args(world: str, robot: str, radius: float, rtf: float, tight: bool,
-                respawn: bool = False, foxglove_port: int | None = None) -> dict[str, str]:
+                respawn: bool = False, foxglove_port: int | None = None,
+                collision_monitor: bool = True) -> dict[str, str]:
     """The navigation launch file's arguments for a session; by default a node that dies is not respawned,
     so a scenario shows the crash instead of hiding it. With a foxglove_port (0: a free one) the run is
     also served to the Foxglove app on 127.0.0.1."""
     args = {"world": str(world), "robot": robot, "radius": str(radius), "rtf": str(rtf),
-            "tight": "true" if tight else "false", "respawn": "true" if respawn else "false"}
+            "tight": "true" if tight else "false", "respawn": "true" if respawn else "false",
+            "collision_monitor": "true" if collision_monitor else "false"}
     if foxglove_port is not None:
         args.update(foxglove="true", foxglove_port=str(foxglove_port))
     return args
@@ -262,14 +264,14 @@ class NavigationSession(_Session):
 
     def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, rtf: float = 0.0,
                  seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation", tight: bool = False,
-                 overrides: tuple[str, ...] = (), foxglove_port: int | None = None):
+                 overrides: tuple[str, ...] = (), foxglove_port: int | None = None, collision_monitor: bool = True):
         if not (math.isfinite(rtf) and rtf >= 0):
             raise ValueError(f"rtf must be >= 0 (0: lockstep), got {rtf!r}")
         self.description = robot_description(robot, radius)
         self.world = load_world(world, robot_radius=self.description.inscribed_radius)
         self.rtf = rtf
-        config = load_launch(launch_file, launch_args(world, robot, radius, rtf, tight,
-                                                      foxglove_port=foxglove_port))
+        config = load_launch(launch_file, launch_args(world, robot, radius, rtf, tight, foxglove_port=foxglove_port,
+                                                      collision_monitor=collision_monitor))
         apply_set(config, list(overrides))
         self.context = rclpy.Context()
         rclpy.init(context=self.context)

@@ -1,0 +1,220 @@
+"""collision_monitor: the last word on every velocity command, in its own process (docs/reference.md §8).
+
+It takes the planner's commands on ``cmd_vel_nav`` and the raw scans, and publishes what may reach the
+wheels on ``simplebot_controller/cmd_vel`` (both relative, so they follow the namespace). Its only
+transforms are the lasers' static ones. Time is the node's clock: on simulated time a frozen simulator
+freezes the world too, and a stopped planner or a stale scan is measured in the same time the robot
+moves in.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import sys
+import time
+
+import numpy as np
+from geometry_msgs.msg import Twist
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.parameter import Parameter
+from rclpy.qos import qos_profile_sensor_data
+from rclpy.time import Time
+from sensor_msgs.msg import LaserScan
+from tf2_msgs.msg import TFMessage
+
+from simplebot_navigation.geometry import quaternion_to_rotation_matrix
+from simplebot_navigation.parameters.spec import Param
+from simplebot_navigation.ros.node_main import SetUpNode, run_node
+from simplebot_navigation.ros.params import descriptor, refuse_unknown_parameters
+from simplebot_navigation.ros.publishers import create_publisher
+from simplebot_navigation.ros.tf import TF_STATIC_LISTENER_QOS, Buffer, TransformException
+from simplebot_navigation.safety.collision_monitor import (PARAMETERS, Action, CollisionMonitor,
+                                                           CollisionMonitorConfig, moved_by, scan_points)
+
+#: read at start-up only: the topics and the frame the scans are turned into
+TOPICS = {
+    "base_frame": Param(str, "base_link", "", "the robot frame the body is given in", dynamic=False),
+    "cmd_vel_in_topic": Param(str, "cmd_vel_nav", "", "the planner's commands", dynamic=False),
+    "cmd_vel_out_topic": Param(str, "simplebot_controller/cmd_vel", "", "the base's commands", dynamic=False),
+    "scan_topics": Param(list, ["front_laser/front_scan", "back_laser/back_scan"], "",
+                         "the LaserScan topics to watch (at most 8)", dynamic=False),
+}
+MAX_SCAN_TOPICS = 8
+#: a command faster than this is not a command (m/s and rad/s)
+MAX_COMMAND = 100.0
+CHECK_PERIOD_S = 0.05
+#: one line per kind of trouble (a source's scans, the commands, a zone) this often at most
+LOG_PERIOD_S = 2.0
+
+
+@dataclasses.dataclass
+class _Source:
+    topic: str
+    points: np.ndarray | None = None    # robot frame, as the scan saw them
+    stamp: float = -math.inf            # node-clock seconds of the scan
+    sensor: dict = dataclasses.field(default_factory=dict)   # frame_id -> (2, 3), from /tf_static
+
+
+class CollisionMonitorNode(SetUpNode):
+    def __init__(self, **kwargs):
+        super().__init__("collision_monitor", **kwargs)
+
+    def _set_up(self) -> None:
+        values = {}
+        for name, spec in {**PARAMETERS, **TOPICS}.items():
+            default = spec.default if name != "footprint" else ""   # ROS 2 has no empty-list type
+            given = self.declare_parameter(name, default, descriptor(spec)).value
+            values[name] = spec.check(given, f"collision_monitor parameter '{name}'")
+        topics = values.pop("scan_topics")
+        if not 1 <= len(topics) <= MAX_SCAN_TOPICS or not all(isinstance(t, str) and t for t in topics):
+            raise ValueError(f"collision_monitor parameter 'scan_topics': 1 to {MAX_SCAN_TOPICS} topic names, "
+                             f"got {topics!r}")
+        self.base_frame = values.pop("base_frame").lstrip("/")
+        cmd_in, cmd_out = values.pop("cmd_vel_in_topic"), values.pop("cmd_vel_out_topic")
+        self.monitor = CollisionMonitor(CollisionMonitorConfig(**values))
+        self.tf = Buffer(node=self)
+        self._last_command = None          # node-clock seconds of the last command received
+        self._out = (0.0, 0.0)             # the last command published
+        self._state = ""                   # what the last verdict was, to log changes only
+        self._logged: dict[str, float] = {}  # kind -> monotonic time of its last line
+        self.sources = [_Source(topic) for topic in topics]
+        self.cmd_pub = create_publisher(self, Twist, cmd_out, 1)
+        self.create_subscription(TFMessage, "/tf_static", self._on_tf_static, TF_STATIC_LISTENER_QOS)
+        for source in self.sources:
+            self.create_subscription(LaserScan, source.topic, lambda msg, s=source: self._on_scan(s, msg),
+                                     qos_profile_sensor_data)
+        self.create_subscription(Twist, cmd_in, self._on_command, 1)
+        self.create_timer(CHECK_PERIOD_S, self._check_silence)
+        refuse_unknown_parameters(self)
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self._cmd_out = self.resolve_topic_name(cmd_out)
+        self.get_logger().info(f"{self.resolve_topic_name(cmd_in)} -> {self._cmd_out}, watching "
+                               f"{', '.join(self.resolve_topic_name(t) for t in topics)}")
+
+    def _now(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    # -- parameters -----------------------------------------------------------------------------
+    def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
+        """Every change checked in full before it is taken; the new judgement replaces the old one whole."""
+        fixed = [p.name for p in params if p.name in TOPICS or p.name == "use_sim_time"]
+        if fixed:
+            return SetParametersResult(successful=False, reason=f"{', '.join(fixed)}: requires restart")
+        try:
+            changes = {p.name: PARAMETERS[p.name].check(p.value, f"collision_monitor parameter '{p.name}'")
+                       for p in params}
+            monitor = CollisionMonitor(dataclasses.replace(self.monitor.config, **changes))
+        except Exception as err:   # noqa: BLE001 -- any failure of a check is a refusal with its reason
+            return SetParametersResult(successful=False, reason=str(err))
+        self.monitor = monitor
+        return SetParametersResult(successful=True)
+
+    # -- inputs ---------------------------------------------------------------------------------
+    def _on_tf_static(self, msg: TFMessage) -> None:
+        for tf in msg.transforms:
+            try:
+                self.tf.set_transform_static(tf, "/tf_static")
+            except Exception as err:   # noqa: BLE001 -- a hostile transform is dropped, with its reason
+                self._warn("tf_static", f"/tf_static: transform dropped: {err}")
+        for source in self.sources:
+            source.sensor.clear()     # looked up again with what is known now
+
+    def _sensor(self, source: _Source, frame: str) -> np.ndarray | None:
+        """The laser's (2, 3) map into the robot frame, from the static transforms."""
+        if frame not in source.sensor:
+            try:
+                tf = self.tf.lookup_transform(self.base_frame, frame, Time())
+            except TransformException as err:
+                self._warn(source.topic, f"{source.topic}: no static transform {self.base_frame} <- '{frame}' "
+                                         f"yet ({err}); the scan is not used")
+                return None
+            q, t = tf.transform.rotation, tf.transform.translation
+            rotation = quaternion_to_rotation_matrix(q.x, q.y, q.z, q.w)
+            source.sensor[frame] = np.column_stack([rotation[:2, :2], [t.x, t.y]])
+        return source.sensor[frame]
+
+    def _on_scan(self, source: _Source, msg: LaserScan) -> None:
+        stamp = Time.from_msg(msg.header.stamp).nanoseconds * 1e-9 if msg.header.stamp.sec >= 0 else -math.inf
+        sensor = self._sensor(source, msg.header.frame_id.lstrip("/"))
+        if sensor is None:
+            return
+        try:
+            points = scan_points(msg.ranges, msg.angle_min, msg.angle_increment, msg.range_min, msg.range_max,
+                                 sensor)
+        except ValueError as err:
+            self._warn(source.topic, f"{source.topic}: scan dropped: {err}")
+            return
+        source.points, source.stamp = points, stamp
+
+    def _on_command(self, msg: Twist) -> None:
+        now = self._now()
+        v, w = msg.linear.x, msg.angular.z
+        if not (math.isfinite(v) and math.isfinite(w) and abs(v) <= MAX_COMMAND and abs(w) <= MAX_COMMAND):
+            self._warn("command", f"command (linear.x {v!r}, angular.z {w!r}) is not a velocity: zero published")
+            self._publish(0.0, 0.0, "stop: the last command was not a velocity")
+            return
+        self._last_command = now
+        points, stale = self._points_now(now)
+        if stale:
+            self._publish(0.0, 0.0, f"stop: {stale}")
+            return
+        verdict = self.monitor.limit(v, w, points)
+        self._publish(verdict.v, verdict.w, "" if verdict.action is Action.PASS else
+                      f"{verdict.action.value}: {verdict.why}")
+
+    def _points_now(self, now: float) -> tuple[np.ndarray, str]:
+        """Every source's points, moved by what the robot was told to do since the scan; or why it cannot be."""
+        timeout = self.monitor.config.source_timeout
+        clouds = []
+        for source in self.sources:
+            age = now - source.stamp
+            if source.points is None:
+                return np.empty((0, 2)), f"no scan on {source.topic} yet"
+            if not -timeout <= age <= timeout:
+                return np.empty((0, 2)), f"the last scan on {source.topic} is {age:.2f} s old"
+            clouds.append(moved_by(source.points, *self._out, max(age, 0.0)) if age > 0 else source.points)
+        return np.concatenate(clouds), ""
+
+    def _check_silence(self) -> None:
+        """No command for source_timeout: the planner stopped or died. Zero, for stop_pub_timeout."""
+        if self._last_command is None:
+            return
+        config = self.monitor.config
+        silent = self._now() - self._last_command
+        if silent < 0:                   # the clock went back (a restarted simulation)
+            self._last_command = None
+        elif config.source_timeout < silent <= config.source_timeout + config.stop_pub_timeout:
+            self._publish(0.0, 0.0, f"stop: no command for {config.source_timeout:g} s")
+
+    # -- output ---------------------------------------------------------------------------------
+    def _publish(self, v: float, w: float, state: str) -> None:
+        twist = Twist()
+        twist.linear.x, twist.angular.z = float(v), float(w)
+        self.cmd_pub.publish(twist)
+        self._out = (float(v), float(w))
+        kind, was = state.partition(":")[0], self._state.partition(":")[0]
+        if kind and kind != was:
+            self._warn(kind, f"{state}: {self._cmd_out} limited to ({v:.2f} m/s, {w:.2f} rad/s)")
+        elif was and not kind and self._due(""):
+            self.get_logger().info(f"{was} cleared: commands pass")
+        self._state = state
+
+    def _due(self, kind: str) -> bool:
+        now = time.monotonic()
+        if now - self._logged.get(kind, -math.inf) < LOG_PERIOD_S:
+            return False
+        self._logged[kind] = now
+        return True
+
+    def _warn(self, kind: str, text: str) -> None:
+        if self._due(kind):
+            self.get_logger().warn(text)
+
+
+def main(args=None) -> int:
+    return run_node("collision_monitor", CollisionMonitorNode, args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,162 @@
+"""The collision monitor's judgement: how much of a velocity command may reach the wheels, given the lidars.
+
+It stands between the local planner and the base (docs/reference.md §8), sees only the raw scans in the
+robot frame and the command, and trusts neither the planner nor the costmaps. Three checks, each with the
+body's own outline (the footprint, or a circle of robot_radius):
+
+- stop: a point within ``stop_distance`` of the body, straight along the commanded direction of travel
+  (ahead when driving forward, behind when reversing): the command becomes zero;
+- slowdown: the same within ``slowdown_distance``: the command is scaled by ``slowdown_ratio``;
+- approach: the body driven along the command's arc for ``time_before_collision`` in steps of
+  ``simulation_time_step``; a contact after t seconds scales the command by t / time_before_collision,
+  so the robot slows as it nears and stops short of what it would hit.
+
+The zones look along the direction of travel only, so a robot nose to a wall may back off and turn away,
+and one that passes a door post at a few centimetres is not stopped by it: only motion into a point is.
+Each check needs ``min_points`` points, so one speck of noise does not stop the robot. No rclpy here.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from simplebot_navigation.costmap.footprint import footprint_radii, parse_footprint
+from simplebot_navigation.costmap.obstacle_layer import scan_problem
+from simplebot_navigation.parameters.spec import ParameterError, fields_of, param
+from simplebot_navigation.safety import collision_kernels as kernels
+
+#: below these a command is standing still: no zone applies to it
+STANDING_SPEED = 1e-3
+STANDING_TURN_RATE = 1e-3
+#: the approach check places the body at most this many times per command
+MAX_APPROACH_STEPS = 200
+
+
+@dataclass(frozen=True)
+class CollisionMonitorConfig:
+    footprint: list = param([], "m", "outline of the body in base_frame, [[x, y], ...] or its string form "
+                            "(empty: robot_radius)", kind=(list, str))
+    robot_radius: float = param(0.0, "m", "radius of a round body, used when footprint is empty", ge=0.0, le=5.0)
+    stop_distance: float = param(0.05, "m", "a point this close ahead of the body along the direction of "
+                                 "travel stops the robot", ge=0.0, le=2.0)
+    slowdown_distance: float = param(0.3, "m", "a point this close ahead slows the robot", ge=0.0, le=5.0)
+    slowdown_ratio: float = param(0.5, "", "factor on the command while a point is in the slowdown zone",
+                                  gt=0.0, le=1.0)
+    time_before_collision: float = param(1.0, "s", "how far ahead the approach check drives the body along "
+                                         "the command (0: no approach check)", ge=0.0, le=10.0)
+    simulation_time_step: float = param(0.05, "s", "time step of the approach check", gt=0.0, le=1.0)
+    min_points: int = param(3, "", "points a zone or the approach check needs to act", ge=1, le=1000)
+    source_timeout: float = param(0.3, "s", "a command or scan older than this stops the robot", gt=0.0, le=10.0)
+    stop_pub_timeout: float = param(2.0, "s", "how long zero is published after the commands stop", ge=0.0,
+                                    le=60.0)
+    enabled: bool = param(True, "", "false: commands pass unchanged (the timeouts still stop the robot)")
+
+    def __post_init__(self):
+        if self.slowdown_distance < self.stop_distance:
+            raise ParameterError(f"slowdown_distance ({self.slowdown_distance:g} m) must be >= stop_distance "
+                                 f"({self.stop_distance:g} m): the slowdown zone holds the stop zone")
+        steps = math.ceil(self.time_before_collision / self.simulation_time_step - 1e-9)
+        if steps > MAX_APPROACH_STEPS:
+            raise ParameterError(f"time_before_collision / simulation_time_step must be <= {MAX_APPROACH_STEPS} "
+                                 f"steps, got {self.time_before_collision:g} / {self.simulation_time_step:g}")
+        body = self.body()
+        if body[0].size == 0 and body[1] <= 0.0:
+            raise ParameterError("collision monitor: give the body as footprint or as robot_radius > 0")
+
+    def body(self) -> tuple[np.ndarray, float]:
+        """(vertices (V, 2), 0) of a polygon, or (empty, radius) of a circle."""
+        vertices = parse_footprint(self.footprint, "collision monitor footprint")
+        if vertices.size:
+            return vertices, 0.0
+        return np.empty((0, 2)), self.robot_radius
+
+
+PARAMETERS = fields_of(CollisionMonitorConfig)
+
+
+class Action(enum.Enum):
+    PASS = "pass"
+    SLOWDOWN = "slowdown"
+    APPROACH = "approach"
+    STOP = "stop"
+
+
+@dataclass(frozen=True)
+class Verdict:
+    v: float
+    w: float
+    action: Action
+    why: str = ""
+
+
+def scan_points(ranges, angle_min: float, angle_increment: float, range_min: float, range_max: float,
+                sensor: np.ndarray) -> np.ndarray:
+    """The returns of a LaserScan as (N, 2) robot-frame points; ``sensor`` (2, 3) maps the scan plane's (x, y, 1)
+    to the robot frame (the top rows of the laser's static transform, so a laser mounted upside down works).
+
+    Returns outside [range_min, range_max) are not points (NaN, inf, negative); a scan whose geometry is
+    unusable raises ValueError naming the field."""
+    r = np.asarray(ranges, dtype=float)
+    problem = scan_problem(r, angle_min, angle_increment, range_min, range_max, np.asarray(sensor).ravel())
+    if problem:
+        raise ValueError(problem[1])
+    with np.errstate(invalid="ignore"):
+        hit = (r >= max(range_min, 0.0)) & (r < range_max)
+    angles = angle_min + angle_increment * np.flatnonzero(hit)
+    local = np.stack([r[hit] * np.cos(angles), r[hit] * np.sin(angles)], axis=1)
+    return local @ sensor[:, :2].T + sensor[:, 2]
+
+
+def moved_by(points: np.ndarray, v: float, w: float, dt: float) -> np.ndarray:
+    """Robot-frame points as seen after driving the arc (v, w) for dt seconds: a scan ``dt`` old seen from now."""
+    th = w * dt
+    if abs(w) > 1e-9:
+        dx, dy = v / w * math.sin(th), v / w * (1.0 - math.cos(th))
+    else:
+        dx, dy = v * dt, 0.0
+    c, s = math.cos(th), math.sin(th)
+    shifted = points - (dx, dy)
+    return np.stack([c * shifted[:, 0] + s * shifted[:, 1], -s * shifted[:, 0] + c * shifted[:, 1]], axis=1)
+
+
+class CollisionMonitor:
+    """``limit(v, w, points)``: the command that may reach the wheels."""
+
+    def __init__(self, config: CollisionMonitorConfig):
+        self.config = config
+        self.vertices, self.radius = config.body()
+        self.circumradius = self.radius if self.radius > 0 else footprint_radii(self.vertices)[1]
+
+    def limit(self, v: float, w: float, points: np.ndarray) -> Verdict:
+        """``points`` (N, 2) in the robot frame, as of now."""
+        c = self.config
+        if not c.enabled or (abs(v) < STANDING_SPEED and abs(w) < STANDING_TURN_RATE):
+            return Verdict(v, w, Action.PASS)
+        reach = self.circumradius + max(c.slowdown_distance, abs(v) * c.time_before_collision)
+        near = points[np.einsum("ij,ij->i", points, points) <= reach * reach] if len(points) else points
+        ratio, action, why = 1.0, Action.PASS, ""
+        if abs(v) >= STANDING_SPEED and len(near):
+            ahead = kernels.clearances(near, 1.0 if v > 0 else -1.0, self.vertices, self.radius)
+            side = "ahead" if v > 0 else "behind"
+            if np.count_nonzero(ahead <= c.stop_distance) >= c.min_points:
+                return Verdict(0.0, 0.0, Action.STOP, f"{np.count_nonzero(ahead <= c.stop_distance)} points "
+                               f"within {c.stop_distance:g} m {side}")
+            slow = np.count_nonzero(ahead <= c.slowdown_distance)
+            if slow >= c.min_points:
+                ratio, action = c.slowdown_ratio, Action.SLOWDOWN
+                why = f"{slow} points within {c.slowdown_distance:g} m {side}"
+        steps = math.ceil(c.time_before_collision / c.simulation_time_step - 1e-9)
+        if steps > 0 and len(near):
+            k = kernels.first_contact_step(near, float(v), float(w), c.simulation_time_step, steps,
+                                           self.vertices, self.radius, self.circumradius, c.min_points)
+            if k > 0:
+                contact = (k - 1) * c.simulation_time_step   # the last pose known to be free
+                approach = contact / c.time_before_collision
+                if approach < ratio:
+                    ratio, action = approach, Action.APPROACH
+                    why = f"contact in {contact:.2f} s at the commanded velocity"
+        return Verdict(v * ratio, w * ratio, action, why)

@@ -1,0 +1,113 @@
+"""The collision monitor's judgement on commands against lidar points, for the box and the round body."""
+
+import math
+
+import numpy as np
+import pytest
+
+from simplebot_navigation.parameters.spec import ParameterError
+from simplebot_navigation.safety.collision_monitor import (Action, CollisionMonitor, CollisionMonitorConfig,
+                                                           moved_by, scan_points)
+
+BOX = [[0.45, 0.3], [0.45, -0.3], [-0.45, -0.3], [-0.45, 0.3]]
+
+
+def wall(x: float, half_width: float = 1.0, spacing: float = 0.01) -> np.ndarray:
+    """Points of a wall across the path at x (robot frame)."""
+    y = np.arange(-half_width, half_width + 1e-9, spacing)
+    return np.stack([np.full_like(y, x), y], axis=1)
+
+
+@pytest.fixture(params=["box", "round"])
+def monitor(request) -> CollisionMonitor:
+    body = {"footprint": BOX} if request.param == "box" else {"robot_radius": 0.3}
+    return CollisionMonitor(CollisionMonitorConfig(**body))
+
+
+def front(monitor: CollisionMonitor) -> float:
+    return 0.3 if monitor.radius > 0 else 0.45
+
+
+def test_free_space_passes_the_command_unchanged(monitor):
+    verdict = monitor.limit(1.0, 0.3, wall(front(monitor) + 3.0))
+    assert (verdict.v, verdict.w, verdict.action) == (1.0, 0.3, Action.PASS)
+
+
+def test_a_wall_within_the_stop_distance_ahead_stops_a_forward_command(monitor):
+    verdict = monitor.limit(0.5, 0.2, wall(front(monitor) + 0.03))
+    assert (verdict.v, verdict.w, verdict.action) == (0.0, 0.0, Action.STOP)
+    assert "ahead" in verdict.why
+
+
+def test_the_same_wall_lets_the_robot_back_off_and_turn_in_place(monitor):
+    points = wall(front(monitor) + 0.03)
+    assert monitor.limit(-0.3, 0.0, points).action is Action.PASS
+    turn = monitor.limit(0.0, 0.8, points)
+    assert turn.w == 0.8 if monitor.radius > 0 else turn.w < 0.8   # the box's corners swing into the wall
+
+
+def test_a_wall_behind_stops_reversing_only(monitor):
+    points = -wall(front(monitor) + 0.03)
+    assert monitor.limit(-0.3, 0.0, points).action is Action.STOP
+    assert monitor.limit(0.3, 0.0, points).action is Action.PASS
+
+
+def test_the_slowdown_zone_scales_the_command(monitor):
+    verdict = monitor.limit(0.2, 0.1, wall(front(monitor) + 0.2))
+    assert verdict.action is Action.SLOWDOWN
+    assert verdict.v == pytest.approx(0.1) and verdict.w == pytest.approx(0.05)
+
+
+def test_approach_scales_the_command_by_the_time_to_contact(monitor):
+    verdict = monitor.limit(1.0, 0.0, wall(front(monitor) + 0.6))   # contact after 0.6 s at 1 m/s
+    assert verdict.action is Action.APPROACH
+    assert verdict.v == pytest.approx(0.55, abs=0.051)             # the last free pose of 0.05 s steps
+
+
+def test_approach_follows_the_arc_not_the_straight_line(monitor):
+    """A post straight ahead at 0.8 m is missed by a hard left arc; one on that arc is not."""
+    post = np.array([[front(monitor) + 0.8, 0.0]] * 3)
+    assert monitor.limit(0.5, 1.5, post).action is Action.PASS
+    on_arc = moved_by(np.array([[front(monitor) + 0.05, 0.0]] * 3), -0.5, -1.5, 0.5)  # where the arc goes
+    assert monitor.limit(0.5, 1.5, on_arc).action in (Action.APPROACH, Action.STOP, Action.SLOWDOWN)
+
+
+def test_a_door_post_beside_the_body_does_not_stop_driving_through(monitor):
+    """A door 1.15 x the body's width: posts 4.5 cm beside the body, the robot driving straight through."""
+    half = 0.3 * 1.15
+    posts = np.array([[x, s * half] for x in np.linspace(-0.5, 0.5, 21) for s in (-1, 1)])
+    verdict = monitor.limit(0.4, 0.0, posts)
+    assert (verdict.v, verdict.action) == (0.4, Action.PASS)
+
+
+def test_fewer_than_min_points_do_not_act(monitor):
+    speck = np.array([[front(monitor) + 0.02, 0.0]] * 2)
+    assert monitor.limit(0.5, 0.0, speck).action is Action.PASS
+
+
+def test_disabled_passes_everything():
+    off = CollisionMonitor(CollisionMonitorConfig(footprint=BOX, enabled=False))
+    assert off.limit(1.0, 0.0, wall(0.46)).action is Action.PASS
+
+
+def test_scan_points_are_in_the_robot_frame_and_drop_invalid_returns():
+    ranges = [1.0, math.nan, math.inf, -1.0, 0.1, 2.0]
+    ahead = np.array([[1.0, 0.0, 0.5], [0.0, 1.0, 0.0]])       # a laser 0.5 m ahead of the base
+    points = scan_points(ranges, -math.pi / 2, math.pi / 2, 0.2, 5.6, ahead)
+    # beams at -90, 0, 90, ... degrees: kept are beam 0 (1 m) and beam 5 (2 m, a full turn on from 0)
+    assert points == pytest.approx(np.array([[0.5, -1.0], [2.5, 0.0]]), abs=1e-9)
+    upside_down = np.array([[1.0, 0.0, 0.5], [0.0, -1.0, 0.0]])  # rolled by pi: the scan plane is mirrored
+    assert scan_points(ranges, -math.pi / 2, math.pi / 2, 0.2, 5.6, upside_down)[0] == pytest.approx([0.5, 1.0])
+    with pytest.raises(ValueError, match="angle_increment"):
+        scan_points(ranges, 0.0, math.nan, 0.2, 5.6, ahead)
+
+
+@pytest.mark.parametrize("given, message", [
+    ({}, "footprint or as robot_radius"),
+    ({"footprint": [[0, 0], [1, 1]]}, "at least three points"),
+    ({"robot_radius": 0.3, "stop_distance": 0.5, "slowdown_distance": 0.2}, "slowdown_distance"),
+    ({"robot_radius": 0.3, "time_before_collision": 10.0, "simulation_time_step": 0.01}, "200 steps"),
+])
+def test_bad_configurations_are_refused_with_the_reason(given, message):
+    with pytest.raises((ParameterError, ValueError), match=message):
+        CollisionMonitorConfig(**given)
