@@ -30,7 +30,7 @@ from simplebot_navigation.ros.params import descriptor, refuse_unknown_parameter
 from simplebot_navigation.ros.publishers import create_publisher
 from simplebot_navigation.ros.tf import TF_STATIC_LISTENER_QOS, Buffer, TransformException
 from simplebot_navigation.safety.collision_monitor import (PARAMETERS, Action, CollisionMonitor,
-                                                           CollisionMonitorConfig, moved_by, scan_points)
+                                                           CollisionMonitorConfig, moved_by)
 
 #: read at start-up only: the topics and the frame the scans are turned into
 TOPICS = {
@@ -140,8 +140,8 @@ class CollisionMonitorNode(SetUpNode):
         if sensor is None:
             return
         try:
-            points = scan_points(msg.ranges, msg.angle_min, msg.angle_increment, msg.range_min, msg.range_max,
-                                 sensor)
+            points = self.monitor.scan_points(msg.ranges, msg.angle_min, msg.angle_increment, msg.range_min,
+                                              msg.range_max, sensor)
         except ValueError as err:
             self._warn(source.topic, f"{source.topic}: scan dropped: {err}")
             return

@@ -34,6 +34,8 @@ STANDING_SPEED = 1e-3
 STANDING_TURN_RATE = 1e-3
 #: the approach check places the body at most this many times per command
 MAX_APPROACH_STEPS = 200
+#: a return too close to measure is placed this far outside the body
+TOUCH_MARGIN = 0.005
 
 
 @dataclass(frozen=True)
@@ -93,24 +95,6 @@ class Verdict:
     why: str = ""
 
 
-def scan_points(ranges, angle_min: float, angle_increment: float, range_min: float, range_max: float,
-                sensor: np.ndarray) -> np.ndarray:
-    """The returns of a LaserScan as (N, 2) robot-frame points; ``sensor`` (2, 3) maps the scan plane's (x, y, 1)
-    to the robot frame (the top rows of the laser's static transform, so a laser mounted upside down works).
-
-    Returns outside [range_min, range_max) are not points (NaN, inf, negative); a scan whose geometry is
-    unusable raises ValueError naming the field."""
-    r = np.asarray(ranges, dtype=float)
-    problem = scan_problem(r, angle_min, angle_increment, range_min, range_max, np.asarray(sensor).ravel())
-    if problem:
-        raise ValueError(problem[1])
-    with np.errstate(invalid="ignore"):
-        hit = (r >= max(range_min, 0.0)) & (r < range_max)
-    angles = angle_min + angle_increment * np.flatnonzero(hit)
-    local = np.stack([r[hit] * np.cos(angles), r[hit] * np.sin(angles)], axis=1)
-    return local @ sensor[:, :2].T + sensor[:, 2]
-
-
 def moved_by(points: np.ndarray, v: float, w: float, dt: float) -> np.ndarray:
     """Robot-frame points as seen after driving the arc (v, w) for dt seconds: a scan ``dt`` old seen from now."""
     th = w * dt
@@ -130,6 +114,49 @@ class CollisionMonitor:
         self.config = config
         self.vertices, self.radius = config.body()
         self.circumradius = self.radius if self.radius > 0 else footprint_radii(self.vertices)[1]
+
+    def scan_points(self, ranges, angle_min: float, angle_increment: float, range_min: float, range_max: float,
+                    sensor: np.ndarray) -> np.ndarray:
+        """The returns of a LaserScan as (N, 2) robot-frame points; ``sensor`` (2, 3) maps the scan plane's
+        (x, y, 1) to the robot frame (the top rows of the laser's static transform, so a laser mounted upside
+        down works).
+
+        Unlike a costmap, the monitor keeps what is nearer than range_min: it is what the robot is about to
+        hit. A return below range_min is kept as it is, and -inf (REP 117: "too close to measure") becomes a
+        point just outside the body along the beam (just ahead of a laser outside it), the nearest place the
+        object can be. NaN, +inf, negative
+        and out-of-range values are not points; a scan whose geometry is unusable raises ValueError."""
+        r = np.asarray(ranges, dtype=float)
+        problem = scan_problem(r, angle_min, angle_increment, range_min, range_max, np.asarray(sensor).ravel())
+        if problem:
+            raise ValueError(problem[1])
+        angles = angle_min + angle_increment * np.arange(len(r))
+        directions = np.stack([np.cos(angles), np.sin(angles)], axis=1) @ sensor[:, :2].T
+        too_close = np.flatnonzero(r == -np.inf)
+        if len(too_close):
+            r = r.copy()
+            exits = self._exit_ranges(sensor[:, 2], directions[too_close])
+            r[too_close] = exits + TOUCH_MARGIN
+        with np.errstate(invalid="ignore"):
+            hit = np.flatnonzero((r >= 0.0) & (r < range_max))
+        return sensor[:, 2] + r[hit, None] * directions[hit]
+
+    def _exit_ranges(self, origin: np.ndarray, directions: np.ndarray) -> np.ndarray:
+        """How far each ray from origin (inside the body) runs before it leaves the body; 0 from outside it."""
+        if self.radius > 0:
+            along = directions @ origin
+            inside = self.radius ** 2 - origin @ origin
+            return np.where(inside > 0, -along + np.sqrt(np.maximum(along ** 2 + inside, 0.0)), 0.0)
+        a, b = self.vertices, np.roll(self.vertices, -1, axis=0)
+        edge = b - a                                         # origin + r d = a + u edge, r > 0, 0 <= u <= 1
+        denominator = directions[:, None, 0] * edge[None, :, 1] - directions[:, None, 1] * edge[None, :, 0]
+        offset = a - origin
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r = (offset[None, :, 0] * edge[None, :, 1] - offset[None, :, 1] * edge[None, :, 0]) / denominator
+            u = (offset[None, :, 0] * directions[:, None, 1] - offset[None, :, 1] * directions[:, None, 0]) \
+                / denominator
+        r = np.where((r > 0) & (u >= 0) & (u <= 1), r, np.inf).min(axis=1)
+        return np.where(np.isfinite(r), r, 0.0)
 
     def limit(self, v: float, w: float, points: np.ndarray) -> Verdict:
         """``points`` (N, 2) in the robot frame, as of now."""

@@ -7,7 +7,7 @@ import pytest
 
 from simplebot_navigation.parameters.spec import ParameterError
 from simplebot_navigation.safety.collision_monitor import (Action, CollisionMonitor, CollisionMonitorConfig,
-                                                           moved_by, scan_points)
+                                                           moved_by)
 
 BOX = [[0.45, 0.3], [0.45, -0.3], [-0.45, -0.3], [-0.45, 0.3]]
 
@@ -90,16 +90,28 @@ def test_disabled_passes_everything():
     assert off.limit(1.0, 0.0, wall(0.46)).action is Action.PASS
 
 
-def test_scan_points_are_in_the_robot_frame_and_drop_invalid_returns():
-    ranges = [1.0, math.nan, math.inf, -1.0, 0.1, 2.0]
+def test_scan_points_are_in_the_robot_frame_and_drop_invalid_returns(monitor):
+    ranges = [1.0, math.nan, math.inf, -1.0, 6.0, 2.0]
     ahead = np.array([[1.0, 0.0, 0.5], [0.0, 1.0, 0.0]])       # a laser 0.5 m ahead of the base
-    points = scan_points(ranges, -math.pi / 2, math.pi / 2, 0.2, 5.6, ahead)
+    points = monitor.scan_points(ranges, -math.pi / 2, math.pi / 2, 0.2, 5.6, ahead)
     # beams at -90, 0, 90, ... degrees: kept are beam 0 (1 m) and beam 5 (2 m, a full turn on from 0)
     assert points == pytest.approx(np.array([[0.5, -1.0], [2.5, 0.0]]), abs=1e-9)
     upside_down = np.array([[1.0, 0.0, 0.5], [0.0, -1.0, 0.0]])  # rolled by pi: the scan plane is mirrored
-    assert scan_points(ranges, -math.pi / 2, math.pi / 2, 0.2, 5.6, upside_down)[0] == pytest.approx([0.5, 1.0])
+    assert monitor.scan_points(ranges, -math.pi / 2, math.pi / 2, 0.2, 5.6, upside_down)[0] == pytest.approx([0.5, 1.0])
     with pytest.raises(ValueError, match="angle_increment"):
-        scan_points(ranges, 0.0, math.nan, 0.2, 5.6, ahead)
+        monitor.scan_points(ranges, 0.0, math.nan, 0.2, 5.6, ahead)
+
+
+def test_returns_below_range_min_are_points_the_robot_is_about_to_hit(monitor):
+    """The lidar sits inside the body: a wall 5 cm ahead of the face is nearer to it than range_min. A return
+    below range_min stays where it is; -inf ("too close") is put just outside the body along its beam."""
+    laser = np.array([[1.0, 0.0, front(monitor) - 0.1], [0.0, 1.0, 0.0]])     # 10 cm inside the face
+    points = monitor.scan_points([0.15, -math.inf], 0.0, 0.0, 0.2, 5.6, laser)
+    assert points == pytest.approx(np.array([[front(monitor) + 0.05, 0.0], [front(monitor) + 0.005, 0.0]]))
+    assert monitor.limit(0.3, 0.0, np.repeat(points[1:], 3, axis=0)).action is Action.STOP
+    outside = np.array([[1.0, 0.0, front(monitor) + 0.1], [0.0, 1.0, 0.0]])   # a laser ahead of the body
+    assert monitor.scan_points([-math.inf], 0.0, 0.0, 0.2, 5.6, outside) == pytest.approx(
+        np.array([[front(monitor) + 0.105, 0.0]]))
 
 
 @pytest.mark.parametrize("given, message", [

@@ -1,0 +1,168 @@
+"""The collision monitor as a node between a hostile command source and the simulated base, in lockstep.
+
+A publisher that knows nothing of the world drives the robot at a wall at 1 m/s: with the monitor the
+robot stops short of it, for both bodies, forward and in reverse; without it, it hits the wall.
+"""
+
+import math
+
+import pytest
+from geometry_msgs.msg import Twist
+from rclpy.exceptions import ParameterNotDeclaredException
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+
+from simplebot_navigation.ros.collision_monitor_node import CollisionMonitorNode
+from simplebot_navigation.ros.lockstep import LockstepDriver
+from simplebot_navigation.ros.simulator_node import SimulatorNode
+from tests.conftest import fresh_context
+
+SIM_TIME = [Parameter("use_sim_time", value=True)]
+BOX = "[[0.45, 0.3], [0.45, -0.3], [-0.45, -0.3], [-0.45, 0.3]]"
+WALL_X = 4.0          # the face of the wall the robot is driven at
+WORLD = f"""name: wall_ahead
+walls:
+  - {{from: [{WALL_X + 0.1}, -3.0], to: [{WALL_X + 0.1}, 3.0], thickness: 0.2, height: 1.0}}
+boxes: []
+cylinders: []
+start: {{x: 0.0, y: 0.0, yaw: 0.0}}
+goals: []
+"""
+
+
+@pytest.fixture
+def context():
+    yield from fresh_context()
+
+
+@pytest.fixture(scope="module")
+def world(tmp_path_factory):
+    path = tmp_path_factory.mktemp("worlds") / "wall_ahead.yaml"
+    path.write_text(WORLD)
+    return str(path)
+
+
+class CommandSource(Node):
+    """Publishes (v, w) at 20 Hz of sim time on ``topic`` until told to stop; records what the base is sent."""
+
+    def __init__(self, context, topic: str, v: float, w: float = 0.0, namespace: str = ""):
+        super().__init__("command_source", namespace=namespace, context=context, parameter_overrides=SIM_TIME)
+        self.command = (v, w)
+        self.sending = True
+        self.pub = self.create_publisher(Twist, topic, 1)
+        self.sent_to_base: list[tuple[float, float, float]] = []    # (sim time, v, w)
+        self.create_subscription(Twist, "simplebot_controller/cmd_vel", self._on_base, 10)
+        self.create_timer(0.05, self._send)
+
+    def _send(self):
+        if self.sending:
+            msg = Twist()
+            msg.linear.x, msg.angular.z = (float(x) for x in self.command)
+            self.pub.publish(msg)
+
+    def _on_base(self, msg):
+        self.sent_to_base.append((self.get_clock().now().nanoseconds * 1e-9, msg.linear.x, msg.angular.z))
+
+
+def start(context, world, robot="box", yaw=0.0, namespace="", monitor=True, v=1.0, **monitor_params):
+    sim = SimulatorNode(context=context, parameter_overrides=SIM_TIME + [
+        Parameter("world", value=world), Parameter("robot", value=robot), Parameter("real_time_factor", value=0.0),
+        Parameter("namespaces", value=namespace), Parameter("starts", value=f"0,0,{yaw}")])
+    nodes = []
+    if monitor:
+        body = {"footprint": BOX} if robot == "box" else {"robot_radius": 0.3}
+        if namespace:
+            body["base_frame"] = f"{namespace}/base_link"
+        nodes.append(CollisionMonitorNode(context=context, namespace=namespace, parameter_overrides=SIM_TIME + [
+            Parameter(k, value=val) for k, val in {**body, **monitor_params}.items()]))
+    source = CommandSource(context, "cmd_vel_nav" if monitor else "simplebot_controller/cmd_vel", v,
+                           namespace=namespace)
+    driver = LockstepDriver(sim, [*nodes, source])
+    return sim, nodes, source, driver
+
+
+def wall_gap(sim: SimulatorNode, robot: str) -> float:
+    """How far the body is from the wall's face (the robot faces or backs towards it along x)."""
+    return WALL_X - sim.sim.ground_truth().x - (0.45 if robot == "box" else 0.3)
+
+
+@pytest.mark.parametrize("robot, reverse, namespace", [("box", False, ""), ("round", False, ""),
+                                                       ("box", True, "robot1"), ("round", True, "")])
+def test_a_command_at_1_m_s_into_a_wall_stops_short_of_it(context, world, robot, reverse, namespace):
+    sim, _, source, driver = start(context, world, robot, yaw=math.pi if reverse else 0.0, namespace=namespace,
+                                   v=-1.0 if reverse else 1.0)
+    driver.run_until(12.0)
+    gap = wall_gap(sim, robot)
+    assert sim.sim.collisions(0).count == 0
+    assert 0.0 < gap < 0.5, f"stopped {gap:.2f} m from the wall"
+    assert abs(sim.sim.ground_truth().x) > 2.5          # it did drive, and fast
+    assert max(abs(v) for _, v, _ in source.sent_to_base) > 0.9
+    assert abs(source.sent_to_base[-1][1]) < 0.01        # and is held still in front of the wall
+    driver.executor.shutdown()
+
+
+def test_without_the_monitor_the_same_command_hits_the_wall(context, world):
+    sim, _, _, driver = start(context, world, "box", monitor=False)
+    driver.run_until(12.0)
+    assert sim.sim.collisions(0).count > 0
+    driver.executor.shutdown()
+
+
+def test_a_silent_command_source_gets_zero_within_the_source_timeout(context, world):
+    _, _, source, driver = start(context, world, "round", v=0.5)
+    driver.run_until(1.0)
+    source.sending = False
+    stopped_at = driver.time
+    driver.run_until(stopped_at + 0.5)
+    after = [(t, v) for t, v, _ in source.sent_to_base if t > stopped_at]
+    zero = next(t for t, v in after if v == 0.0)
+    assert zero - stopped_at <= 0.3 + 0.06          # source_timeout, and one check period
+    driver.executor.shutdown()
+
+
+def test_stale_scans_stop_the_robot(context, world):
+    sim, _, source, driver = start(context, world, "round", v=0.5)
+    driver.run_until(1.0)
+    sim.set_parameters([Parameter("faults.scan_dropout", value="front_laser_link")])
+    driver.run_until(2.0)
+    assert source.sent_to_base[-1][1] == 0.0
+    sim.set_parameters([Parameter("faults.scan_dropout", value="")])
+    driver.run_until(2.5)
+    assert source.sent_to_base[-1][1] == pytest.approx(0.5)
+    driver.executor.shutdown()
+
+
+@pytest.mark.parametrize("v, w", [(math.nan, 0.0), (1e308, 0.0), (0.3, -math.inf)])
+def test_a_hostile_command_becomes_zero(context, world, v, w):
+    _, _, source, driver = start(context, world, "round", v=0.5)
+    driver.run_until(1.0)
+    source.command = (v, w)
+    driver.run_until(1.2)
+    assert source.sent_to_base[-1][1:] == (0.0, 0.0)
+    source.command = (0.5, 0.0)
+    driver.run_until(1.4)
+    assert source.sent_to_base[-1][1] == pytest.approx(0.5)       # the node is still there and working
+    driver.executor.shutdown()
+
+
+def test_live_parameters_are_checked_in_full(context, world):
+    _, (monitor,), _, driver = start(context, world, "box", v=0.0)
+
+    def refused(name, value):
+        try:
+            result = monitor.set_parameters([Parameter(name, value=value)])[0]
+        except ParameterNotDeclaredException as err:    # a set_parameters service call answers with this text
+            return str(err)
+        return None if result.successful else result.reason
+
+    assert "out of range" in refused("stop_distance", -1.0)
+    assert "out of range" in refused("slowdown_ratio", math.nan)
+    assert "expected an integer" in refused("min_points", "many")
+    assert "at least three points" in refused("footprint", "[[0, 0], [1, 1]]")
+    assert "slowdown_distance" in refused("stop_distance", 0.5)                # above the slowdown zone's 0.3
+    assert "requires restart" in refused("cmd_vel_out_topic", "/elsewhere")
+    assert "did you mean 'stop_distance'" in refused("stop_distanse", 0.1)
+    assert refused("time_before_collision", 0.5) is None
+    assert monitor.monitor.config.time_before_collision == 0.5
+    assert monitor.monitor.config.stop_distance == 0.05                          # the refusals changed nothing
+    driver.executor.shutdown()
