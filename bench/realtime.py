@@ -6,9 +6,10 @@ Each run starts ``python -m simplebot_navigation.launch navigation world:=lab rt
 own process, as a user runs it), sends the tour's goals one after the other through the move_base
 action and measures, only while a goal is active ("while driving"):
 
-  CPU %       utime + stime of the move_base and simulator processes (/proc/<pid>/stat, all
-              threads), as a percentage of one core; "/sim s" is move_base's per simulated second,
-              which stays comparable when a loaded machine makes the simulator fall behind.
+  CPU %       utime + stime of the move_base, simulator and collision_monitor processes
+              (/proc/<pid>/stat, all threads), as a percentage of one core; "/sim s" is move_base's
+              per simulated second, which stays comparable when a loaded machine makes the simulator
+              fall behind; "-" for a process the version does not run.
   cycle       move_base's control-cycle compute times from its /diagnostics reports ("move_base:
               control loop": p50/p95/max over every cycle_times_ms of the drive; missed % =
               missed_total / cycles_total over the drive). "-" when move_base has no such report.
@@ -17,7 +18,7 @@ action and measures, only while a goal is active ("while driving"):
               enter: what any version can be compared by. "late" is the share of intervals longer
               than 1.5 controller periods.
 
-Runs: this tree at the machine's load, then (with --baseline, a checkout with its own .venv, or --baseline-python) the
+Runs: this tree at the machine's load, then (with --without-monitor) this tree with collision_monitor:=false, then (with --baseline, a checkout with its own .venv, or --baseline-python) the
 baseline; then both again with --stress busy-loop processes beside them (--stress 0: no stress
 runs). Each version runs in its own ROS domain. The table ends with the 1-minute load average at
 the end of each run (/proc/loadavg).
@@ -63,6 +64,7 @@ from simplebot_navigation.sim.world_loader import load_world  # noqa: E402
 from simplebot_navigation.testing.proc_stats import cpu_seconds, loadavg  # noqa: E402
 
 WORLD = "lab"
+NODES = ("move_base", "simulator", "collision_monitor")
 LOOP_STATUS = "move_base: control loop"
 LATE_FACTOR = 1.5
 WARM_UP_S = 2.0          # sim seconds before the first goal, as the scenario runner waits
@@ -79,6 +81,7 @@ class Version:
     python: str
     checkout: Path
     domain: int
+    launch_args: tuple[str, ...] = ()
 
 
 @dataclass
@@ -89,7 +92,7 @@ class RunResult:
     goals: int = 0
     drive_s: float = 0.0
     drive_sim_s: float = 0.0
-    cpu_s: dict[str, float] = field(default_factory=lambda: {"move_base": 0.0, "simulator": 0.0})
+    cpu_s: dict[str, float] = field(default_factory=dict)
     cycle_ms: list[float] = field(default_factory=list)
     cycles: int = 0
     missed: int = 0
@@ -160,7 +163,7 @@ class Run:
         with open(self.log_file, "w", encoding="utf-8") as log:
             self.launcher = subprocess.Popen(
                 [version.python, "-u", "-m", "simplebot_navigation.launch", "navigation", f"world:={WORLD}",
-                 "rtf:=1"], cwd=version.checkout, env=env, stdout=log, stderr=subprocess.STDOUT,
+                 "rtf:=1", *version.launch_args], cwd=version.checkout, env=env, stdout=log, stderr=subprocess.STDOUT,
                 stdin=subprocess.DEVNULL, start_new_session=True)
         self.context = rclpy.Context()
         rclpy.init(context=self.context, domain_id=version.domain)
@@ -182,12 +185,13 @@ class Run:
 
     def wait_ready(self) -> None:
         def ready() -> bool:
-            if len(self.pids) < 2:
-                self.pids = node_pids(self.launcher.pid, ("move_base", "simulator"))
-            return (len(self.pids) == 2 and self.client.pose is not None and self.client.sim_time() >= WARM_UP_S
-                    and self.client.action.server_is_ready())
+            if not {"move_base", "simulator"} <= set(self.pids):
+                self.pids = node_pids(self.launcher.pid, NODES)
+            return ({"move_base", "simulator"} <= set(self.pids) and self.client.pose is not None
+                    and self.client.sim_time() >= WARM_UP_S and self.client.action.server_is_ready())
         if not self.spin_until(ready, START_TIMEOUT_S):
             raise RuntimeError(f"the nodes did not come up within {START_TIMEOUT_S:g} s; see {self.log_file}")
+        self.pids = node_pids(self.launcher.pid, NODES)     # and the collision monitor, where the version has one
 
     def drive(self, world: World, goals: list[Pose2D], max_vel_x: float, result: RunResult) -> None:
         """Each goal in turn; CPU, cycles and cmd_vel intervals accumulate over the goals' active spans."""
@@ -200,7 +204,7 @@ class Run:
             status = self.send(goal, world.start, budget)
             wall1, epoch1 = time.monotonic(), time.time_ns()
             for name, pid in self.pids.items():
-                result.cpu_s[name] += cpu_seconds(pid) - cpu0[name]
+                result.cpu_s[name] = result.cpu_s.get(name, 0.0) + cpu_seconds(pid) - cpu0[name]
             result.drive_s += wall1 - wall0
             result.drive_sim_s += self.client.sim_time() - sim0
             result.goals += 1
@@ -293,18 +297,20 @@ def percentiles(values: list[float]) -> str:
 
 
 def table(results: list[RunResult], period_ms: float) -> str:
-    header = (f"{'version':22} {'load':9} {'goals':>5} {'mb CPU%':>7} {'/sim s':>6} {'sim CPU%':>8} "
+    header = (f"{'version':40} {'load':9} {'goals':>5} {'mb CPU%':>7} {'/sim s':>6} {'sim CPU%':>8} {'cm CPU%':>7} "
               f"{'cycle p50/p95/max ms':>21} "
               f"{'missed%':>7} {'cmd_vel p50/p95/max ms':>23} {'late%':>6} {'load1':>5}")
     lines = [header, "-" * len(header)]
     for r in results:
-        cpu = {name: f"{100 * s / r.drive_s:.1f}" if r.drive_s else "-" for name, s in r.cpu_s.items()}
+        cpu = {name: f"{100 * r.cpu_s[name] / r.drive_s:.1f}" if r.drive_s and name in r.cpu_s else "-"
+               for name in NODES}
         per_sim = f"{100 * r.cpu_s['move_base'] / r.drive_sim_s:.1f}" if r.drive_sim_s > 0 else "-"
         missed = f"{100 * r.missed / r.cycles:.2f}" if r.has_diagnostics and r.cycles else "-"
         late = (f"{100 * np.mean(np.asarray(r.intervals_ms) > LATE_FACTOR * period_ms):.2f}"
                 if r.intervals_ms else "-")
-        lines.append(f"{r.version:22} {r.load:9} {f'{r.goals_reached}/{r.goals}':>5} {cpu['move_base']:>7} "
-                     f"{per_sim:>6} {cpu['simulator']:>8} {percentiles(r.cycle_ms):>21} {missed:>7} "
+        lines.append(f"{r.version:40} {r.load:9} {f'{r.goals_reached}/{r.goals}':>5} {cpu['move_base']:>7} "
+                     f"{per_sim:>6} {cpu['simulator']:>8} {cpu['collision_monitor']:>7} "
+                     f"{percentiles(r.cycle_ms):>21} {missed:>7} "
                      f"{percentiles(r.intervals_ms):>23} {late:>6} {r.loadavg:>5}"
                      + (f"  ({r.error})" if r.error else ""))
     return "\n".join(lines)
@@ -329,6 +335,8 @@ def main() -> None:
     parser.add_argument("--domain", type=int, default=int(os.environ.get("ROS_DOMAIN_ID", "42")),
                         help="ROS domain of this tree's runs (default: $ROS_DOMAIN_ID or 42)")
     parser.add_argument("--baseline-domain", type=int, default=44, help="ROS domain of the baseline's runs")
+    parser.add_argument("--without-monitor", action="store_true",
+                        help="also run this tree with collision_monitor:=false (in ROS domain --domain + 1)")
     args = parser.parse_args()
     signal.signal(signal.SIGTERM, signal.default_int_handler)  # stopped from outside, it still stops its launchers
     if args.stress < 0:
@@ -339,6 +347,9 @@ def main() -> None:
     except ValueError as err:
         parser.error(str(err))
     versions = [Version(f"current {describe(ROOT)}", args.python, ROOT, args.domain)]
+    if args.without_monitor:
+        versions.append(Version(f"current {describe(ROOT)} collision_monitor:=false", args.python, ROOT,
+                                args.domain + 1, ("collision_monitor:=false",)))
     if args.baseline is not None:
         python = args.baseline_python or args.baseline / ".venv" / "bin" / "python"
         if not python.exists():

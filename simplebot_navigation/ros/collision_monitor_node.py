@@ -1,4 +1,4 @@
-"""collision_monitor: the last word on every velocity command, in its own process (docs/reference.md §8).
+"""collision_monitor: the last word on every velocity command, in its own process (docs/reference.md §5).
 
 It takes the planner's commands on ``cmd_vel_nav`` and the raw scans, and publishes what may reach the
 wheels on ``simplebot_controller/cmd_vel`` (both relative, so they follow the namespace). Its only

@@ -1,6 +1,6 @@
 """The collision monitor's judgement: how much of a velocity command may reach the wheels, given the lidars.
 
-It stands between the local planner and the base (docs/reference.md §8), sees only the raw scans in the
+It stands between the local planner and the base (docs/reference.md §5), sees only the raw scans in the
 robot frame and the command, and trusts neither the planner nor the costmaps. Three checks, each with the
 body's own outline (the footprint, or a circle of robot_radius):
 

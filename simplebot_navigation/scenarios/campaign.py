@@ -126,7 +126,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--seeds", help="seeds, e.g. 0-9 or 0,3,5 (default: 0)")
     p.add_argument("--robots", help="comma-separated bodies: box, round, round:R (radius R m; default: box)")
     p.add_argument("--set", action="append", metavar="'K=V [K=V ...]'",
-                   help="a parameter set: K=V overrides and/or 'tight' (the shipped narrow-passage set); "
+                   help="a parameter set: K=V overrides and/or 'tight' (the shipped narrow-passage set) and/or "
+                        "'no_collision_monitor' (move_base drives the base directly); "
                         "repeat for more sets, 'default' for none (default: none)")
     p.add_argument("--goals", help="goal names 'a,b' and/or 'x,y,yaw;x,y,yaw' (default: every goal of each world)")
     p.add_argument("--run-timeout", type=float, help="wall seconds a run may take before it counts as hung "

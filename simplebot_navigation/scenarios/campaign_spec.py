@@ -26,7 +26,7 @@ from .session import launch_args
 
 ROBOT_BODY = re.compile(r"^(?P<name>box|round)(?::(?P<radius>\d+(?:\.\d+)?))?$")
 ROUND_RADIUS_RANGE = (0.1, 1.0)
-SHIPPED_SETS = ("tight",)          # launch arguments of the navigation launch that load config/<name>/
+SHIPPED_SETS = ("tight", "no_collision_monitor")   # launch arguments of the navigation launch (tight: config/tight/)
 SPEC_KEYS = ("worlds", "seeds", "robots", "params", "goals", "run_timeout")
 FAMILY_RANGE = re.compile(r"^(?P<family>[A-Za-z_][\w-]*):(?P<a>\d+)-(?P<b>\d+)$")
 DEFAULT_RUN_TIMEOUT_S = 900.0
@@ -230,7 +230,8 @@ def plan(spec: CampaignSpec) -> list[Run]:
     for params in spec.params:     # each parameter set checked as move_base would take it
         shipped, overrides = split_parameter_set(params)
         try:
-            apply_set(load_launch("navigation", launch_args("lab", "box", 0.3, 0.0, "tight" in shipped)), overrides)
+            apply_set(load_launch("navigation", launch_args("lab", "box", 0.3, 0.0, "tight" in shipped,
+                                                                collision_monitor="no_collision_monitor" not in shipped)), overrides)
         except LaunchError as err:
             raise SpecError(f"params: {params_label(params)!r}: {err}") from err
     runs = []

@@ -26,7 +26,8 @@ def execute(run: Run) -> dict:
     shipped, overrides = split_parameter_set(run.params)
     with tempfile.TemporaryDirectory(prefix="simplebot_campaign_") as folder, \
             NavigationSession(world_for_run(run.world, run.seed, folder), body, radius, rtf=0.0, seed=run.seed,
-                              tight="tight" in shipped, overrides=overrides) as session:
+                              tight="tight" in shipped, overrides=overrides,
+                              collision_monitor="no_collision_monitor" not in shipped) as session:
         (goal,) = parse_goals(run.goal, session.world)
         session.wait_ready(wall_timeout_s=READY_TIMEOUT_S)
         max_vel_x = session.controller_param("max_vel_x", 0.4)
