@@ -58,6 +58,8 @@ def main() -> int:
     parser.add_argument("--tight", action="store_true", help="the narrow-door parameter set (config/tight/)")
     parser.add_argument("--approach", choices=("head-on", "along-wall"), default="head-on",
                         help="start in front of the door, or beside it along its wall (a 90 degree turn in)")
+    parser.add_argument("--no-collision-monitor", action="store_true",
+                        help="without the collision monitor (move_base drives the base directly)")
     parser.add_argument("--json", help="write the table as JSON here")
     args = parser.parse_args()
     bodies = args.bodies.split(",")
@@ -70,7 +72,8 @@ def main() -> int:
             write_world(door_world(ratio, args.approach), path,
                         f"one door, {ratio:g} x {ROBOT_WIDTH} m, approach {args.approach}")
             options = ScenarioOptions(world=path, robot=body, goals=door_goal_name(ratio), repeat=args.repeat,
-                                      range_noise=args.range_noise, wall_timeout_s=600.0, tight=args.tight)
+                                      range_noise=args.range_noise, wall_timeout_s=600.0, tight=args.tight,
+                                      collision_monitor=not args.no_collision_monitor)
             results, _ = run_scenarios(options, progress=lambda line: print("  " + line, flush=True))
             row = {"body": body, "approach": args.approach, "ratio": ratio, "width_m": round(ratio * ROBOT_WIDTH, 3), **summary(results)}
             rows.append(row)

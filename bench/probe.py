@@ -5,7 +5,10 @@ robot stopped), with nothing lost. Run it before each release.
 
 Starts ``navigation world:=lab rtf:=1 foxglove:=true respawn:=true`` (every node its own process), then, as any
 other node or program on the machine could:
-  - sets hostile move_base and simulator parameters through their parameter services (ros2 param set);
+  - sets hostile move_base, collision monitor and simulator parameters through their parameter services
+    (ros2 param set);
+  - drives the robot at 1 m/s straight ahead on cmd_vel_nav, as a crazed move_base would, for 10 s: the
+    collision monitor must stop it with no collision;
   - opens Foxglove WebSocket handshakes from a foreign web page and with a rebound host name;
   - runs the launcher and the campaign runner with unbounded or malformed arguments.
 Afterwards the simulator and move_base must be the processes that started, and an ordinary goal must succeed.
@@ -43,6 +46,9 @@ MOVE_BASE_PROBES = [
     ("TebLocalPlannerROS.max_vel_x", 1e308),
     ("local_costmap.inflation_layer.inflaton_radius", 1.0),
 ]
+COLLISION_MONITOR_PROBES = [("footprint", "robot"), ("footprint", "[[0, 0], [1, 1]]"), ("stop_distance", math.nan),
+                            ("time_before_collision", 1e308), ("slowdown_distance", 0.01),
+                            ("cmd_vel_out_topic", "/elsewhere"), ("stop_distanse", 0.1)]
 SIMULATOR_PROBES = [("real_time_factor", -1.0), ("real_time_factor", math.nan), ("physics_rate", 0.0),
                     ("world", "doors"), ("seed", 7), ("use_sim_time", True)]
 COMMAND_PROBES = [
@@ -86,6 +92,23 @@ def handshake(port: int, origin: str | None, host: str) -> str:
         return f"HTTP {err.response.status_code}"
 
 
+def hostile_drive(session) -> tuple[str, str, str, bool]:
+    """1 m/s straight ahead on cmd_vel_nav for 10 s (wall clock), then zero: nothing may be hit."""
+    from geometry_msgs.msg import Twist
+
+    publisher = session.client.create_publisher(Twist, "/cmd_vel_nav", 1)
+    ahead, stop = Twist(), Twist()
+    ahead.linear.x = 1.0
+    collisions, start = session.client.collisions, session.pose()
+    session.spin_wall(10.0, lambda: publisher.publish(ahead) and False)
+    publisher.publish(stop)
+    session.client.destroy_publisher(publisher)
+    moved = math.hypot(session.pose().x - start.x, session.pose().y - start.y)
+    new = session.client.collisions - collisions
+    return ("cmd_vel_nav 1 m/s ahead for 10 s", "a crazed move_base", f"drove {moved:.2f} m, {new} collisions",
+            new == 0)
+
+
 def main() -> int:
     with domain_lease(os.getpid() % 100, None) as domain:
         os.environ.update(ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
@@ -101,8 +124,10 @@ def probe() -> int:
     rows: list[tuple[str, str, str, bool]] = []
     with ProcessSession("lab", rtf=1.0, respawn=True, foxglove_port=0) as session:
         session.wait_ready(wall_timeout_s=240.0)
-        pids = {name: session.node_pid(name) for name in ("simulator", "move_base", "foxglove_bridge")}
-        for node, probes in (("/move_base", MOVE_BASE_PROBES), ("/simulator", SIMULATOR_PROBES)):
+        pids = {name: session.node_pid(name) for name in ("simulator", "move_base", "collision_monitor",
+                                                           "foxglove_bridge")}
+        for node, probes in (("/move_base", MOVE_BASE_PROBES), ("/collision_monitor", COLLISION_MONITOR_PROBES),
+                             ("/simulator", SIMULATOR_PROBES)):
             client = AsyncParameterClient(session.client, node)
             for name, value in probes:
                 ok, reason = set_parameter(session, client, name, value)
@@ -113,6 +138,7 @@ def probe() -> int:
                              ("null", "localhost")):
             outcome = handshake(port, origin, host)
             rows.append(("Foxglove handshake", f"Origin {origin}, Host {host}", outcome, outcome == "HTTP 403"))
+        rows.append(hostile_drive(session))
         same = {name: session.node_pid(name) == pid for name, pid in pids.items()}
         run = session.send_goal(Pose2D(3.5, 0.0, 0.0, "corridor"))
         session.spin_wall(120.0, lambda: run.done)

@@ -33,33 +33,6 @@ def _inside(qx, qy, vertices, radius):
 
 
 @njit(cache=True, nogil=True)
-def clearances(points, direction, vertices, radius):
-    """How far the body can drive straight ahead (direction 1) or back (-1) before it touches each point;
-    inf for a point beside or behind its path, or already inside the body."""
-    n = points.shape[0]
-    out = np.full(n, np.inf)
-    nv = vertices.shape[0]
-    for p in range(n):
-        px, py = points[p, 0], points[p, 1]
-        if _inside(px, py, vertices, radius):
-            continue
-        if radius > 0.0:
-            if abs(py) < radius and direction * px > 0.0:
-                out[p] = direction * px - math.sqrt(radius * radius - py * py)
-            continue
-        best = np.inf
-        for i in range(nv):             # the edges the point's line of travel crosses
-            j = i - 1 if i > 0 else nv - 1
-            xi, yi, xj, yj = vertices[i, 0], vertices[i, 1], vertices[j, 0], vertices[j, 1]
-            if (yi > py) != (yj > py):
-                gap = direction * (px - ((xj - xi) * (py - yi) / (yj - yi) + xi))
-                if 0.0 <= gap < best:
-                    best = gap
-        out[p] = best
-    return out
-
-
-@njit(cache=True, nogil=True)
 def first_contact_step(points, v, w, dt, steps, vertices, radius, reach, min_points):
     """The first of ``steps`` future poses (k * dt at the constant command v, w) at which at least
     ``min_points`` points that are outside the body now are inside it; -1 if none is."""

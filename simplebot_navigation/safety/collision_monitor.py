@@ -4,15 +4,17 @@ It stands between the local planner and the base (docs/reference.md §5), sees o
 robot frame and the command, and trusts neither the planner nor the costmaps. Three checks, each with the
 body's own outline (the footprint, or a circle of robot_radius):
 
-- stop: a point within ``stop_distance`` of the body, straight along the commanded direction of travel
-  (ahead when driving forward, behind when reversing): the command becomes zero;
+- stop: the body, driven along the command's arc (forward or reversing), would touch a point within
+  ``stop_distance`` of travel: the speed becomes zero (turning on the spot stays, as the approach check
+  allows it);
 - slowdown: the same within ``slowdown_distance``: the command is scaled by ``slowdown_ratio``;
 - approach: the body driven along the command's arc for ``time_before_collision`` in steps of
   ``simulation_time_step``; a contact after t seconds scales the command by t / time_before_collision,
   so the robot slows as it nears and stops short of what it would hit.
 
-The zones look along the direction of travel only, so a robot nose to a wall may back off and turn away,
-and one that passes a door post at a few centimetres is not stopped by it: only motion into a point is.
+The zones are swept along the commanded motion, not fixed around the body, so a robot nose to a wall may
+back off and turn away, and one that turns past a door post a centimetre off is not stopped by it: only
+motion into a point is.
 Each check needs ``min_points`` points, so one speck of noise does not stop the robot. No rclpy here.
 """
 
@@ -36,6 +38,8 @@ STANDING_TURN_RATE = 1e-3
 MAX_APPROACH_STEPS = 200
 #: a return too close to measure is placed this far outside the body
 TOUCH_MARGIN = 0.005
+#: the stop and slowdown zones are walked along the arc in steps of this length (m)
+ZONE_STEP = 0.01
 
 
 @dataclass(frozen=True)
@@ -43,9 +47,9 @@ class CollisionMonitorConfig:
     footprint: list = param([], "m", "outline of the body in base_frame, [[x, y], ...] or its string form "
                             "(empty: robot_radius)", kind=(list, str))
     robot_radius: float = param(0.0, "m", "radius of a round body, used when footprint is empty", ge=0.0, le=5.0)
-    stop_distance: float = param(0.05, "m", "a point this close ahead of the body along the direction of "
-                                 "travel stops the robot", ge=0.0, le=2.0)
-    slowdown_distance: float = param(0.3, "m", "a point this close ahead slows the robot", ge=0.0, le=5.0)
+    stop_distance: float = param(0.05, "m", "contact within this much travel along the commanded arc stops the "
+                                 "robot", ge=0.0, le=2.0)
+    slowdown_distance: float = param(0.3, "m", "contact within this much travel slows the robot", ge=0.0, le=5.0)
     slowdown_ratio: float = param(0.5, "", "factor on the command while a point is in the slowdown zone",
                                   gt=0.0, le=1.0)
     time_before_collision: float = param(1.0, "s", "how far ahead the approach check drives the body along "
@@ -167,23 +171,36 @@ class CollisionMonitor:
         near = points[np.einsum("ij,ij->i", points, points) <= reach * reach] if len(points) else points
         ratio, action, why = 1.0, Action.PASS, ""
         if abs(v) >= STANDING_SPEED and len(near):
-            ahead = kernels.clearances(near, 1.0 if v > 0 else -1.0, self.vertices, self.radius)
-            side = "ahead" if v > 0 else "behind"
-            if np.count_nonzero(ahead <= c.stop_distance) >= c.min_points:
-                return Verdict(0.0, 0.0, Action.STOP, f"{np.count_nonzero(ahead <= c.stop_distance)} points "
-                               f"within {c.stop_distance:g} m {side}")
-            slow = np.count_nonzero(ahead <= c.slowdown_distance)
-            if slow >= c.min_points:
-                ratio, action = c.slowdown_ratio, Action.SLOWDOWN
-                why = f"{slow} points within {c.slowdown_distance:g} m {side}"
-        steps = math.ceil(c.time_before_collision / c.simulation_time_step - 1e-9)
-        if steps > 0 and len(near):
-            k = kernels.first_contact_step(near, float(v), float(w), c.simulation_time_step, steps,
-                                           self.vertices, self.radius, self.circumradius, c.min_points)
-            if k > 0:
-                contact = (k - 1) * c.simulation_time_step   # the last pose known to be free
-                approach = contact / c.time_before_collision
-                if approach < ratio:
-                    ratio, action = approach, Action.APPROACH
-                    why = f"contact in {contact:.2f} s at the commanded velocity"
+            travel = self._travel_to_contact(v, w, near)
+            where = f"contact after {travel:.2f} m {'ahead' if v > 0 else 'reversing'} along the commanded arc"
+            if travel <= c.stop_distance:     # no nearer; turning on the spot stays open where it is free
+                turn, _ = self._approach(0.0, w, near)
+                return Verdict(0.0, w * turn, Action.STOP, where)
+            if travel <= c.slowdown_distance:
+                ratio, action, why = c.slowdown_ratio, Action.SLOWDOWN, where
+        approach, contact = self._approach(v, w, near)
+        if approach < ratio:
+            ratio, action, why = approach, Action.APPROACH, f"contact in {contact:.2f} s at the commanded velocity"
         return Verdict(v * ratio, w * ratio, action, why)
+
+    def _travel_to_contact(self, v: float, w: float, near: np.ndarray) -> float:
+        """Metres the body can drive along the command's arc before it holds min_points points; inf beyond
+        the slowdown zone. The arc is walked in ZONE_STEP steps of its length (at 1 m/s, turning w / |v|)."""
+        c = self.config
+        steps = max(1, math.ceil(c.slowdown_distance / ZONE_STEP - 1e-9))
+        k = kernels.first_contact_step(near, math.copysign(1.0, v), w / abs(v), ZONE_STEP, steps, self.vertices,
+                                       self.radius, self.circumradius, c.min_points)
+        return math.inf if k < 0 else (k - 1) * ZONE_STEP
+
+    def _approach(self, v: float, w: float, near: np.ndarray) -> tuple[float, float]:
+        """(the factor on the command, the time of the last free pose) of the approach check."""
+        c = self.config
+        steps = math.ceil(c.time_before_collision / c.simulation_time_step - 1e-9)
+        if steps == 0 or not len(near) or (abs(v) < STANDING_SPEED and abs(w) < STANDING_TURN_RATE):
+            return 1.0, math.inf
+        k = kernels.first_contact_step(near, float(v), float(w), c.simulation_time_step, steps,
+                                       self.vertices, self.radius, self.circumradius, c.min_points)
+        if k < 0:
+            return 1.0, math.inf
+        contact = (k - 1) * c.simulation_time_step   # the last pose known to be free
+        return contact / c.time_before_collision, contact
