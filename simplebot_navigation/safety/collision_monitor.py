@@ -47,12 +47,12 @@ class CollisionMonitorConfig:
     footprint: list = param([], "m", "outline of the body in base_frame, [[x, y], ...] or its string form "
                             "(empty: robot_radius)", kind=(list, str))
     robot_radius: float = param(0.0, "m", "radius of a round body, used when footprint is empty", ge=0.0, le=5.0)
-    stop_distance: float = param(0.05, "m", "contact within this much travel along the commanded arc stops the "
+    stop_distance: float = param(0.02, "m", "contact within this much travel along the commanded arc stops the "
                                  "robot", ge=0.0, le=2.0)
-    slowdown_distance: float = param(0.3, "m", "contact within this much travel slows the robot", ge=0.0, le=5.0)
+    slowdown_distance: float = param(0.1, "m", "contact within this much travel slows the robot", ge=0.0, le=5.0)
     slowdown_ratio: float = param(0.5, "", "factor on the command while a point is in the slowdown zone",
                                   gt=0.0, le=1.0)
-    time_before_collision: float = param(1.0, "s", "how far ahead the approach check drives the body along "
+    time_before_collision: float = param(0.5, "s", "how far ahead the approach check drives the body along "
                                          "the command (0: no approach check)", ge=0.0, le=10.0)
     simulation_time_step: float = param(0.05, "s", "time step of the approach check", gt=0.0, le=1.0)
     min_points: int = param(3, "", "points a zone or the approach check needs to act", ge=1, le=1000)

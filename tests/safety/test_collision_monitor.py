@@ -18,10 +18,14 @@ def wall(x: float, half_width: float = 1.0, spacing: float = 0.01) -> np.ndarray
     return np.stack([np.full_like(y, x), y], axis=1)
 
 
+#: zones and horizon these tests are written for (not the defaults, which may be tuned)
+ZONES = {"stop_distance": 0.05, "slowdown_distance": 0.3, "slowdown_ratio": 0.5, "time_before_collision": 1.0}
+
+
 @pytest.fixture(params=["box", "round"])
 def monitor(request) -> CollisionMonitor:
     body = {"footprint": BOX} if request.param == "box" else {"robot_radius": 0.3}
-    return CollisionMonitor(CollisionMonitorConfig(**body))
+    return CollisionMonitor(CollisionMonitorConfig(**body, **ZONES))
 
 
 def front(monitor: CollisionMonitor) -> float:
@@ -88,7 +92,7 @@ def test_fewer_than_min_points_do_not_act(monitor):
 
 
 def test_disabled_passes_everything():
-    off = CollisionMonitor(CollisionMonitorConfig(footprint=BOX, enabled=False))
+    off = CollisionMonitor(CollisionMonitorConfig(footprint=BOX, enabled=False, **ZONES))
     assert off.limit(1.0, 0.0, wall(0.46)).action is Action.PASS
 
 

@@ -159,10 +159,10 @@ def test_live_parameters_are_checked_in_full(context, world):
     assert "out of range" in refused("slowdown_ratio", math.nan)
     assert "expected an integer" in refused("min_points", "many")
     assert "at least three points" in refused("footprint", "[[0, 0], [1, 1]]")
-    assert "slowdown_distance" in refused("stop_distance", 0.5)                # above the slowdown zone's 0.3
+    assert "slowdown_distance" in refused("stop_distance", 0.5)                # above the slowdown zone's 0.1
     assert "requires restart" in refused("cmd_vel_out_topic", "/elsewhere")
     assert "did you mean 'stop_distance'" in refused("stop_distanse", 0.1)
-    assert refused("time_before_collision", 0.5) is None
-    assert monitor.monitor.config.time_before_collision == 0.5
-    assert monitor.monitor.config.stop_distance == 0.05                          # the refusals changed nothing
+    assert refused("time_before_collision", 0.8) is None
+    assert monitor.monitor.config.time_before_collision == 0.8
+    assert monitor.monitor.config.stop_distance == 0.02                          # the refusals changed nothing
     driver.executor.shutdown()
