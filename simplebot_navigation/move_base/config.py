@@ -9,14 +9,13 @@ from typing import Any
 from simplebot_navigation.costmap.params import SEARCHED_KEYS
 from simplebot_navigation.parameters import ParameterError, build, param
 
-from .plugins import BACKUP_RECOVERY, CLEAR_COSTMAP_RECOVERY, NAVFN, ROTATE_RECOVERY, SPIN_RECOVERY, TEB_LOCAL_PLANNER
+from .plugins import CLEAR_COSTMAP_RECOVERY, NAVFN, RECOVERY_BEHAVIORS, ROTATE_RECOVERY, TEB_LOCAL_PLANNER
 
 DEFAULT_RECOVERY_BEHAVIORS = (
     {"name": "conservative_reset", "type": CLEAR_COSTMAP_RECOVERY},
     {"name": "rotate_recovery", "type": ROTATE_RECOVERY},
     {"name": "aggressive_reset", "type": CLEAR_COSTMAP_RECOVERY},
 )
-RECOVERY_TYPES = (CLEAR_COSTMAP_RECOVERY, ROTATE_RECOVERY, BACKUP_RECOVERY, SPIN_RECOVERY)
 
 
 @dataclass
@@ -78,9 +77,10 @@ class MoveBaseConfig:
                 problem = f"expected a list of {{name, type}}, got {given!r}"
             else:
                 names = [b.get("name") if isinstance(b, dict) else None for b in given]
+                known = RECOVERY_BEHAVIORS.types
                 for entry, name in zip(given, names):
-                    if not isinstance(entry, dict) or not name or entry.get("type") not in RECOVERY_TYPES:
-                        problem = f"entry {entry!r} needs a name and a type of {', '.join(RECOVERY_TYPES)}"
+                    if not isinstance(entry, dict) or not name or entry.get("type") not in known:
+                        problem = f"entry {entry!r} needs a name and a type of {', '.join(known)}"
                         break
                 else:
                     if len(set(names)) != len(names):

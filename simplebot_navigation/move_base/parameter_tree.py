@@ -15,19 +15,13 @@ from dataclasses import dataclass, field
 from simplebot_navigation.costmap.params import CostmapConfig, SearchedParams, parameter_specs, resolve_costmap_params
 from simplebot_navigation.parameters import PLUGIN_TYPE_KEY, Param, build, fields_of
 from simplebot_navigation.parameters.overrides import ParameterTable, apply_overrides
-from simplebot_navigation.planning.config import GlobalPlannerConfig, NavfnParams
-from simplebot_navigation.teb.config import TebConfig
-from simplebot_navigation.teb.footprint import FootprintModel, FootprintModelParams
+from simplebot_navigation.teb.footprint import FootprintModelParams
 
 from .config import MoveBaseConfig
-from .plugins import BACKUP_RECOVERY, CLEAR_COSTMAP_RECOVERY, ROTATE_RECOVERY, SPIN_RECOVERY, plugin_namespace
-from .recovery import BackUpParams, ClearCostmapParams, RotateParams, SpinParams
+from .plugins import GLOBAL_PLANNERS, LOCAL_PLANNERS, RECOVERY_BEHAVIORS, plugin_namespace
 
 COSTMAPS = ("global_costmap", "local_costmap")
 _UNSET = object()
-_PLANNER_PARAMS = {"GlobalPlanner": GlobalPlannerConfig, "NavfnROS": NavfnParams, "TebLocalPlannerROS": TebConfig}
-_RECOVERY_PARAMS = {CLEAR_COSTMAP_RECOVERY: ClearCostmapParams, ROTATE_RECOVERY: RotateParams,
-                    BACKUP_RECOVERY: BackUpParams, SPIN_RECOVERY: SpinParams}
 
 
 def _prefixed(prefix: str, cls) -> ParameterTable:
@@ -38,12 +32,14 @@ def parameter_table(tree: dict) -> ParameterTable:
     """Every parameter the move_base node with this ROS 1 tree reads, by ROS 2 name."""
     table = {**fields_of(MoveBaseConfig), **fields_of(SearchedParams)}
     cfg = MoveBaseConfig.from_params(tree)
-    for plugin_type in (cfg.base_global_planner, cfg.base_local_planner):
-        namespace = plugin_namespace(plugin_type)
-        if namespace in _PLANNER_PARAMS:
-            table.update(_prefixed(f"{namespace}.", _PLANNER_PARAMS[namespace]))
+    for registry, plugin_type in ((GLOBAL_PLANNERS, cfg.base_global_planner), (LOCAL_PLANNERS, cfg.base_local_planner)):
+        params = registry.spec(plugin_type).params
+        if params is not None:
+            table.update(_prefixed(f"{plugin_namespace(plugin_type)}.", params))
     for behavior in cfg.recovery_behaviors:
-        table.update(_prefixed(f"{behavior['name']}.", _RECOVERY_PARAMS[behavior["type"]]))
+        params = RECOVERY_BEHAVIORS.spec(behavior["type"]).params
+        if params is not None:
+            table.update(_prefixed(f"{behavior['name']}.", params))
     for name in COSTMAPS:
         costmap = resolve_costmap_params(tree.get(name, {}), name, [("move_base", tree)])
         table.update({f"{name}.{key}": spec for key, spec in parameter_specs(costmap).items()})
@@ -74,8 +70,8 @@ class NodeConfigs:
     """Every configuration a move_base node builds from its tree, and the warnings it would log."""
     move_base: MoveBaseConfig
     costmaps: dict[str, CostmapConfig]
-    global_planner: GlobalPlannerConfig | None          # None: a planner without parameters here
-    local_planner: TebConfig | None
+    global_planner: object | None          # its registration's config (None: a planner without parameters)
+    local_planner: object | None
     recoveries: dict[str, dict] = field(default_factory=dict)   # behaviour name -> its (checked) namespace
     warnings: list[str] = field(default_factory=list)
 
@@ -88,25 +84,21 @@ def build_configs(tree: dict) -> NodeConfigs:
     for name in COSTMAPS:
         costmaps[name] = resolve_costmap_params(tree.get(name, {}), name, [("move_base", tree)])
         warnings += costmaps[name].warnings
-    planner = None
-    namespace = plugin_namespace(cfg.base_global_planner)
-    if namespace == "GlobalPlanner":
-        planner = GlobalPlannerConfig.from_params(tree.get(namespace))
-    elif namespace == "NavfnROS":
-        planner = GlobalPlannerConfig.from_navfn_params(tree.get(namespace))
-    warnings += planner.warnings if planner is not None else []
-    teb = None
-    namespace = plugin_namespace(cfg.base_local_planner)
-    if namespace == "TebLocalPlannerROS":
-        teb = TebConfig.from_params(tree.get(namespace))
-        warnings += teb.warnings + FootprintModel.from_params(teb.footprint_model).warnings
+    planners = []
+    for registry, plugin_type in ((GLOBAL_PLANNERS, cfg.base_global_planner), (LOCAL_PLANNERS, cfg.base_local_planner)):
+        spec = registry.spec(plugin_type)
+        planner, planner_warnings = (None, []) if spec.config is None else spec.config(
+            tree.get(plugin_namespace(plugin_type)))
+        planners.append(planner)
+        warnings += planner_warnings
     recoveries = {}
     for behavior in cfg.recovery_behaviors:
         given = tree.get(behavior["name"])
-        warnings += build(_RECOVERY_PARAMS[behavior["type"]], given, f"move_base/{behavior['name']}",
-                          also_known=[PLUGIN_TYPE_KEY])[1]
+        params = RECOVERY_BEHAVIORS.spec(behavior["type"]).params
+        if params is not None:
+            warnings += build(params, given, f"move_base/{behavior['name']}", also_known=[PLUGIN_TYPE_KEY])[1]
         recoveries[behavior["name"]] = dict(given) if isinstance(given, dict) else {}
-    return NodeConfigs(cfg, costmaps, planner, teb, recoveries, warnings)
+    return NodeConfigs(cfg, costmaps, *planners, recoveries, warnings)
 
 
 def check_tree(tree: dict) -> list[str]:

@@ -36,12 +36,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from enum import Enum
-from typing import Callable, Protocol
+from typing import Callable
 
 import numpy as np
 
 from simplebot_navigation.move_base.config import MoveBaseConfig
 from simplebot_navigation.move_base.events import MoveBaseEvents
+from simplebot_navigation.move_base.plugins import Controller
 from simplebot_navigation.move_base.recovery import PoseTrail, Recovery
 
 
@@ -71,24 +72,6 @@ ABORT_MESSAGES = {
     Trigger.OSCILLATION_R: "Robot is oscillating. Even after executing recovery behaviors.",
     Trigger.PROGRESS_R: "No progress towards the goal. Even after executing recovery behaviors.",
 }
-
-
-@dataclass
-class ControlResult:
-    ok: bool
-    v: float = 0.0
-    omega: float = 0.0
-    message: str = ""
-
-
-class Controller(Protocol):
-    def set_plan(self, plan: np.ndarray) -> bool: ...
-
-    def compute(self) -> ControlResult: ...
-
-    def is_goal_reached(self) -> bool: ...
-
-    def reset(self) -> None: ...
 
 
 @dataclass

@@ -26,6 +26,7 @@ from move_base_msgs.action import MoveBase
 from simplebot_navigation.move_base.config import MoveBaseConfig
 from simplebot_navigation.move_base.cycle_stats import ControlLoopStats
 from simplebot_navigation.move_base.events import MoveBaseEvents
+from simplebot_navigation.move_base.plugins import GLOBAL_PLANNERS, LOCAL_PLANNERS, RECOVERY_BEHAVIORS
 from simplebot_navigation.move_base.recovery import PoseTrail
 from simplebot_navigation.move_base.state_machine import MoveBaseCore
 from simplebot_navigation.parameters import fields_of
@@ -33,10 +34,10 @@ from simplebot_navigation.ros.conversions import path_msg, pose_to_xyyaw, xyyaw_
 from simplebot_navigation.ros.costmap_ros import Costmap2DROS
 from simplebot_navigation.ros.move_base_goal import MoveBaseGoal, validate_goal
 from simplebot_navigation.ros.move_base_parameters import MoveBaseParameters
+from simplebot_navigation.ros.move_base_recoveries import MoveBaseRecoveryContext
 from simplebot_navigation.ros.move_base_stats import OUTCOMES, control_loop_status, navigation_status
 from simplebot_navigation.ros.move_base_supervision import MoveBaseSupervision
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
-from simplebot_navigation.ros.plugins import GLOBAL_PLANNERS, LOCAL_PLANNERS, RECOVERY_BEHAVIORS, LocalPlannerAdapter
 from simplebot_navigation.ros.publishers import create_publisher, drop_event_handlers_of_best_effort_subscriptions
 from simplebot_navigation.ros.tf import Buffer, TransformException, TransformListener, strip_frame
 from simplebot_navigation.ros.node_main import run_node
@@ -67,12 +68,13 @@ class MoveBaseNode(MoveBaseSupervision, MoveBaseParameters, Node):
         self.tf_listener = TransformListener(self.tf, self)
         self.global_costmap = Costmap2DROS(self, "global_costmap", self.tf)
         self.local_costmap = Costmap2DROS(self, "local_costmap", self.tf)
-        self.planner = GLOBAL_PLANNERS.resolve(self.cfg.base_global_planner)(
+        self.planner = GLOBAL_PLANNERS.spec(self.cfg.base_global_planner).load()(
             self, self.cfg.base_global_planner, self.global_costmap)
-        self.controller = LOCAL_PLANNERS.resolve(self.cfg.base_local_planner)(
-            self, self.cfg.base_local_planner, self.local_costmap, self.tf, self.cfg.controller_frequency)
+        self.controller = LOCAL_PLANNERS.spec(self.cfg.base_local_planner).load()(
+            self, self.cfg.base_local_planner, self.local_costmap, self.tf, self.cfg.controller_frequency,
+            self.global_costmap.global_frame)
         self.trail = PoseTrail()
-        self.core = MoveBaseCore(self.cfg, self._build_recoveries(), self._plan_to, LocalPlannerAdapter(self),
+        self.core = MoveBaseCore(self.cfg, self._build_recoveries(), self._plan_to, self.controller,
                                  self.planner.blocked_poses, self.trail)
 
         self.cmd_vel_pub = create_publisher(self, Twist, "cmd_vel", 1)
@@ -141,11 +143,12 @@ class MoveBaseNode(MoveBaseSupervision, MoveBaseParameters, Node):
         tree = given_parameter_tree(self)
         behaviors, instances = [], {}
         self.recovery_instances = instances
+        context = MoveBaseRecoveryContext(self, self.trail)
         for entry in self.cfg.recovery_behaviors:
             name = entry["name"]
             if name not in instances:
                 params = tree.get(name) if isinstance(tree.get(name), dict) else {}
-                instances[name] = RECOVERY_BEHAVIORS.resolve(entry["type"])(self, name, params)
+                instances[name] = RECOVERY_BEHAVIORS.spec(entry["type"]).load()(context, name, params)
                 declare_defaults(self, instances[name].parameters(), prefix=name)
                 for warning in instances[name].warnings:
                     self.get_logger().warn(warning)

@@ -1,92 +1,73 @@
-"""The recovery behaviours of a move_base node, built over its costmaps.
-
-Each factory takes the node, the behaviour's name and its private parameters, as pluginlib would
-construct and initialise a ROS 1 recovery; ros/plugins.py maps the type strings to them.
-"""
+"""What move_base's recovery behaviours act on: its costmaps, as move_base/recovery/'s RecoveryContext."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from simplebot_navigation.move_base.recovery import (BackUpRecovery, ClearCostmapRecovery, RotateRecovery, SpinRecovery,
-                                                     free_area_left_right)
+from simplebot_navigation.move_base.recovery import PoseTrail
+from simplebot_navigation.move_base.recovery.spin import free_area_left_right
 from simplebot_navigation.ros.params import given_parameter_tree
 from simplebot_navigation.teb.feasibility import footprint_costs
 
-#: rotate_recovery reads these from the (ROS 1 default) local planner's namespace when it has none
-ROTATE_BORROWED = ("acc_lim_theta", "max_vel_theta", "min_in_place_vel_theta", "yaw_goal_tolerance")
-#: spin_recovery weighs the free area within this many circumscribed radii on either side
-SPIN_FREE_SPACE_RADII = 2.0
 
+class MoveBaseRecoveryContext:
+    """The RecoveryContext of a move_base node: footprint checks and free space on its local costmap, clearing on
+    both, the pose trail its control cycle records."""
 
-def _in_local_frame(node, poses: np.ndarray) -> np.ndarray | None:
-    """Poses given in the global costmap's frame (as move_base steps recoveries), moved into the local
-    costmap's by where each costmap sees the robot now; None without both poses."""
-    if node.local_costmap.global_frame == node.global_costmap.global_frame:
-        return poses
-    here, there = node.global_costmap.get_robot_pose(), node.local_costmap.get_robot_pose()
-    if here is None or there is None:
-        return None
-    turn = there[2] - here[2]
-    c, s = np.cos(turn), np.sin(turn)
-    dx, dy = poses[:, 0] - here[0], poses[:, 1] - here[1]
-    return np.column_stack([there[0] + c * dx - s * dy, there[1] + s * dx + c * dy, poses[:, 2] + turn])
+    def __init__(self, node, trail: PoseTrail):
+        self.node = node
+        self.trail = trail
+        self.costmaps = {"global": node.global_costmap, "local": node.local_costmap}
+        self.conservative_reset_dist = node.cfg.conservative_reset_dist
 
+    @property
+    def circumscribed_radius(self) -> float:
+        return self.node.local_costmap.circumscribed_radius
 
-def _footprint_clear(node):
-    """Per pose: the local costmap's footprint check passes (no lethal or unknown cell on the outline);
-    all False when the poses cannot be placed on it."""
-    local = node.local_costmap
+    def planner_parameters(self, namespace: str) -> dict:
+        given = given_parameter_tree(self.node).get(namespace, {})
+        return given if isinstance(given, dict) else {}
 
-    def clear(poses: np.ndarray) -> np.ndarray:
+    def _in_local_frame(self, poses: np.ndarray) -> np.ndarray | None:
+        """Poses given in the global costmap's frame (as move_base steps recoveries), moved into the local
+        costmap's by where each costmap sees the robot now; None without both poses."""
+        node = self.node
+        if node.local_costmap.global_frame == node.global_costmap.global_frame:
+            return poses
+        here, there = node.global_costmap.get_robot_pose(), node.local_costmap.get_robot_pose()
+        if here is None or there is None:
+            return None
+        turn = there[2] - here[2]
+        c, s = np.cos(turn), np.sin(turn)
+        dx, dy = poses[:, 0] - here[0], poses[:, 1] - here[1]
+        return np.column_stack([there[0] + c * dx - s * dy, there[1] + s * dx + c * dy, poses[:, 2] + turn])
+
+    def footprint_clear(self, poses: np.ndarray) -> np.ndarray:
+        """Per pose: no lethal or unknown cell on the footprint's outline; all False when the poses cannot be
+        placed on the local costmap."""
         poses = np.asarray(poses, dtype=float).reshape(-1, 3)
-        placed = _in_local_frame(node, poses)
+        placed = self._in_local_frame(poses)
         if placed is None:
             return np.zeros(len(poses), dtype=bool)
+        local = self.node.local_costmap
         with local.lock:
             return footprint_costs(local.costmap, local.footprint, placed) >= 0
 
-    return clear
-
-
-def rotate_recovery(node, name: str, params: dict) -> RotateRecovery:
-    borrowed = given_parameter_tree(node).get("TrajectoryPlannerROS", {})
-    params = {**{k: borrowed[k] for k in ROTATE_BORROWED if k in borrowed}, **params}
-    return RotateRecovery(name, params, _footprint_clear(node))
-
-
-def backup_recovery(node, name: str, params: dict) -> BackUpRecovery:
-    return BackUpRecovery(name, params, _footprint_clear(node), node.trail)
-
-
-def spin_recovery(node, name: str, params: dict) -> SpinRecovery:
-    local = node.local_costmap
-
-    def free_space(pose) -> tuple[float, float]:
-        placed = _in_local_frame(node, np.asarray([pose], dtype=float))
+    def free_space(self, pose, radius: float) -> tuple[float, float]:
+        placed = self._in_local_frame(np.asarray([pose], dtype=float))
         if placed is None:
             return 0.0, 0.0
+        local = self.node.local_costmap
         with local.lock:
-            return free_area_left_right(local.costmap, placed[0],
-                                        SPIN_FREE_SPACE_RADII * local.circumscribed_radius)
+            return free_area_left_right(local.costmap, placed[0], radius)
 
-    return SpinRecovery(name, params, _footprint_clear(node), free_space)
-
-
-def clear_costmap_recovery(node, name: str, params: dict) -> ClearCostmapRecovery:
-    default_distance = (node.cfg.conservative_reset_dist if name == "conservative_reset"
-                        else 4.0 * node.local_costmap.circumscribed_radius)
-    costmaps = {"global": node.global_costmap, "local": node.local_costmap}
-    return ClearCostmapRecovery(name, params, costmaps, clear_costmap, default_distance)
-
-
-def clear_costmap(costmap_ros, x, y, reset_distance, layer_names, invert, force_updating) -> list[str]:
-    """Clear around the robot's current pose in this costmap (the given x, y when it has none)."""
-    pose = costmap_ros.get_robot_pose()
-    if pose is not None:
-        x, y = pose[0], pose[1]
-    with costmap_ros.lock:
-        cleared = costmap_ros.clear_layers_outside(x, y, reset_distance, layer_names, invert)
-    if force_updating:
-        costmap_ros.update_map_now()
-    return [f"{costmap_ros.name}/{name}" for name in cleared]
+    def clear_costmap(self, costmap_ros, x, y, reset_distance, layer_names, invert, force_updating) -> list[str]:
+        """Clear around the robot's current pose in this costmap (the given x, y when it has none)."""
+        pose = costmap_ros.get_robot_pose()
+        if pose is not None:
+            x, y = pose[0], pose[1]
+        with costmap_ros.lock:
+            cleared = costmap_ros.clear_layers_outside(x, y, reset_distance, layer_names, invert)
+        if force_updating:
+            costmap_ros.update_map_now()
+        return [f"{costmap_ros.name}/{name}" for name in cleared]

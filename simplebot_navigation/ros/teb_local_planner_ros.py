@@ -22,7 +22,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from simplebot_navigation.geometry import transform_points
 from simplebot_navigation.move_base.plugins import plugin_namespace
-from simplebot_navigation.move_base.state_machine import ControlResult
+from simplebot_navigation.move_base.plugins import ControlResult
 from simplebot_navigation.parameters import fields_of
 from simplebot_navigation.ros.conversions import path_msg, pose_array_msg, transform_to_xyyaw
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
@@ -34,8 +34,12 @@ ODOM_STALE_S = 1.0
 
 
 class TebLocalPlannerROS:
-    def __init__(self, node: Node, plugin_type: str, costmap_ros, tf_buffer: Buffer, controller_frequency: float):
+    """move_base's LocalPlannerPlugin (move_base/plugins.py) around the pure TebLocalPlanner."""
+
+    def __init__(self, node: Node, plugin_type: str, costmap_ros, tf_buffer: Buffer, controller_frequency: float,
+                 plan_frame: str):
         self.name = plugin_namespace(plugin_type)
+        self.plan_frame = plan_frame
         self.node = node
         self.costmap_ros = costmap_ros
         self.tf = tf_buffer
@@ -92,11 +96,11 @@ class TebLocalPlannerROS:
         return self.node.get_clock().now().nanoseconds / 1e9
 
     # -- the controller interface of move_base ---------------------------------------------------
-    def set_plan(self, plan: np.ndarray, plan_frame: str) -> bool:
+    def set_plan(self, plan: np.ndarray) -> bool:
         """Take a global plan ((N, 3) in plan_frame); it is kept in the local costmap frame."""
-        if plan_frame != self.frame:
+        if self.plan_frame != self.frame:
             try:
-                tf = self.tf.lookup_transform(self.frame, plan_frame, Time(), Duration(seconds=0.0))
+                tf = self.tf.lookup_transform(self.frame, self.plan_frame, Time(), Duration(seconds=0.0))
             except TransformException as err:
                 self.logger.error(f"Could not transform the global plan to the frame of the controller: {err}")
                 return False

@@ -48,7 +48,7 @@ class RemoteSession(_Session):
     """
 
     def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, launch: LaunchConfig | None = None,
-                 namespace: str = "", collision_monitor: bool = True):
+                 namespace: str = ""):
         self.description = robot_description(robot, radius)
         self.world = load_world(world, robot_radius=self.description.inscribed_radius)
         self.launch = launch or load_launch("move_base", {"robot": robot})
@@ -95,7 +95,7 @@ class ProcessSession(RemoteSession):
     def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, rtf: float = 1.0,
                  seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation", tight: bool = False,
                  respawn: bool = False, overrides: tuple[str, ...] = (), foxglove_port: int | None = None,
-                 namespace: str = ""):
+                 namespace: str = "", collision_monitor: bool = True):
         if not (math.isfinite(rtf) and rtf > 0):
             raise ValueError(f"separate processes need rtf > 0 (lockstep is single-process), got {rtf!r}")
         args = launch_args(world, robot, radius, rtf, tight, respawn, foxglove_port, collision_monitor)

@@ -7,8 +7,9 @@ import pytest
 
 from simplebot_navigation.costmap.costmap_2d import Costmap2D
 from simplebot_navigation.costmap.cost_values import LETHAL_OBSTACLE
-from simplebot_navigation.move_base.recovery import (BackUpRecovery, PoseTrail, SpinRecovery,
-                                                     free_area_left_right)
+from simplebot_navigation.move_base.recovery import PoseTrail
+from simplebot_navigation.move_base.recovery.backup import BackUpRecovery
+from simplebot_navigation.move_base.recovery.spin import SpinRecovery, free_area_left_right
 
 DT = 0.05
 

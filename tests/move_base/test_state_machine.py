@@ -6,8 +6,11 @@ import numpy as np
 import pytest
 
 from simplebot_navigation.move_base.config import MoveBaseConfig
-from simplebot_navigation.move_base.recovery import ClearCostmapRecovery, RecoveryStep, RotateRecovery
-from simplebot_navigation.move_base.state_machine import ABORT_MESSAGES, ControlResult, MoveBaseCore, State, Trigger
+from simplebot_navigation.move_base.recovery import RecoveryStep
+from simplebot_navigation.move_base.recovery.clear_costmap import ClearCostmapRecovery
+from simplebot_navigation.move_base.recovery.rotate import RotateRecovery
+from simplebot_navigation.move_base.plugins import ControlResult
+from simplebot_navigation.move_base.state_machine import ABORT_MESSAGES, MoveBaseCore, State, Trigger
 
 PLAN = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
 

@@ -5,8 +5,8 @@ from simplebot_navigation.costmap.params import (CostmapConfig, InflationLayerPa
                                                  ObstacleLayerParams, SearchedParams, StaticLayerParams,
                                                  resolve_costmap_params)
 from simplebot_navigation.move_base.config import MoveBaseConfig
-from simplebot_navigation.move_base.recovery import (ClearCostmapParams, ClearCostmapRecovery, RotateParams,
-                                                     RotateRecovery)
+from simplebot_navigation.move_base.recovery.clear_costmap import ClearCostmapParams, ClearCostmapRecovery
+from simplebot_navigation.move_base.recovery.rotate import RotateParams, RotateRecovery
 from simplebot_navigation.planning.config import GlobalPlannerConfig, NavfnParams
 from simplebot_navigation.teb.config import TebConfig
 from simplebot_navigation.teb.footprint import FootprintModel, FootprintModelParams

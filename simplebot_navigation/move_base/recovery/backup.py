@@ -1,0 +1,105 @@
+"""backup_recovery/BackUpRecovery: reverse along the path the robot came by (Nav2's BackUp)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from simplebot_navigation.geometry import normalize_theta
+from simplebot_navigation.parameters import param
+
+from . import ParameterisedRecovery, PoseTrail, RecoveryContext, RecoveryStep
+
+@dataclass
+class BackUpParams:
+    """The ``<name>/`` namespace of a backup_recovery/BackUpRecovery (Nav2 BackUp's parameters)."""
+    backup_dist: float = param(0.3, "m", "distance to reverse", gt=0)
+    backup_speed: float = param(0.15, "m/s", "reversing speed", gt=0)
+    max_rotational_vel: float = param(1.0, "rad/s", "turn rate limit while following the recent path", gt=0)
+    simulate_ahead_time: float = param(2.0, "s", "motion checked for collisions ahead of each step", ge=0)
+    time_allowance: float = param(10.0, "s", "time after which the behaviour gives up", gt=0)
+
+
+def _unicycle_poses(pose, v: float, omega: float, duration: float, step: float) -> np.ndarray:
+    """Poses of a diff-drive robot holding (v, omega) from ``pose``, one per ``step`` seconds, the start excluded."""
+    t = np.arange(1, max(1, int(math.ceil(duration / step))) + 1) * step
+    yaw = pose[2] + omega * t
+    if abs(omega) < 1e-9:
+        x, y = pose[0] + v * t * math.cos(pose[2]), pose[1] + v * t * math.sin(pose[2])
+    else:
+        x = pose[0] + v / omega * (np.sin(yaw) - math.sin(pose[2]))
+        y = pose[1] - v / omega * (np.cos(yaw) - math.cos(pose[2]))
+    return np.column_stack([x, y, yaw])
+
+
+class BackUpRecovery(ParameterisedRecovery):
+    """Reverse backup_dist along the robot's recent path (straight back when it has none).
+
+    footprint_clear(poses) says per (x, y, yaw) row whether the footprint is collision free; the
+    motion of the next simulate_ahead_time is checked before every step, as Nav2's BackUp does.
+    Nav2 gives up as soon as a collision shows up in that window; here the robot keeps reversing
+    until the collision is STOP_MARGIN_S away, because in a tight spot every centimetre counts.
+    """
+
+    PARAMS = BackUpParams
+
+    LOOKAHEAD_M = 0.15   # carrot distance along the trail: short, because the trail is what is known free
+    CHECK_STEP_M = 0.01
+    STOP_MARGIN_S = 0.25  # a few control periods of reversing
+
+    def __init__(self, name: str, params: dict, footprint_clear: Callable[[np.ndarray], np.ndarray],
+                 trail: PoseTrail):
+        self.name = name
+        self._clear = footprint_clear
+        self._trail = trail
+        self._route = np.empty((0, 2))
+        self._start = 0.0
+        self._driven = 0.0
+        self._last = (0.0, 0.0)
+        self.warnings = self.configure(params)
+
+    def start(self, now: float, pose) -> None:
+        x, y, yaw = pose
+        self._route = self._trail.back_from(x, y, self.backup_dist + self.LOOKAHEAD_M)
+        if not len(self._route):
+            self._route = np.array([[x - math.cos(yaw) * self.backup_dist, y - math.sin(yaw) * self.backup_dist]])
+        self._start, self._driven, self._last = now, 0.0, (x, y)
+
+    def tick(self, now: float, pose) -> RecoveryStep:
+        x, y, yaw = pose
+        self._driven += math.hypot(x - self._last[0], y - self._last[1])
+        self._last = (x, y)
+        left = self.backup_dist - self._driven
+        if left <= 0.01:
+            return RecoveryStep((0.0, 0.0), True, f"{self.name}: backed up {self._driven:.2f} m")
+        if now - self._start > self.time_allowance:
+            return RecoveryStep((0.0, 0.0), True, f"{self.name}: gave up after {self.time_allowance:g} s, "
+                                                  f"backed up {self._driven:.2f} m")
+        omega = self._steer(x, y, yaw)
+        step = self.CHECK_STEP_M / self.backup_speed
+        duration = min(self.simulate_ahead_time, left / self.backup_speed)
+        blocked = np.nonzero(~np.asarray(self._clear(_unicycle_poses(pose, -self.backup_speed, omega, duration,
+                                                                      step)), dtype=bool))[0]
+        if len(blocked) and (blocked[0] + 1) * step < self.STOP_MARGIN_S:
+            return RecoveryStep((0.0, 0.0), True, f"{self.name}: stopped after {self._driven:.2f} m, "
+                                                  "a collision lies behind the robot")
+        return RecoveryStep((-self.backup_speed, omega), False)
+
+    def _steer(self, x: float, y: float, yaw: float) -> float:
+        """Pure pursuit in reverse: the turn rate that brings the rear onto the carrot point."""
+        distances = np.hypot(self._route[:, 0] - x, self._route[:, 1] - y)
+        nearest = int(np.argmin(distances))
+        beyond = np.nonzero(distances[nearest:] >= self.LOOKAHEAD_M)[0]
+        tx, ty = self._route[nearest + beyond[0]] if len(beyond) else self._route[-1]
+        alpha = normalize_theta(math.atan2(ty - y, tx - x) - (yaw + math.pi))
+        if abs(alpha) > math.pi / 2:   # the carrot lies ahead: the trail turned sharper than reversing can
+            return 0.0
+        curvature = 2.0 * math.sin(alpha) / max(math.hypot(tx - x, ty - y), 1e-3)
+        return float(np.clip(self.backup_speed * curvature, -self.max_rotational_vel, self.max_rotational_vel))
+
+
+def create(context: RecoveryContext, name: str, params: dict) -> BackUpRecovery:
+    return BackUpRecovery(name, params, context.footprint_clear, context.trail)

@@ -1,0 +1,115 @@
+"""spin_recovery/SpinRecovery: turn as far as the footprint allows towards the freer side (Nav2's Spin)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from simplebot_navigation.costmap.cost_values import INSCRIBED_INFLATED_OBSTACLE
+from simplebot_navigation.geometry import normalize_theta
+from simplebot_navigation.parameters import param
+
+from . import ParameterisedRecovery, RecoveryContext, RecoveryStep
+
+#: the free area is weighed within this many circumscribed radii on either side
+FREE_SPACE_RADII = 2.0
+
+@dataclass
+class SpinParams:
+    """The ``<name>/`` namespace of a spin_recovery/SpinRecovery (Nav2 Spin's parameters)."""
+    spin_dist: float = param(math.pi / 2, "rad", "turn wanted towards the freer side", gt=0)
+    max_rotational_vel: float = param(1.0, "rad/s", "maximum turn rate", gt=0)
+    min_rotational_vel: float = param(0.4, "rad/s", "minimum turn rate", ge=0)
+    rotational_acc_lim: float = param(3.2, "rad/s^2", "angular acceleration limit", gt=0)
+    sim_granularity: float = param(0.017, "rad", "turn between two collision checks", gt=0)
+    time_allowance: float = param(10.0, "s", "time after which the behaviour gives up", gt=0)
+
+
+def free_area_left_right(costmap, pose, radius: float) -> tuple[float, float]:
+    """Known free area (m^2, cells below the inscribed cost) within ``radius`` on the robot's left and right."""
+    x, y, yaw = pose
+    res = costmap.resolution
+    offsets = np.arange(-radius, radius + res, res)
+    dx, dy = np.meshgrid(offsets, offsets)
+    inside = np.hypot(dx, dy) <= radius
+    dx, dy = dx[inside], dy[inside]
+    mx, my, on_map = costmap.world_to_map_array(x + dx, y + dy)
+    cost = costmap.costmap[my[on_map], mx[on_map]]
+    free = (cost < INSCRIBED_INFLATED_OBSTACLE)
+    lateral = (-math.sin(yaw) * dx + math.cos(yaw) * dy)[on_map]
+    return float(free[lateral > 0].sum() * res * res), float(free[lateral < 0].sum() * res * res)
+
+
+class SpinRecovery(ParameterisedRecovery):
+    """Turn spin_dist in place towards the side with more free space, or as far as the footprint can.
+
+    free_space(pose) gives the free area on the robot's left and right; footprint_clear(poses)
+    checks each (x, y, yaw) row. Where a full circle is blocked, part of a turn still changes
+    what the local planner can start from.
+    """
+
+    PARAMS = SpinParams
+
+    def __init__(self, name: str, params: dict, footprint_clear: Callable[[np.ndarray], np.ndarray],
+                 free_space: Callable[[tuple[float, float, float]], tuple[float, float]]):
+        self.name = name
+        self._clear = footprint_clear
+        self._free_space = free_space
+        self._target = 0.0      # signed turn to make
+        self._turned = 0.0
+        self._last_yaw = 0.0
+        self._start = 0.0
+        self._refused = ""
+        self.warnings = self.configure(params)
+
+    def _reachable(self, pose, direction: float) -> float:
+        """How far (rad, up to spin_dist) the footprint turns in ``direction`` before a collision."""
+        steps = np.arange(1, int(self.spin_dist / self.sim_granularity) + 1) * self.sim_granularity
+        steps = np.append(steps, self.spin_dist) if not len(steps) or steps[-1] < self.spin_dist else steps
+        poses = np.column_stack([np.full_like(steps, pose[0]), np.full_like(steps, pose[1]),
+                                 pose[2] + direction * steps])
+        blocked = np.nonzero(~np.asarray(self._clear(poses), dtype=bool))[0]
+        if not len(blocked):
+            return self.spin_dist
+        return float(steps[blocked[0] - 1]) if blocked[0] > 0 else 0.0
+
+    def start(self, now: float, pose) -> None:
+        left_free, right_free = self._free_space(pose)
+        preferred = 1.0 if left_free >= right_free else -1.0
+        reach = {d: self._reachable(pose, d) for d in (preferred, -preferred)}
+        # the freer side, unless the footprint turns clearly further the other way
+        direction = preferred if reach[preferred] >= 0.5 * reach[-preferred] else -preferred
+        self._target = direction * reach[direction]
+        self._refused = "" if reach[direction] > self.sim_granularity else \
+            f"{self.name}: can't turn in place either way because there is a potential collision"
+        self._turned, self._last_yaw, self._start = 0.0, pose[2], now
+
+    def tick(self, now: float, pose) -> RecoveryStep:
+        if self._refused:
+            return RecoveryStep((0.0, 0.0), True, self._refused)
+        self._turned += float(normalize_theta(pose[2] - self._last_yaw))
+        self._last_yaw = pose[2]
+        left = abs(self._target) - math.copysign(1.0, self._target) * self._turned
+        side = "left" if self._target > 0 else "right"
+        if left < 0.03:
+            return RecoveryStep((0.0, 0.0), True, f"{self.name}: turned {abs(self._turned):.2f} rad to the {side}")
+        if now - self._start > self.time_allowance:
+            return RecoveryStep((0.0, 0.0), True, f"{self.name}: gave up after {self.time_allowance:g} s")
+        direction = math.copysign(1.0, self._target)
+        sweep = np.arange(1, max(1, int(left / self.sim_granularity)) + 1) * self.sim_granularity
+        poses = np.column_stack([np.full_like(sweep, pose[0]), np.full_like(sweep, pose[1]),
+                                 pose[2] + direction * sweep])
+        if not np.all(self._clear(poses)):
+            return RecoveryStep((0.0, 0.0), True, f"{self.name}: stopped after {abs(self._turned):.2f} rad "
+                                                  f"to the {side}, a collision lies further")
+        speed = min(self.max_rotational_vel, max(self.min_rotational_vel,
+                                                 math.sqrt(2.0 * self.rotational_acc_lim * left)))
+        return RecoveryStep((0.0, direction * speed), False)
+
+
+def create(context: RecoveryContext, name: str, params: dict) -> SpinRecovery:
+    radius = FREE_SPACE_RADII * context.circumscribed_radius
+    return SpinRecovery(name, params, context.footprint_clear, lambda pose: context.free_space(pose, radius))
