@@ -20,13 +20,12 @@ from simplebot_navigation.parameters import fields_of
 
 from .costmap_2d import Costmap2D
 from .footprint import pad_footprint, transform_footprint
-from .layer import CostmapLayer
+from .layer import CostmapLayer, MapLayer, SensorLayer
 from .layered_costmap import LayeredCostmap
-from .obstacle_layer import (Observation, ObservationBuffer, ObservationSource, ObstacleLayer,
-                             laser_scan_to_observation, point_cloud_to_observation)
+from .obstacle_layer import (Observation, ObservationBuffer, ObservationSource, laser_scan_to_observation,
+                             point_cloud_to_observation)
 from .params import CostmapConfig, live_layer_params, resolve_costmap_params
-from .plugins import create_layer
-from .static_layer import StaticLayer
+from .plugins import LAYERS
 
 
 class Costmap:
@@ -40,7 +39,7 @@ class Costmap:
         self.layered = LayeredCostmap(c.rolling_window, c.track_unknown_space, c.size_x, c.size_y,
                                       c.resolution, c.origin_x, c.origin_y, clock=clock, update_period=period)
         for plugin in c.plugins:
-            self.layered.add_plugin(create_layer(plugin.name, plugin.type, plugin.params))
+            self.layered.add_plugin(LAYERS.create(plugin.name, plugin.kind, plugin.params))
         self.unpadded_footprint = c.footprint
         self.set_unpadded_footprint(c.footprint)
 
@@ -49,7 +48,7 @@ class Costmap:
         """(layer name, source) for every observation source, in configuration order."""
         return [(layer.name, buffer.source) for layer in self._obstacle_layers() for buffer in layer.buffers.values()]
 
-    def _find_source(self, source: str) -> tuple[ObstacleLayer, ObservationSource]:
+    def _find_source(self, source: str) -> tuple[SensorLayer, ObservationSource]:
         """A source by name, or by '<layer>/<source>' when several obstacle layers share a name."""
         layer_name, _, source_name = source.rpartition("/")
         matches = [(layer, buffer.source) for layer in self._obstacle_layers()
@@ -72,12 +71,12 @@ class Costmap:
             for buffer in layer.buffers.values():
                 buffer.reset_last_updated(now)
 
-    def static_layers(self) -> list[StaticLayer]:
+    def static_layers(self) -> list[MapLayer]:
         """The layers that read a map topic, for the shell to subscribe."""
-        return [layer for layer in self.layered.plugins if isinstance(layer, StaticLayer)]
+        return [layer for layer in self.layered.plugins if isinstance(layer, MapLayer)]
 
-    def _obstacle_layers(self) -> list[ObstacleLayer]:
-        return [layer for layer in self.layered.plugins if isinstance(layer, ObstacleLayer)]
+    def _obstacle_layers(self) -> list[SensorLayer]:
+        return [layer for layer in self.layered.plugins if isinstance(layer, SensorLayer)]
 
     def add_observation(self, source: str, observation: Observation) -> None:
         layer, src = self._find_source(source)
@@ -144,9 +143,8 @@ class Costmap:
         """After time jumped back: reset every layer and drop every buffered observation, whose stamps
         belong to a timeline that no longer exists."""
         self.layered.reset_layers()
-        for layer in self.layered.plugins:
-            if isinstance(layer, ObstacleLayer):
-                layer.clear_observations()
+        for layer in self._obstacle_layers():
+            layer.clear_observations()
 
     def clear_layers_outside(self, robot_x: float, robot_y: float, reset_distance: float,
                              layer_names=None, invert_area: bool = False) -> list[str]:

@@ -10,9 +10,12 @@ to ROS 1, which a distance transform would not.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numba
 import numpy as np
+
+from simplebot_navigation.parameters import param
 
 from .cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
 from .layer import Bounds, Layer
@@ -113,6 +116,14 @@ def _brushfire(master, x0, y0, xn, yn, cell_radius, bin_of, cost_of, n_bins, inf
                     count += 1
             e = nxt[e]
     return count
+
+
+@dataclass
+class InflationLayerParams:
+    inflation_radius: float = param(0.55, "m", "distance up to which obstacle cost is inflated", ge=0)
+    cost_scaling_factor: float = param(10.0, "1/m", "how fast the inflated cost decays", ge=0)
+    inflate_unknown: bool = param(False, "", "inflate around unknown cells too")
+    enabled: bool = param(True, "", "the layer takes part in updates")
 
 
 class InflationLayer(Layer):

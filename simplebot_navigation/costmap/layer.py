@@ -1,8 +1,14 @@
-"""Layer interface and the grid-backed CostmapLayer with costmap_2d's combination rules (docs/reference.md §2.3)."""
+"""Layer interface and the grid-backed CostmapLayer with costmap_2d's combination rules (docs/reference.md §2.3).
+
+Every hook is called by the costmap's update (LayeredCostmap.update_map) on the thread that updates it (the
+costmap's own update thread in move_base), with the costmap's lock held, so a layer needs no lock of its own
+for state only its hooks touch.
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 
@@ -34,7 +40,10 @@ class Bounds:
 
 
 class Layer:
-    """One plugin of a LayeredCostmap. Subclasses override the hooks they need."""
+    """One plugin of a LayeredCostmap (costmap_2d's Layer). Subclasses override the hooks they need.
+
+    Built as ``cls(name, **params)``, params being the fields of its registered parameter class
+    (costmap/plugins.py); ``reconfigure(**params)`` gets the fields that may change while running."""
 
     def __init__(self, name: str):
         self.name = name
@@ -43,33 +52,63 @@ class Layer:
         self.layered_costmap = None
 
     def initialize(self, layered_costmap) -> None:
+        """Added to a costmap: keep it, then on_initialize()."""
         self.layered_costmap = layered_costmap
         self.on_initialize()
 
     def on_initialize(self) -> None:
-        pass
+        """Once, after the costmap is known (its size may still change: see match_size)."""
 
     def update_bounds(self, robot_x: float, robot_y: float, robot_yaw: float, bounds: Bounds) -> None:
-        pass
+        """First pass of an update, robot pose in the costmap's frame: take in new data and grow ``bounds``
+        (world frame) to cover every cell this layer will change."""
 
     def update_costs(self, master: Costmap2D, x0: int, y0: int, xn: int, yn: int) -> None:
-        pass
+        """Second pass, in plugin order: write this layer's costs into ``master`` for cells [x0, xn) x [y0, yn)."""
 
     def reset(self) -> None:
-        pass
+        """Forget everything learned (clear_costmaps, a jump back in time)."""
 
     def is_current(self) -> bool:
+        """Its inputs are fresh: move_base refuses to drive on a costmap with a stale layer."""
         return self.current
 
     def on_footprint_changed(self) -> None:
-        pass
+        """The costmap's footprint (self.footprint) changed."""
 
     def match_size(self) -> None:
-        pass
+        """The costmap's size, resolution or origin changed (a map arrived, a rolling window moved)."""
 
     @property
     def footprint(self) -> np.ndarray:
         return self.layered_costmap.footprint
+
+
+@runtime_checkable
+class MapLayer(Protocol):
+    """A layer that reads an OccupancyGrid topic; the costmap's ROS shell subscribes and calls these."""
+    map_topic: str
+    subscribe_to_updates: bool     # also read <map_topic>_updates
+    first_map_only: bool
+    map_received: bool
+
+    def incoming_map(self, data, resolution: float, origin_x: float, origin_y: float, frame_id: str = "") -> None:
+        """A whole map: int8 cells, row-major from the origin (ValueError: refused, with the reason)."""
+
+    def incoming_update(self, x: int, y: int, data) -> None:
+        """A rectangle of cells from column x, row y (ValueError: refused, with the reason)."""
+
+
+@runtime_checkable
+class SensorLayer(Protocol):
+    """A layer fed by observation sources; the costmap routes each source's observations to its layer."""
+    buffers: dict                  # source name -> ObservationBuffer (obstacle_layer.py)
+
+    def add_observation(self, source_name: str, observation) -> None:
+        """One sensor message as an Observation in the costmap's frame."""
+
+    def clear_observations(self) -> None:
+        """Drop every buffered observation (time jumped back)."""
 
 
 class CostmapLayer(Layer, Costmap2D):

@@ -13,6 +13,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from simplebot_navigation.parameters import param
+
 from .cost_values import FREE_SPACE, LETHAL_OBSTACLE, NO_INFORMATION
 from .footprint import transform_footprint
 from .layer import Bounds, CostmapLayer
@@ -23,6 +25,35 @@ SUPPORTED_DATA_TYPES = ("LaserScan", "PointCloud2")
 
 #: inf_is_valid turns +inf into a ray this much shorter than range_max, as costmap_2d does.
 INF_RANGE_EPSILON = 1e-4
+
+
+@dataclass
+class ObservationSourceParams:
+    """``<layer>/<source>/``: one sensor of an obstacle layer."""
+    topic: str = param("", "", "topic (default: the source's name)", restart=True)
+    sensor_frame: str = param("", "", "frame of the sensor (default: the message's frame)", restart=True)
+    data_type: str = param("PointCloud", "", f"message type: {', '.join(SUPPORTED_DATA_TYPES)}", restart=True)
+    marking: bool = param(True, "", "hits mark obstacles")
+    clearing: bool = param(False, "", "rays clear free space")
+    inf_is_valid: bool = param(False, "", "+inf ranges clear up to range_max")
+    expected_update_rate: float = param(0.0, "s", "longest expected gap between messages (0: any)", ge=0)
+    observation_persistence: float = param(0.0, "s", "how long readings are kept (0: the latest only)", ge=0)
+    min_obstacle_height: float = param(0.0, "m", "hits below are ignored")
+    max_obstacle_height: float = param(2.0, "m", "hits above are ignored")
+    obstacle_range: float = param(2.5, "m", "hits farther than this do not mark (searched upwards)", ge=0)
+    raytrace_range: float = param(3.0, "m", "rays clear up to this range (searched upwards)", ge=0)
+
+
+@dataclass
+class ObstacleLayerParams:
+    observation_sources: str = param("", "", "space-separated names of the sensor sub-namespaces", restart=True)
+    track_unknown_space: bool = param(False, "", "keep unseen cells unknown (default: the costmap's)",
+                                      restart=True)
+    max_obstacle_height: float = param(2.0, "m", "hits above are ignored")
+    combination_method: int = param(1, "", "0: overwrite the master grid, 1: maximum, other: not combined",
+                                    rounds=True)
+    footprint_clearing_enabled: bool = param(True, "", "clear the cells under the robot")
+    enabled: bool = param(True, "", "the layer takes part in updates")
 
 
 @dataclass

@@ -18,17 +18,11 @@ import numpy as np
 from simplebot_navigation.parameters import PLUGIN_TYPE_KEY, Param, ParameterError, fields_of, load, namespace, param
 
 from .footprint import footprint_from_radius, parse_footprint
-from .obstacle_layer import SUPPORTED_DATA_TYPES, ObservationSource
-from .plugins import layer_kind
+from .obstacle_layer import SUPPORTED_DATA_TYPES, ObservationSource, ObservationSourceParams, ObstacleLayerParams
+from .plugins import LAYERS
 
 _MISSING = object()
 
-# Costmap-level keys copied (overwriting) into each plugin of a type when `plugins` is given.
-_PARENT_KEYS = {
-    "StaticLayer": ("map_topic", "unknown_cost_value", "lethal_cost_threshold", "track_unknown_space"),
-    "ObstacleLayer": ("max_obstacle_height", "raytrace_range", "obstacle_range", "track_unknown_space"),
-    "InflationLayer": ("cost_scaling_factor", "inflation_radius"),
-}
 _PRE_HYDRO_KEYS = ("static_map", "map_type", "observation_sources")
 
 
@@ -95,64 +89,12 @@ class CostmapConfig:
         return int(self.height / self.resolution)
 
 
-@dataclass
-class ObservationSourceParams:
-    """``<layer>/<source>/``: one sensor of an obstacle layer."""
-    topic: str = param("", "", "topic (default: the source's name)", restart=True)
-    sensor_frame: str = param("", "", "frame of the sensor (default: the message's frame)", restart=True)
-    data_type: str = param("PointCloud", "", f"message type: {', '.join(SUPPORTED_DATA_TYPES)}", restart=True)
-    marking: bool = param(True, "", "hits mark obstacles")
-    clearing: bool = param(False, "", "rays clear free space")
-    inf_is_valid: bool = param(False, "", "+inf ranges clear up to range_max")
-    expected_update_rate: float = param(0.0, "s", "longest expected gap between messages (0: any)", ge=0)
-    observation_persistence: float = param(0.0, "s", "how long readings are kept (0: the latest only)", ge=0)
-    min_obstacle_height: float = param(0.0, "m", "hits below are ignored")
-    max_obstacle_height: float = param(2.0, "m", "hits above are ignored")
-    obstacle_range: float = param(2.5, "m", "hits farther than this do not mark (searched upwards)", ge=0)
-    raytrace_range: float = param(3.0, "m", "rays clear up to this range (searched upwards)", ge=0)
-
-
-@dataclass
-class ObstacleLayerParams:
-    observation_sources: str = param("", "", "space-separated names of the sensor sub-namespaces", restart=True)
-    track_unknown_space: bool = param(False, "", "keep unseen cells unknown (default: the costmap's)",
-                                      restart=True)
-    max_obstacle_height: float = param(2.0, "m", "hits above are ignored")
-    combination_method: int = param(1, "", "0: overwrite the master grid, 1: maximum, other: not combined",
-                                    rounds=True)
-    footprint_clearing_enabled: bool = param(True, "", "clear the cells under the robot")
-    enabled: bool = param(True, "", "the layer takes part in updates")
-
-
-@dataclass
-class InflationLayerParams:
-    inflation_radius: float = param(0.55, "m", "distance up to which obstacle cost is inflated", ge=0)
-    cost_scaling_factor: float = param(10.0, "1/m", "how fast the inflated cost decays", ge=0)
-    inflate_unknown: bool = param(False, "", "inflate around unknown cells too")
-    enabled: bool = param(True, "", "the layer takes part in updates")
-
-
-@dataclass
-class StaticLayerParams:
-    map_topic: str = param("map", "", "OccupancyGrid topic", restart=True)
-    first_map_only: bool = param(False, "", "keep the first map and ignore later ones")
-    subscribe_to_updates: bool = param(False, "", "apply OccupancyGridUpdate messages", restart=True)
-    track_unknown_space: bool = param(True, "", "unknown map cells stay unknown")
-    use_maximum: bool = param(False, "", "combine by maximum instead of overwriting")
-    lethal_cost_threshold: int = param(100, "", "map values at or above are lethal", rounds=True)
-    unknown_cost_value: int = param(-1, "", "map value that means unknown", rounds=True)
-    trinary_costmap: bool = param(True, "", "map to free/lethal/unknown only")
-    enabled: bool = param(True, "", "the layer takes part in updates")
-
-
-LAYER_PARAMS = {"ObstacleLayer": ObstacleLayerParams, "InflationLayer": InflationLayerParams,
-                "StaticLayer": StaticLayerParams}
 
 
 def live_layer_params(plugin: PluginConfig) -> dict:
     """The parameters of a layer that may change while it runs (not restart-only in their spec), as the
     layer's ``reconfigure`` takes them; an obstacle layer's sources come as {source name: {field: value}}."""
-    specs = fields_of(LAYER_PARAMS[plugin.kind])
+    specs = fields_of(LAYERS.spec(plugin.kind).params)
     live = {key: value for key, value in plugin.params.items() if key in specs and specs[key].dynamic}
     if plugin.kind == "ObstacleLayer":
         source_specs = fields_of(ObservationSourceParams)
@@ -165,10 +107,11 @@ def parameter_specs(cfg: CostmapConfig) -> dict[str, Param]:
     """Every parameter of a resolved costmap by ROS 2 name below the costmap (``obstacles.front_laser.topic``)."""
     specs = {**fields_of(CostmapConfig), **fields_of(SearchedParams), "plugins": PLUGIN_LIST}
     for plugin in cfg.plugins:
-        own = {**fields_of(ObservationSourceParams), **fields_of(LAYER_PARAMS[plugin.kind])}
-        for key in _PARENT_KEYS[plugin.kind]:           # set at the costmap level, copied into the layer
+        layer = LAYERS.spec(plugin.kind)
+        own = {**fields_of(ObservationSourceParams), **fields_of(layer.params)}
+        for key in layer.parent_keys:           # set at the costmap level, copied into the layer
             specs.setdefault(key, own[key])
-        specs.update({f"{plugin.name}.{key}": spec for key, spec in fields_of(LAYER_PARAMS[plugin.kind]).items()})
+        specs.update({f"{plugin.name}.{key}": spec for key, spec in fields_of(layer.params).items()})
         for source in plugin.params.get("sources", ()):
             specs.update({f"{plugin.name}.{source.name}.{key}": spec
                           for key, spec in fields_of(ObservationSourceParams).items()})
@@ -200,7 +143,7 @@ def resolve_costmap_params(params: dict, name: str = "costmap", parents=()) -> C
         namespaces = [plugin_name for plugin_name, _, _ in plugin_list] + source_names
     else:
         namespaces = ["static_layer", "obstacle_layer", "inflation_layer"] + source_names
-    parent_keys = {key for keys in _PARENT_KEYS.values() for key in keys}
+    parent_keys = {key for spec in LAYERS.specs for key in spec.parent_keys}
     values, warnings = load({**fields_of(CostmapConfig), "plugins": PLUGIN_LIST}, tree, name,
                             also_known=list(SEARCHED_KEYS) + sorted(parent_keys) + namespaces)
     values.pop("plugins", None)
@@ -225,7 +168,7 @@ def resolve_costmap_params(params: dict, name: str = "costmap", parents=()) -> C
                 warnings.append(f'{name}: Pre-Hydro parameter "{old}" unused since "plugins" is provided')
         for plugin_name, plugin_type, kind in plugin_list:
             target = namespace(tree.setdefault(plugin_name, {}), f"{name}/{plugin_name}")
-            for key in _PARENT_KEYS[kind]:
+            for key in LAYERS.spec(kind).parent_keys:
                 if key in tree:
                     target[key] = copy.deepcopy(tree[key])
         if "observation_sources" in tree:
@@ -241,9 +184,10 @@ def resolve_costmap_params(params: dict, name: str = "costmap", parents=()) -> C
         if kind == "ObstacleLayer":
             params_ = _obstacle_params(layer_tree, path, cfg, chain, warnings)
         else:
-            layer, layer_warnings = load(fields_of(LAYER_PARAMS[kind]), layer_tree, path, also_known=[PLUGIN_TYPE_KEY])
+            layer_params = LAYERS.spec(kind).params
+            layer, layer_warnings = load(fields_of(layer_params), layer_tree, path, also_known=[PLUGIN_TYPE_KEY])
             warnings += layer_warnings
-            params_ = {**_defaults(LAYER_PARAMS[kind]), **layer}
+            params_ = {**_defaults(layer_params), **layer}
         if kind == "InflationLayer":
             _check_inflation_radius(params_["inflation_radius"], cfg, path)
         cfg.plugins.append(PluginConfig(plugin_name, plugin_type, kind, params_))
@@ -266,7 +210,7 @@ def _plugin_list(value, path: str):
         if entry["name"] in names:
             raise ParameterError(f"{path}[{i}]: plugin name {entry['name']!r} is used twice")
         names.add(entry["name"])
-        out.append((entry["name"], entry["type"], layer_kind(entry["type"], entry["name"])))
+        out.append((entry["name"], entry["type"], LAYERS.kind(entry["type"], entry["name"])))
     return out
 
 
@@ -284,7 +228,7 @@ def _convert_pre_hydro(tree: dict, cfg: CostmapConfig):
             move("static_layer", key)
         move("static_layer", "track_unknown_space", delete=False)
     if cfg.map_type == "voxel":
-        layer_kind("costmap_2d::VoxelLayer", "obstacle_layer")      # raises: not supported
+        LAYERS.kind("costmap_2d::VoxelLayer", "obstacle_layer")      # raises: not supported
     plugins.append(("obstacle_layer", "costmap_2d::ObstacleLayer", "ObstacleLayer"))
     for key in ("max_obstacle_height", "raytrace_range", "obstacle_range", "track_unknown_space"):
         move("obstacle_layer", key)

@@ -1,26 +1,93 @@
-"""Layer classes by plugin type string (ROS 1 `costmap_2d::` and Nav2 `nav2_costmap_2d::` names)."""
+"""Costmap layers by plugin type (ROS 1 ``costmap_2d::`` and Nav2 ``nav2_costmap_2d::`` names), each registered
+once with its class, its parameter class and the costmap-level keys it inherits.
+
+A layer is a subclass of ``Layer`` (costmap/layer.py documents every hook); one that reads a map or sensors
+also satisfies ``MapLayer`` or ``SensorLayer`` there, and the ROS shell feeds it. docs/plugins.md shows how
+to add one.
+"""
 
 from __future__ import annotations
 
-from .inflation_layer import InflationLayer
-from .obstacle_layer import ObstacleLayer
-from .static_layer import StaticLayer
+import contextlib
+from dataclasses import dataclass
+from typing import Iterator
 
-LAYER_CLASSES = {"ObstacleLayer": ObstacleLayer, "InflationLayer": InflationLayer, "StaticLayer": StaticLayer}
+from simplebot_navigation.parameters import ParameterError
+
+from .inflation_layer import InflationLayer, InflationLayerParams
+from .layer import Layer
+from .obstacle_layer import ObstacleLayer, ObstacleLayerParams
+from .static_layer import StaticLayer, StaticLayerParams
+
+#: the prefixes both ROS generations give the built-in layers' types
 _NAMESPACES = ("costmap_2d::", "nav2_costmap_2d::")
 
 
-def layer_kind(plugin_type: str, plugin_name: str) -> str:
-    """'ObstacleLayer' / 'InflationLayer' / 'StaticLayer' for a supported type string, else ValueError."""
-    if isinstance(plugin_type, str):
-        for namespace in _NAMESPACES:
-            if plugin_type.startswith(namespace) and plugin_type[len(namespace):] in LAYER_CLASSES:
-                return plugin_type[len(namespace):]
-    supported = ", ".join(f"{ns}{kind}" for ns in _NAMESPACES for kind in LAYER_CLASSES)
-    raise ValueError(f"costmap plugin {plugin_name!r} has unsupported type {plugin_type!r}; "
-                     f"supported types: {supported}")
+@dataclass(frozen=True)
+class LayerSpec:
+    kind: str                          # the class name, as the parameter tree and the logs call it
+    types: tuple[str, ...]             # plugin type strings that select it
+    layer: type[Layer]                 # built as layer(name, **params)
+    params: type                       # the parameter dataclass of its namespace
+    #: costmap-level keys copied into the layer's namespace when a plugin list is given (costmap_2d's rule)
+    parent_keys: tuple[str, ...] = ()
 
 
-def create_layer(plugin_name: str, plugin_type: str, params: dict):
-    """A new layer from its resolved parameter dict (see params.py)."""
-    return LAYER_CLASSES[layer_kind(plugin_type, plugin_name)](plugin_name, **params)
+def builtin(layer: type[Layer], params: type, parent_keys: tuple[str, ...] = ()) -> LayerSpec:
+    """A spec for a layer under both costmap_2d's and Nav2's names."""
+    return LayerSpec(layer.__name__, tuple(ns + layer.__name__ for ns in _NAMESPACES), layer, params, parent_keys)
+
+
+class LayerRegistry:
+    def __init__(self, specs=()):
+        self._by_kind: dict[str, LayerSpec] = {}
+        for spec in specs:
+            self.register(spec)
+
+    def register(self, spec: LayerSpec) -> LayerSpec:
+        taken = [t for t in spec.types if any(t in other.types for other in self._by_kind.values())]
+        if spec.kind in self._by_kind or taken:
+            raise ValueError(f"costmap layer {spec.kind} ({', '.join(taken) or spec.kind}) is registered already")
+        self._by_kind[spec.kind] = spec
+        return spec
+
+    def unregister(self, kind: str) -> None:
+        self._by_kind.pop(kind, None)
+
+    @contextlib.contextmanager
+    def registered(self, spec: LayerSpec) -> Iterator[LayerSpec]:
+        """The layer type is known inside the block only (for a test's own layer)."""
+        self.register(spec)
+        try:
+            yield spec
+        finally:
+            self.unregister(spec.kind)
+
+    @property
+    def specs(self) -> tuple[LayerSpec, ...]:
+        return tuple(self._by_kind.values())
+
+    def spec(self, kind: str) -> LayerSpec:
+        return self._by_kind[kind]
+
+    def kind(self, plugin_type: str, plugin_name: str) -> str:
+        """The kind a type string selects; ParameterError naming the supported types for any other."""
+        for spec in self._by_kind.values():
+            if plugin_type in spec.types:
+                return spec.kind
+        supported = ", ".join(t for spec in self._by_kind.values() for t in spec.types)
+        raise ParameterError(f"costmap plugin {plugin_name!r} has unsupported type {plugin_type!r}; "
+                             f"supported types: {supported}")
+
+    def create(self, plugin_name: str, kind: str, params: dict) -> Layer:
+        """A new layer from its resolved parameter dict (see params.py)."""
+        return self._by_kind[kind].layer(plugin_name, **params)
+
+
+LAYERS = LayerRegistry([
+    builtin(StaticLayer, StaticLayerParams, ("map_topic", "unknown_cost_value", "lethal_cost_threshold",
+                                             "track_unknown_space")),
+    builtin(ObstacleLayer, ObstacleLayerParams, ("max_obstacle_height", "raytrace_range", "obstacle_range",
+                                                 "track_unknown_space")),
+    builtin(InflationLayer, InflationLayerParams, ("cost_scaling_factor", "inflation_radius")),
+])

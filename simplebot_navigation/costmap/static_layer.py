@@ -9,13 +9,29 @@ from __future__ import annotations
 
 import logging
 import math
+from dataclasses import dataclass
 
 import numpy as np
+
+from simplebot_navigation.parameters import param
 
 from .cost_values import FREE_SPACE, LETHAL_OBSTACLE, NO_INFORMATION
 from .layer import Bounds, CostmapLayer
 
 _log = logging.getLogger(__name__)
+
+
+@dataclass
+class StaticLayerParams:
+    map_topic: str = param("map", "", "OccupancyGrid topic", restart=True)
+    first_map_only: bool = param(False, "", "keep the first map and ignore later ones")
+    subscribe_to_updates: bool = param(False, "", "apply OccupancyGridUpdate messages", restart=True)
+    track_unknown_space: bool = param(True, "", "unknown map cells stay unknown")
+    use_maximum: bool = param(False, "", "combine by maximum instead of overwriting")
+    lethal_cost_threshold: int = param(100, "", "map values at or above are lethal", rounds=True)
+    unknown_cost_value: int = param(-1, "", "map value that means unknown", rounds=True)
+    trinary_costmap: bool = param(True, "", "map to free/lethal/unknown only")
+    enabled: bool = param(True, "", "the layer takes part in updates")
 
 
 class StaticLayer(CostmapLayer):

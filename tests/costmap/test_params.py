@@ -7,7 +7,7 @@ from simplebot_navigation.costmap.costmap import Costmap
 from simplebot_navigation.costmap.inflation_layer import InflationLayer
 from simplebot_navigation.costmap.obstacle_layer import ObstacleLayer
 from simplebot_navigation.costmap.params import resolve_costmap_params
-from simplebot_navigation.costmap.plugins import layer_kind
+from simplebot_navigation.costmap.plugins import LAYERS
 
 from simplebot_navigation.testing.lab_params import global_costmap_params, local_costmap_params
 
@@ -71,7 +71,7 @@ def test_bad_values_name_the_key(key, value, message):
 def test_unknown_plugin_type_names_plugin_and_type():
     with pytest.raises(ValueError, match="'obstacles' has unsupported type 'costmap_2d::VoxelLayer'"):
         resolve_costmap_params({"plugins": [{"name": "obstacles", "type": "costmap_2d::VoxelLayer"}]}, "c")
-    assert layer_kind("nav2_costmap_2d::InflationLayer", "x") == "InflationLayer"
+    assert LAYERS.kind("nav2_costmap_2d::InflationLayer", "x") == "InflationLayer"
 
 
 def test_source_without_data_type_is_the_unsupported_pointcloud_default():

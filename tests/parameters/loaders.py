@@ -1,9 +1,10 @@
 """Each configuration class with the entry point that loads one namespace of it and returns the
 warnings the ROS shell would log."""
 
-from simplebot_navigation.costmap.params import (CostmapConfig, InflationLayerParams, ObservationSourceParams,
-                                                 ObstacleLayerParams, SearchedParams, StaticLayerParams,
-                                                 resolve_costmap_params)
+from simplebot_navigation.costmap.inflation_layer import InflationLayerParams
+from simplebot_navigation.costmap.obstacle_layer import ObservationSourceParams, ObstacleLayerParams
+from simplebot_navigation.costmap.params import CostmapConfig, SearchedParams, resolve_costmap_params
+from simplebot_navigation.costmap.static_layer import StaticLayerParams
 from simplebot_navigation.move_base.config import MoveBaseConfig
 from simplebot_navigation.move_base.recovery.clear_costmap import ClearCostmapParams, ClearCostmapRecovery
 from simplebot_navigation.move_base.recovery.rotate import RotateParams, RotateRecovery
