@@ -139,11 +139,14 @@ class GlobalPlannerPlugin(Protocol):
     is called on the node's executor thread; poses are (x, y, yaw) in the global costmap's frame."""
 
     def make_plan(self, start, goal, tolerance: float | None = None):
-        """A plan from start to goal on the global costmap (the node holds no lock): a result with ``ok``,
-        ``path`` ((N, 3) poses) and ``message`` (why not, for the log and the goal's status)."""
+        """A plan from start to goal on the global costmap (take the costmap's lock to read it): a result with
+        ``ok``, ``poses`` ((N, 3), empty on failure) and ``message`` (why not, for the log and the goal's
+        status), as planning.global_planner.PlanResult. ``tolerance`` None: the planner's default. Called by
+        the control cycle when a plan is due, and by the make_plan service."""
 
-    def blocked_poses(self, poses: np.ndarray) -> np.ndarray:
-        """Per row of a plan: whether it now lies on a lethal cell (move_base replans when it does)."""
+    def blocked_poses(self, poses: np.ndarray, robot_pose) -> np.ndarray:
+        """Per row of the current plan: whether it now lies where the planner would not go (move_base replans
+        when one ahead of the robot does). Called every control cycle while driving."""
 
     def reconfigure(self, config) -> None:
         """New values of its namespace while running, already checked: used from the next plan."""
