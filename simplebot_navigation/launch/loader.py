@@ -212,6 +212,32 @@ def _resolve_args(path: str, declared: list[Arg], given: dict[str, str]) -> dict
     return args
 
 
+def _node_spec(node: Node, ctx: _Context, namespace: str, params: ParamServer) -> NodeSpec:
+    """What the runner starts for one node: its private parameters as ROS 2 overrides, its remaps and flags."""
+    name = ctx.subst(node.name)
+    full = join_ns(namespace, name)
+    subtree = params.get(full, {})
+    try:
+        overrides = to_ros2_overrides(subtree if isinstance(subtree, dict) else {}, where=full + "/")
+    except ParamError as err:
+        raise LaunchError(str(err)) from None
+    global_use_sim_time = params.get("/use_sim_time", None)
+    if global_use_sim_time is not None:
+        overrides.setdefault("use_sim_time", bool(global_use_sim_time))
+    if ctx.subst(node.args).strip():
+        raise LaunchError(f"{ctx.file}: node {full}: args={node.args!r} is not supported: nodes here take "
+                          "parameters, not command-line arguments")
+    respawn = ctx.flag(node.respawn, f"node {full}: respawn")
+    required = ctx.flag(node.required, f"node {full}: required")
+    if respawn and required:
+        raise LaunchError(f"{ctx.file}: node {full}: respawn and required cannot both be set")
+    return NodeSpec(pkg=ctx.subst(node.pkg), type=ctx.subst(node.type), name=name, namespace=namespace,
+                    output=node.output, respawn=respawn,
+                    respawn_delay=ctx.seconds(node.respawn_delay, f"node {full}: respawn_delay"),
+                    required=required, remaps=ctx.remaps + [(ctx.subst(r.from_), ctx.subst(r.to)) for r in node.remaps],
+                    parameters=overrides)
+
+
 def load_launch(path: str, given_args: dict[str, str] | None = None) -> LaunchConfig:
     params = ParamServer()
     nodes: list[tuple[Node, _Context, str]] = []
@@ -267,33 +293,9 @@ def load_launch(path: str, given_args: dict[str, str] | None = None) -> LaunchCo
     declared, args = process_file(top, dict(given_args or {}), "/", [])
 
     specs: list[NodeSpec] = []
-    seen: set[str] = set()
-    global_use_sim_time = params.get("/use_sim_time", None)
     for node, ctx, namespace in nodes:
-        name = ctx.subst(node.name)
-        full = join_ns(namespace, name)
-        if full in seen:
-            raise LaunchError(f"{ctx.file}: two nodes are named {full}")
-        seen.add(full)
-        subtree = params.get(full, {})
-        try:
-            overrides = to_ros2_overrides(subtree if isinstance(subtree, dict) else {}, where=full + "/")
-        except ParamError as err:
-            raise LaunchError(str(err)) from None
-        if global_use_sim_time is not None:
-            overrides.setdefault("use_sim_time", bool(global_use_sim_time))
-        if ctx.subst(node.args).strip():
-            raise LaunchError(f"{ctx.file}: node {full}: args={node.args!r} is not supported: nodes here take "
-                              "parameters, not command-line arguments")
-        respawn = ctx.flag(node.respawn, f"node {full}: respawn")
-        required = ctx.flag(node.required, f"node {full}: required")
-        if respawn and required:
-            raise LaunchError(f"{ctx.file}: node {full}: respawn and required cannot both be set")
-        specs.append(NodeSpec(
-            pkg=ctx.subst(node.pkg), type=ctx.subst(node.type), name=name, namespace=namespace,
-            output=node.output, respawn=respawn, respawn_delay=ctx.seconds(node.respawn_delay,
-                                                                           f"node {full}: respawn_delay"),
-            required=required,
-            remaps=ctx.remaps + [(ctx.subst(r.from_), ctx.subst(r.to)) for r in node.remaps],
-            parameters=overrides))
+        spec = _node_spec(node, ctx, namespace, params)
+        if any(other.full_name == spec.full_name for other in specs):
+            raise LaunchError(f"{ctx.file}: two nodes are named {spec.full_name}")
+        specs.append(spec)
     return LaunchConfig(file=top, args=args, params=params, nodes=specs, arg_docs=declared)

@@ -257,9 +257,22 @@ def test_navigation_respawns_its_nodes_unless_told_not_to():
     def respawn(args):
         return {node.name: (node.respawn, node.respawn_delay) for node in load_launch("navigation", args).nodes}
 
-    assert respawn({}) == {"simulator": (True, 0.0), "move_base": (True, 0.0)}
-    assert respawn({"respawn": "false"}) == {"simulator": (False, 0.0), "move_base": (False, 0.0)}
+    assert respawn({}) == {"simulator": (True, 0.0), "move_base": (True, 0.0), "collision_monitor": (True, 0.0)}
+    assert respawn({"respawn": "false"}) == {"simulator": (False, 0.0), "move_base": (False, 0.0),
+                                             "collision_monitor": (False, 0.0)}
     assert respawn({"viewer": "true"})["viewer"] == (False, 0.0)
+
+
+@pytest.mark.parametrize("monitor, nodes, move_base_commands", [
+    ("true", {"simulator", "move_base", "collision_monitor"}, "cmd_vel_nav"),
+    ("false", {"simulator", "move_base"}, "simplebot_controller/cmd_vel"),
+])
+def test_the_collision_monitor_stands_between_move_base_and_the_base_unless_left_out(monitor, nodes,
+                                                                                     move_base_commands):
+    launch = load_launch("navigation", {"collision_monitor": monitor})
+    assert {node.name for node in launch.nodes} == nodes
+    move_base = next(node for node in launch.nodes if node.name == "move_base")
+    assert ("cmd_vel", move_base_commands) in move_base.remaps
 
 
 @pytest.mark.parametrize("attributes, message", [

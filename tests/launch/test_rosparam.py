@@ -39,7 +39,7 @@ def test_move_base_gets_ros2_overrides(lab):
     assert params["use_sim_time"] is True
     # Relative targets: at the root they are /simplebot_controller/..., in a robot's namespace under it.
     assert move_base.namespace == "/"
-    assert ("cmd_vel", "simplebot_controller/cmd_vel") in move_base.remaps
+    assert ("cmd_vel", "cmd_vel_nav") in move_base.remaps            # to the collision monitor
     assert ("/odom", "simplebot_controller/odom") in move_base.remaps
 
 
