@@ -198,17 +198,9 @@ class GlobalPlanner:
             return self._fail(PlanFailure.GOAL_OFF_MAP,
                               f"the goal ({gx:.3f}, {gy:.3f}) is off the global costmap")
 
-        costmap.set_cost(*start_cell, FREE_SPACE)
-        if cfg.outline_map:
-            grid = costmap.costmap
-            grid[0, :] = grid[-1, :] = LETHAL_OBSTACLE
-            grid[:, 0] = grid[:, -1] = LETHAL_OBSTACLE
-
         nx, ny = costmap.size_x, costmap.size_y
         width = nx + 2
-        cost = np.empty((ny + 2, width), np.float32)
-        expansion_kernels.fill_padded_costs(costmap.costmap, self._costs, cfg.navfn, cost)
-        cost = cost.ravel()
+        cost = self._step_costs(costmap, start_cell)
 
         if goal_cell is not None and tol == 0.0 and math.isinf(cost[self._index(goal_cell, width)]):
             raw = costmap.get_cost(*goal_cell)
@@ -230,7 +222,24 @@ class GlobalPlanner:
                    "the goal cannot be reached from the start")
             return self._fail(PlanFailure.NO_PATH, f"no path to ({gx:.3f}, {gy:.3f}): {why}",
                               potential)
-        tx, ty = target
+        return self._extract_path(costmap, pot, (su, sv), target, (syaw, gyaw), potential)
+
+    def _step_costs(self, costmap: Costmap2D, start_cell) -> np.ndarray:
+        """The flat per-cell step costs with a one-cell border, after ROS 1's side effects on the costmap."""
+        costmap.set_cost(*start_cell, FREE_SPACE)
+        if self.config.outline_map:
+            grid = costmap.costmap
+            grid[0, :] = grid[-1, :] = LETHAL_OBSTACLE
+            grid[:, 0] = grid[:, -1] = LETHAL_OBSTACLE
+        cost = np.empty((costmap.size_y + 2, costmap.size_x + 2), np.float32)
+        expansion_kernels.fill_padded_costs(costmap.costmap, self._costs, self.config.navfn, cost)
+        return cost.ravel()
+
+    def _extract_path(self, costmap: Costmap2D, pot: np.ndarray, start_uv, target, yaws, potential) -> PlanResult:
+        """The path down the potential from the target back to the start, as poses from the start."""
+        cfg = self.config
+        nx, ny, width = costmap.size_x, costmap.size_y, costmap.size_x + 2
+        (su, sv), (tx, ty), (syaw, gyaw) = start_uv, target, yaws
         target_cell = costmap.world_to_map(tx, ty)
         if self._precise:
             tu, tv = self._lattice(costmap, tx, ty)

@@ -127,20 +127,43 @@ class ReferenceCostmap:
 
     def update(self, rx, ry, ryaw, observations):
         if self.rolling:
-            new_ox = rx - (self.size_x - 0.5) * self.res / 2
-            new_oy = ry - (self.size_y - 0.5) * self.res / 2
-            self.master, shift = self._shift(self.master, FREE, new_ox, new_oy)
-            self.layer, _ = self._shift(self.layer, self.layer_default, new_ox, new_oy)
-            if shift:
-                self.ox += shift[0] * self.res
-                self.oy += shift[1] * self.res
+            self._roll(rx, ry)
         b = [1e30, 1e30, -1e30, -1e30]
 
         def touch(x, y):
             b[0], b[1], b[2], b[3] = min(b[0], x), min(b[1], y), max(b[2], x), max(b[3], y)
 
+        self._clear_rays(observations, touch)
+        self._mark(observations, touch)
+        c, s = math.cos(ryaw), math.sin(ryaw)
+        poly = [(rx + x * c - y * s, ry + x * s + y * c) for x, y in self.footprint]
+        for x, y in poly:
+            touch(x, y)
+        x0, y0, xn, yn = self._update_window(b)
+        for j in range(y0, yn):
+            for i in range(x0, xn):
+                self.master[j][i] = FREE
+        self._clear_footprint(poly)
+        for j in range(y0, yn):                                       # maximum combination
+            for i in range(x0, xn):
+                v, m = self.layer[j][i], self.master[j][i]
+                if v != UNKNOWN and (m == UNKNOWN or m < v):
+                    self.master[j][i] = v
+        brushfire(self.master, self.size_x, self.size_y, x0, y0, xn, yn, self.res, self.r_ins, self.w, self.r_inf)
+        return x0, y0, xn, yn
+
+    def _roll(self, rx, ry):
+        new_ox = rx - (self.size_x - 0.5) * self.res / 2
+        new_oy = ry - (self.size_y - 0.5) * self.res / 2
+        self.master, shift = self._shift(self.master, FREE, new_ox, new_oy)
+        self.layer, _ = self._shift(self.layer, self.layer_default, new_ox, new_oy)
+        if shift:
+            self.ox += shift[0] * self.res
+            self.oy += shift[1] * self.res
+
+    def _clear_rays(self, observations, touch):
         end_x, end_y = self.ox + self.size_x * self.res, self.oy + self.size_y * self.res
-        for obs in observations:                                      # clearing
+        for obs in observations:
             ox, oy = float(obs.origin[0]), float(obs.origin[1])
             start = self.world_to_map(ox, oy)
             if start is None:
@@ -169,7 +192,9 @@ class ReferenceCostmap:
                 full = math.hypot(wx - ox, wy - oy)
                 scale = min(1.0, obs.raytrace_range / full) if full > 0 else 1.0
                 touch(ox + (wx - ox) * scale, oy + (wy - oy) * scale)
-        for obs in observations:                                      # marking
+
+    def _mark(self, observations, touch):
+        for obs in observations:
             for p in obs.points:
                 px, py, pz = float(p[0]), float(p[1]), float(p[2])
                 if pz > 2.0:
@@ -181,11 +206,9 @@ class ReferenceCostmap:
                 if cell is not None:
                     self.layer[cell[1]][cell[0]] = LETHAL
                     touch(px, py)
-        c, s = math.cos(ryaw), math.sin(ryaw)
-        poly = [(rx + x * c - y * s, ry + x * s + y * c) for x, y in self.footprint]
-        for x, y in poly:
-            touch(x, y)
-        # inflation bounds
+
+    def _update_window(self, b):
+        """Cells of the update: the layer's bounds grown by the inflation radius and last update's bounds."""
         if self.last is None:
             big = 3.4028234663852886e38
             self.last = list(b)
@@ -203,27 +226,20 @@ class ReferenceCostmap:
             return int((w - o) / self.res)
 
         x0, y0 = clamp(b[0], self.ox, self.size_x), clamp(b[1], self.oy, self.size_y)
-        xn, yn = clamp(b[2], self.ox, self.size_x) + 1, clamp(b[3], self.oy, self.size_y) + 1
-        for j in range(y0, yn):
-            for i in range(x0, xn):
-                self.master[j][i] = FREE
-        # footprint clearing on the layer (only if every vertex is on the map)
+        return x0, y0, clamp(b[2], self.ox, self.size_x) + 1, clamp(b[3], self.oy, self.size_y) + 1
+
+    def _clear_footprint(self, poly):
+        """Footprint clearing on the layer, only if every vertex is on the map."""
         cells = [self.world_to_map(x, y) for x, y in poly]
-        if all(cell is not None for cell in cells):
-            outline = []
-            for k in range(len(cells)):
-                outline += bresenham(*cells[k], *cells[(k + 1) % len(cells)])
-            columns = {}
-            for x, y in outline:
-                lo, hi = columns.get(x, (y, y))
-                columns[x] = (min(lo, y), max(hi, y))
-            for x, (lo, hi) in columns.items():
-                for y in range(lo, hi + 1):
-                    self.layer[y][x] = FREE
-        for j in range(y0, yn):                                       # maximum combination
-            for i in range(x0, xn):
-                v, m = self.layer[j][i], self.master[j][i]
-                if v != UNKNOWN and (m == UNKNOWN or m < v):
-                    self.master[j][i] = v
-        brushfire(self.master, self.size_x, self.size_y, x0, y0, xn, yn, self.res, self.r_ins, self.w, self.r_inf)
-        return x0, y0, xn, yn
+        if not all(cell is not None for cell in cells):
+            return
+        outline = []
+        for k in range(len(cells)):
+            outline += bresenham(*cells[k], *cells[(k + 1) % len(cells)])
+        columns = {}
+        for x, y in outline:
+            lo, hi = columns.get(x, (y, y))
+            columns[x] = (min(lo, y), max(hi, y))
+        for x, (lo, hi) in columns.items():
+            for y in range(lo, hi + 1):
+                self.layer[y][x] = FREE

@@ -31,6 +31,7 @@ _DIGITS = re.compile(r"[0-9]+")
 
 STATIC = {"/": ("index.html", "text/html; charset=utf-8"),
           "/index.html": ("index.html", "text/html; charset=utf-8"),
+          "/frames.js": ("frames.js", "text/javascript; charset=utf-8"),
           "/viewer.js": ("viewer.js", "text/javascript; charset=utf-8"),
           "/viewer.css": ("viewer.css", "text/css; charset=utf-8")}
 LONG_POLL_S = 1.0
@@ -116,108 +117,109 @@ class ViewerServer:
         return dict(zip(("x", "y", "yaw"), values))
 
     def _handler_class(self):
-        server = self
+        return type("Handler", (_RequestHandler,), {"viewer": self})
 
-        class Handler(BaseHTTPRequestHandler):
-            protocol_version = "HTTP/1.1"
-            timeout = REQUEST_TIMEOUT_S
 
-            def log_message(self, *args) -> None:  # the console belongs to the navigation nodes
-                pass
+class _RequestHandler(BaseHTTPRequestHandler):
+    """One viewer request; ``viewer`` is the ViewerServer it answers for (set by ViewerServer._handler_class)."""
+    viewer: "ViewerServer"
+    protocol_version = "HTTP/1.1"
+    timeout = REQUEST_TIMEOUT_S
 
-            def _send(self, status: int, body: bytes, kind: str) -> None:
-                self.send_response(status)
-                self.send_header("Content-Type", kind)
-                self.send_header("Content-Length", str(len(body)))
-                self.send_header("Cache-Control", "no-store")
-                if status >= 400:  # the request's body may be unread: it must not be taken for the next request
-                    self.send_header("Connection", "close")
-                    self.close_connection = True
-                self.end_headers()
-                self.wfile.write(body)
+    def log_message(self, *args) -> None:  # the console belongs to the navigation nodes
+        pass
 
-            def _refuse(self, status: int, message: str) -> None:
-                self._send(status, message.encode(), "text/plain; charset=utf-8")
+    def _send(self, status: int, body: bytes, kind: str) -> None:
+        self.send_response(status)
+        self.send_header("Content-Type", kind)
+        self.send_header("Content-Length", str(len(body)))
+        self.send_header("Cache-Control", "no-store")
+        if status >= 400:  # the request's body may be unread: it must not be taken for the next request
+            self.send_header("Connection", "close")
+            self.close_connection = True
+        self.end_headers()
+        self.wfile.write(body)
 
-            def _host_ok(self, prefix: str = "") -> bool:
-                refusal = server.host_refusal(self.headers.get("Host"))
-                if refusal:
-                    self._refuse(HTTPStatus.FORBIDDEN, prefix + refusal)
-                return refusal is None
+    def _refuse(self, status: int, message: str) -> None:
+        self._send(status, message.encode(), "text/plain; charset=utf-8")
 
-            def do_GET(self) -> None:  # noqa: N802 - http.server's name
-                if not self._host_ok():
-                    return
-                url = urlsplit(self.path)
-                if url.path == "/frame":
-                    query = {k: v[-1] for k, v in parse_qs(url.query).items()}
-                    try:
-                        after = int(query.pop("after", "-1"))
-                        known = {k: int(v) for k, v in query.items()}
-                    except ValueError:
-                        self._refuse(HTTPStatus.BAD_REQUEST, "frame: versions must be integers")
-                        return
-                    self._send(HTTPStatus.OK, server.frame(after, known), "application/octet-stream")
-                elif url.path in server._static:
-                    self._send(HTTPStatus.OK, *server._static[url.path])
-                else:
-                    self._refuse(HTTPStatus.NOT_FOUND, f"no such page: {url.path}")
+    def _host_ok(self, prefix: str = "") -> bool:
+        refusal = self.viewer.host_refusal(self.headers.get("Host"))
+        if refusal:
+            self._refuse(HTTPStatus.FORBIDDEN, prefix + refusal)
+        return refusal is None
 
-            def do_POST(self) -> None:  # noqa: N802
-                if urlsplit(self.path).path != "/goal":
-                    self._refuse(HTTPStatus.NOT_FOUND, "POST only to /goal")
-                    return
-                if not self._host_ok("goal: "):
-                    return
-                origin = self.headers.get("Origin")
-                if origin is not None and origin.strip().lower() != f"http://{self.headers['Host'].strip().lower()}":
-                    self._refuse(HTTPStatus.FORBIDDEN,
-                                 f"goal: refused, Origin {origin!r} is not this viewer (a cross-site request)")
-                    return
-                kind = self.headers.get("Content-Type", "")
-                if kind.partition(";")[0].strip().lower() != "application/json":
-                    self._refuse(HTTPStatus.FORBIDDEN,
-                                 f"goal: refused, Content-Type must be application/json, got {kind!r}")
-                    return
-                body = self._read_body()
-                if body is None:
-                    return
-                try:
-                    sent = server.goal(body)
-                except ValueError as err:
-                    self._refuse(HTTPStatus.BAD_REQUEST, str(err))
-                    return
-                self._send(HTTPStatus.OK, json.dumps(sent).encode(), "application/json")
+    def do_GET(self) -> None:  # noqa: N802 - http.server's name
+        if not self._host_ok():
+            return
+        url = urlsplit(self.path)
+        if url.path == "/frame":
+            query = {k: v[-1] for k, v in parse_qs(url.query).items()}
+            try:
+                after = int(query.pop("after", "-1"))
+                known = {k: int(v) for k, v in query.items()}
+            except ValueError:
+                self._refuse(HTTPStatus.BAD_REQUEST, "frame: versions must be integers")
+                return
+            self._send(HTTPStatus.OK, self.viewer.frame(after, known), "application/octet-stream")
+        elif url.path in self.viewer._static:
+            self._send(HTTPStatus.OK, *self.viewer._static[url.path])
+        else:
+            self._refuse(HTTPStatus.NOT_FOUND, f"no such page: {url.path}")
 
-            def _read_body(self) -> bytes | None:
-                """The body as Content-Length announces it, or None after answering what was wrong."""
-                declared = self.headers.get("Content-Length")
-                if declared is None:
-                    self._refuse(HTTPStatus.LENGTH_REQUIRED, "goal: Content-Length is required")
-                    return None
-                if not _DIGITS.fullmatch(declared.strip()):
-                    self._refuse(HTTPStatus.BAD_REQUEST, f"goal: Content-Length {declared!r} is not a number of bytes")
-                    return None
-                length = int(declared)
-                if length == 0:
-                    self._refuse(HTTPStatus.BAD_REQUEST, "goal: the body is empty")
-                    return None
-                if length > MAX_BODY:
-                    self._refuse(HTTPStatus.REQUEST_ENTITY_TOO_LARGE,
-                                 f"goal: a body of {length} bytes is too long (at most {MAX_BODY})")
-                    return None
-                body = b""
-                try:
-                    while len(body) < length:
-                        chunk = self.rfile.read1(length - len(body))
-                        if not chunk:
-                            break
-                        body += chunk
-                except TimeoutError:
-                    pass
-                if len(body) < length:
-                    self._refuse(HTTPStatus.BAD_REQUEST, f"goal: the body ended after {len(body)} of {length} bytes")
-                    return None
-                return body
+    def do_POST(self) -> None:  # noqa: N802
+        if urlsplit(self.path).path != "/goal":
+            self._refuse(HTTPStatus.NOT_FOUND, "POST only to /goal")
+            return
+        if not self._host_ok("goal: "):
+            return
+        origin = self.headers.get("Origin")
+        if origin is not None and origin.strip().lower() != f"http://{self.headers['Host'].strip().lower()}":
+            self._refuse(HTTPStatus.FORBIDDEN,
+                         f"goal: refused, Origin {origin!r} is not this viewer (a cross-site request)")
+            return
+        kind = self.headers.get("Content-Type", "")
+        if kind.partition(";")[0].strip().lower() != "application/json":
+            self._refuse(HTTPStatus.FORBIDDEN,
+                         f"goal: refused, Content-Type must be application/json, got {kind!r}")
+            return
+        body = self._read_body()
+        if body is None:
+            return
+        try:
+            sent = self.viewer.goal(body)
+        except ValueError as err:
+            self._refuse(HTTPStatus.BAD_REQUEST, str(err))
+            return
+        self._send(HTTPStatus.OK, json.dumps(sent).encode(), "application/json")
 
-        return Handler
+    def _read_body(self) -> bytes | None:
+        """The body as Content-Length announces it, or None after answering what was wrong."""
+        declared = self.headers.get("Content-Length")
+        if declared is None:
+            self._refuse(HTTPStatus.LENGTH_REQUIRED, "goal: Content-Length is required")
+            return None
+        if not _DIGITS.fullmatch(declared.strip()):
+            self._refuse(HTTPStatus.BAD_REQUEST, f"goal: Content-Length {declared!r} is not a number of bytes")
+            return None
+        length = int(declared)
+        if length == 0:
+            self._refuse(HTTPStatus.BAD_REQUEST, "goal: the body is empty")
+            return None
+        if length > MAX_BODY:
+            self._refuse(HTTPStatus.REQUEST_ENTITY_TOO_LARGE,
+                         f"goal: a body of {length} bytes is too long (at most {MAX_BODY})")
+            return None
+        body = b""
+        try:
+            while len(body) < length:
+                chunk = self.rfile.read1(length - len(body))
+                if not chunk:
+                    break
+                body += chunk
+        except TimeoutError:
+            pass
+        if len(body) < length:
+            self._refuse(HTTPStatus.BAD_REQUEST, f"goal: the body ended after {len(body)} of {length} bytes")
+            return None
+        return body

@@ -28,7 +28,8 @@ WAIT = PluginSpec("example/WaitRecovery", "tests.plugins.wait_recovery:create", 
 ZONE = [1.0, -2.0, 1.6, -1.0]
 OVERRIDES = (
     "base_global_planner=example/StraightLinePlanner", "base_local_planner=example/PurePursuit",
-    "PurePursuit.speed=0.4", "recovery_behaviors=[{name: wait, type: example/WaitRecovery}]", "wait.wait_duration=2.0",
+    "PurePursuit.speed=0.4", "recovery_behaviors=[{name: wait, type: example/WaitRecovery}]",
+    "wait.wait_duration=2.0",
     "global_costmap.plugins=[{name: keep_out, type: 'example::KeepOutLayer'}, "
     "{name: obstacles, type: 'costmap_2d::ObstacleLayer'}, {name: inflation_layer, type: 'costmap_2d::InflationLayer'}]",
     f"global_costmap.keep_out.zone={ZONE}",
