@@ -5,30 +5,25 @@ millisecond), which keeps runs deterministic in lockstep; ROS 1's planner thread
 buffer collapse into one call. Everything else follows move_base: patience timers, planning
 retries, oscillation detection, the recovery sequence and the abort messages.
 
-Three deviations keep a robot from circling forever in a world it discovers as it drives (a
-goal inside a table whose far side it has not seen, or whose edges grazing rays keep erasing
-from the 0.2 m global costmap):
-- a plan that runs into an obstacle seen after planning is replaced at once (as Nav2's
-  IsPathValid does), even with planner_frequency 0. Only a crossing that is new and within
-  BLOCKED_CHECK_AHEAD_M of the robot counts: poses the planner itself put on blocked cells
-  (next to a robot standing in an inflated zone) do not, and a crossing far ahead may be wall
-  cells that grazing rays erase and re-mark in turn, which would send the robot back and forth
-  between two routes. Such replans come at most once per BLOCKED_REPLAN_INTERVAL_S, so a robot
-  discovering a forest cell by cell does not replan every cycle;
+Four rules differ from ROS 1's, so that a robot that discovers its world as it drives ends every goal
+instead of circling: a route it finds blocked is replaced, lack of progress is noticed however the robot
+moves, a stuck local planner does not make the global planner repeat itself, and the recovery sequence
+restarts only after real progress.
+- A plan that runs into an obstacle seen after planning is replaced at once (as Nav2's IsPathValid does),
+  even with planner_frequency 0. Only a crossing that is new and within BLOCKED_CHECK_AHEAD_M of the
+  robot counts: poses the planner itself put on blocked cells (next to a robot standing in an inflated
+  zone) do not, and cells far ahead that grazing rays erase and re-mark in turn would make the robot
+  alternate between two routes. Such replans come at most once per BLOCKED_REPLAN_INTERVAL_S.
 - ``progress_timeout`` (30 s; 0 disables): a robot that has for that long neither come
-  oscillation_distance closer to the goal, nor got the plan length left to drive
-  oscillation_distance below the least it has been during this goal, nor entered a square metre
-  it had not been in during this goal runs the recovery behaviours (trigger PROGRESS_R). Nav2's
-  progress checker counts any movement, but circling is movement too. Creeping along a winding
-  plan through clutter, or a detour through new space, is progress; turning back and forth in
-  place, or circling where plans come and go, is not;
-- a local planner that fails sends move_base back to PLANNING only when its plan is at least
-  MIN_REPLAN_INTERVAL_S old; until then it keeps the plan and stops the robot. ROS 1 replans
-  after every failed cycle, which in clutter means hundreds of identical plans a minute while
-  the local planner is what is stuck;
-- after a recovery, a new plan or a valid control restarts the recovery sequence only once the
-  robot has come oscillation_distance closer to the goal than it ever was before the sequence
-  began. ROS 1 restarts it on any new plan, so such a goal never aborts.
+  oscillation_distance closer to the goal, nor got the plan length left below the least it has been
+  during this goal by oscillation_distance, nor entered a square metre new to this goal runs the recovery
+  behaviours (trigger PROGRESS_R). Nav2's progress checker counts any movement, and circling is movement.
+- A local planner that fails sends move_base back to PLANNING only when its plan is at least
+  MIN_REPLAN_INTERVAL_S old; until then it keeps the plan and stops the robot. ROS 1 replans after every
+  failed cycle, hundreds of identical plans a minute while the local planner is what is stuck.
+- After a recovery, a new plan or a valid control restarts the recovery sequence only once the robot has
+  come oscillation_distance closer to the goal than it was before the sequence began. ROS 1 restarts it on
+  any new plan, so a goal that cannot be reached would never abort.
 """
 
 from __future__ import annotations
