@@ -199,9 +199,7 @@ class MoveBaseNode(MoveBaseSupervision, MoveBaseParameters, Node):
             target, reason = self._goal_in_global_frame(goal.pose)
         if reason is not None:
             self.get_logger().error(f"Aborting on goal because it was sent with an invalid goal: {reason}")
-            self.core.reset()
-            self._publish_zero()
-            self._finish(goal, ActionlibStatus.ABORTED, reason)
+            self.end_goal(goal, ActionlibStatus.ABORTED, reason)
             return
         self.current_goal_pub.publish(target)
         xyyaw = pose_to_xyyaw(target.pose)
@@ -234,9 +232,14 @@ class MoveBaseNode(MoveBaseSupervision, MoveBaseParameters, Node):
     def _on_cancel(self, msg: GoalID) -> None:
         if self.goal is not None and (not msg.id or msg.id == self.goal.id):
             self.get_logger().info("goal canceled")
-            self.core.reset()
-            self._publish_zero()
-            self._finish(self.goal, ActionlibStatus.PREEMPTED, "canceled")
+            self.end_goal(self.goal, ActionlibStatus.PREEMPTED, "canceled")
+
+    def end_goal(self, goal: MoveBaseGoal, status: int, text: str) -> None:
+        """End a goal from outside the state machine (cancel, preemption, an error): stop the robot, drop the
+        goal from the state machine, and report the end."""
+        self.core.reset()
+        self._publish_zero()
+        self._finish(goal, status, text)
 
     def _finish(self, goal: MoveBaseGoal, status: int, text: str) -> None:
         goal.status, goal.text = status, text
@@ -272,9 +275,7 @@ class MoveBaseNode(MoveBaseSupervision, MoveBaseParameters, Node):
         if goal is None:
             return
         if goal.handle is not None and goal.handle.is_cancel_requested:
-            self.core.reset()
-            self._publish_zero()
-            self._finish(goal, ActionlibStatus.PREEMPTED, "canceled")
+            self.end_goal(goal, ActionlibStatus.PREEMPTED, "canceled")
             return
         started = time.perf_counter()
         pose = self._robot_pose_global()

@@ -68,9 +68,7 @@ class MoveBaseSupervision:
         text = (f"internal error in the control cycle: {type(exc).__name__}: {exc} "
                 f"({Path(where.filename).name}:{where.lineno}); robot stopped, goal aborted")
         self.get_logger().error(text + "\n" + "".join(traceback.format_exception(exc)))
-        self.core.reset()
-        self._publish_zero()
-        self._finish(goal, ActionlibStatus.ABORTED, text)
+        self.end_goal(goal, ActionlibStatus.ABORTED, text)
 
     def _watch_for_time_jumps(self) -> JumpHandle:
         return self.get_clock().create_jump_callback(
@@ -110,9 +108,7 @@ class MoveBaseSupervision:
         if self.goal is not None:
             reason = f"time jumped back by {back:.2f} s (simulator restarted?)"
             self.get_logger().error(f"Aborting the goal: {reason}")
-            self.core.reset()
-            self._publish_zero()
-            self._finish(self.goal, ActionlibStatus.ABORTED, reason)
+            self.end_goal(self.goal, ActionlibStatus.ABORTED, reason)
 
     def _wait_for_data(self, reason: str) -> None:
         """A goal may wait max_wait seconds of node time for its pose and sensors, then it is aborted."""
@@ -125,7 +121,5 @@ class MoveBaseSupervision:
     def _abort_waiting(self, reason: str) -> None:
         message = f"Aborting the goal: {reason} (max_wait {self.cfg.max_wait:g} s)"
         self.get_logger().error(message)
-        self.core.reset()
-        self._publish_zero()
-        self._finish(self.goal, ActionlibStatus.ABORTED, message)
+        self.end_goal(self.goal, ActionlibStatus.ABORTED, message)
 

@@ -59,6 +59,7 @@ while time.monotonic() < end:
 print(json.dumps(graph()))
 """
 TOPICS = ("move_base_simple/goal", "move_base/status", "move_base/_action/feedback", "simplebot_controller/cmd_vel",
+          "cmd_vel_nav",
           "simplebot_controller/odom", "front_laser/front_scan", "back_laser/back_scan", "global_costmap/costmap",
           "local_costmap/costmap", "simplebot/collisions")
 
@@ -137,8 +138,10 @@ def test_three_robots_swap_places_without_touching():
 def test_one_robot_in_a_namespace_takes_goals_there():
     with ProcessSession("lab", rtf=RTF, namespace="robot1") as session:
         session.wait_ready(wall_timeout_s=240.0)
-        graph = topic_graph([("/robot1/simplebot_controller/cmd_vel", "/robot1/move_base")])
-        assert "/robot1/move_base" in graph["/robot1/simplebot_controller/cmd_vel"]
+        graph = topic_graph([("/robot1/cmd_vel_nav", "/robot1/move_base"),
+                             ("/robot1/simplebot_controller/cmd_vel", "/robot1/collision_monitor")])
+        assert "/robot1/move_base" in graph["/robot1/cmd_vel_nav"]          # move_base -> its collision monitor
+        assert "/robot1/collision_monitor" in graph["/robot1/simplebot_controller/cmd_vel"]   # -> the base
         assert "/simplebot_controller/cmd_vel" not in graph and "/move_base/status" not in graph
         goal = Pose2D(1.5, 3.5, math.pi / 2)  # the north meeting room; sent in robot1/odom
         run = session.send_goal(goal)

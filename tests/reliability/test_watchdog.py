@@ -60,15 +60,15 @@ def test_a_goal_waiting_for_a_dead_clock_is_aborted_after_max_wait(capfd):
 
 
 class CommandObserver:
-    """cmd_vel as it arrives, in a context and thread of its own: it hears move_base while the session's
-    executor (the test's thread) is blocked."""
+    """move_base's commands (cmd_vel_nav, to the collision monitor) as they arrive, in a context and thread of
+    its own: it hears move_base while the session's executor (the test's thread, the monitor's too) is blocked."""
 
     def __init__(self):
         self.context = rclpy.Context()
         rclpy.init(context=self.context)
         self.node = rclpy.create_node("command_observer", context=self.context)
         self.commands: list[tuple[float, float, float]] = []
-        self.node.create_subscription(Twist, "/simplebot_controller/cmd_vel", lambda m: self.commands.append(
+        self.node.create_subscription(Twist, "/cmd_vel_nav", lambda m: self.commands.append(
             (time.monotonic(), m.linear.x, m.angular.z)), 50)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
