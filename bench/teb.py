@@ -48,6 +48,7 @@ sys.path.insert(0, str(ROOT))
 
 from simplebot_navigation.costmap.cost_values import LETHAL_OBSTACLE  # noqa: E402
 from simplebot_navigation.costmap.costmap_2d import Costmap2D  # noqa: E402
+from simplebot_navigation.geometry import inverse_transform_points  # noqa: E402
 from simplebot_navigation.teb import edge_kernels, warm_up  # noqa: E402
 from simplebot_navigation.teb.config import TebConfig  # noqa: E402
 from simplebot_navigation.teb.planner import TebLocalPlanner  # noqa: E402
@@ -221,9 +222,7 @@ def compare_evaluations(scene: str, planner: TebLocalPlanner, samples, repeats: 
 
 def box_clearance(pose, obstacles) -> float:
     """Distance from the robot's (unpadded) rectangle to the nearest lethal cell centre."""
-    c, s = math.cos(pose[2]), math.sin(pose[2])
-    rel = obstacles - pose[:2]
-    local = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]])
+    local = inverse_transform_points(pose, obstacles)
     out = np.maximum(np.abs(local) - (0.45, 0.3), 0.0)
     return float(np.min(np.hypot(out[:, 0], out[:, 1])))
 
