@@ -8,10 +8,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from simplebot_navigation.costmap.footprint import footprint_costs
+from simplebot_navigation.geometry import inverse_transform_points, transform_points
 from simplebot_navigation.move_base.recovery import (BackUpRecovery, ClearCostmapRecovery, RotateRecovery, SpinRecovery,
                                                      free_area_left_right)
 from simplebot_navigation.ros.params import given_parameter_tree
-from simplebot_navigation.teb.feasibility import footprint_costs
 
 #: rotate_recovery reads these from the (ROS 1 default) local planner's namespace when it has none
 ROTATE_BORROWED = ("acc_lim_theta", "max_vel_theta", "min_in_place_vel_theta", "yaw_goal_tolerance")
@@ -27,10 +28,7 @@ def _in_local_frame(node, poses: np.ndarray) -> np.ndarray | None:
     here, there = node.global_costmap.get_robot_pose(), node.local_costmap.get_robot_pose()
     if here is None or there is None:
         return None
-    turn = there[2] - here[2]
-    c, s = np.cos(turn), np.sin(turn)
-    dx, dy = poses[:, 0] - here[0], poses[:, 1] - here[1]
-    return np.column_stack([there[0] + c * dx - s * dy, there[1] + s * dx + c * dy, poses[:, 2] + turn])
+    return transform_points(there[:3], inverse_transform_points(here[:3], poses))
 
 
 def _footprint_clear(node):
