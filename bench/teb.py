@@ -30,7 +30,7 @@ The compiled kernels are loaded (warm_up) before the first cycle, as the node do
 After each scene, "compiled vs reference evaluation" times one evaluation with Jacobian and
 normal equations (residuals, J^T J, J^T r) of the bands the homotopy run optimised (sampled every
 SAMPLE_EVERY cycles, each with its own association), by the compiled kernel and by the numpy
-reference (teb/reference.py), and gives the median of the per-band ratios.
+reference (testing/teb_reference.py), and gives the median of the per-band ratios.
 """
 
 from __future__ import annotations
@@ -52,7 +52,7 @@ from simplebot_navigation.geometry import inverse_transform_points  # noqa: E402
 from simplebot_navigation.teb import edge_kernels, warm_up  # noqa: E402
 from simplebot_navigation.teb.config import TebConfig  # noqa: E402
 from simplebot_navigation.teb.planner import TebLocalPlanner  # noqa: E402
-from simplebot_navigation.teb.reference import ReferenceEvaluation  # noqa: E402
+from simplebot_navigation.testing.teb_reference import ReferenceEvaluation  # noqa: E402
 
 RES = 0.05
 WORLD_ORIGIN = (-6.0, -6.0)
