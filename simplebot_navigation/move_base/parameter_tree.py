@@ -24,7 +24,6 @@ from .plugins import BACKUP_RECOVERY, CLEAR_COSTMAP_RECOVERY, ROTATE_RECOVERY, S
 from .recovery import BackUpParams, ClearCostmapParams, RotateParams, SpinParams
 
 COSTMAPS = ("global_costmap", "local_costmap")
-_UNSET = object()
 _PLANNER_PARAMS = {"GlobalPlanner": GlobalPlannerConfig, "NavfnROS": NavfnParams, "TebLocalPlannerROS": TebConfig}
 _RECOVERY_PARAMS = {CLEAR_COSTMAP_RECOVERY: ClearCostmapParams, ROTATE_RECOVERY: RotateParams,
                     BACKUP_RECOVERY: BackUpParams, SPIN_RECOVERY: SpinParams}
@@ -113,19 +112,6 @@ def check_tree(tree: dict) -> list[str]:
     """Build every configuration of the node from the tree (raising ParameterError on a bad value) and
     return the warnings the node would log."""
     return build_configs(tree).warnings
-
-
-def describe_parameters(tree: dict) -> list[str]:
-    """One line per parameter, ``name = value  # doc [unit] (range) -- status``, the value given in the tree
-    or else the declared default (for ``--print-params``)."""
-    lines = []
-    for name, spec in sorted(parameter_table(tree).items()):
-        node = tree
-        for part in name.split("."):
-            node = node.get(part, _UNSET) if isinstance(node, dict) else _UNSET
-        value = spec.default if node is _UNSET else node
-        lines.append(f"{name} = {value!r}  # {spec.describe()}")
-    return lines
 
 
 def apply_move_base_overrides(tree: dict, assignments, live: bool = False) -> tuple[dict, list[str]]:
