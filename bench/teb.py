@@ -30,7 +30,7 @@ The compiled kernels are loaded (warm_up) before the first cycle, as the node do
 After each scene, "compiled vs reference evaluation" times one evaluation with Jacobian and
 normal equations (residuals, J^T J, J^T r) of the bands the homotopy run optimised (sampled every
 SAMPLE_EVERY cycles, each with its own association), by the compiled kernel and by the numpy
-reference (teb/reference.py), and gives the median of the per-band ratios.
+reference (testing/teb_reference.py), and gives the median of the per-band ratios.
 """
 
 from __future__ import annotations
@@ -48,10 +48,11 @@ sys.path.insert(0, str(ROOT))
 
 from simplebot_navigation.costmap.cost_values import LETHAL_OBSTACLE  # noqa: E402
 from simplebot_navigation.costmap.costmap_2d import Costmap2D  # noqa: E402
+from simplebot_navigation.geometry import inverse_transform_points  # noqa: E402
 from simplebot_navigation.teb import edge_kernels, warm_up  # noqa: E402
 from simplebot_navigation.teb.config import TebConfig  # noqa: E402
 from simplebot_navigation.teb.planner import TebLocalPlanner  # noqa: E402
-from simplebot_navigation.teb.reference import ReferenceEvaluation  # noqa: E402
+from simplebot_navigation.testing.teb_reference import ReferenceEvaluation  # noqa: E402
 
 RES = 0.05
 WORLD_ORIGIN = (-6.0, -6.0)
@@ -221,9 +222,7 @@ def compare_evaluations(scene: str, planner: TebLocalPlanner, samples, repeats: 
 
 def box_clearance(pose, obstacles) -> float:
     """Distance from the robot's (unpadded) rectangle to the nearest lethal cell centre."""
-    c, s = math.cos(pose[2]), math.sin(pose[2])
-    rel = obstacles - pose[:2]
-    local = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]])
+    local = inverse_transform_points(pose, obstacles)
     out = np.maximum(np.abs(local) - (0.45, 0.3), 0.0)
     return float(np.min(np.hypot(out[:, 0], out[:, 1])))
 

@@ -58,12 +58,23 @@ def transform_points(pose, points, dtype=float) -> np.ndarray:
     return out
 
 
+def inverse_transform_points(frame, points) -> np.ndarray:
+    """Rows given in the parent frame, expressed in the frame whose pose is `frame` (the inverse of
+    transform_points): (..., 2) points, or (..., 3) poses whose yaw is turned too (not wrapped). `frame`
+    (..., 3) broadcasts against the rows, so N frames can take M points at once ((N, 1, 3) with (1, M, 2))."""
+    f, p = np.asarray(frame, dtype=float), np.asarray(points, dtype=float)
+    c, s = np.cos(f[..., 2]), np.sin(f[..., 2])
+    dx, dy = p[..., 0] - f[..., 0], p[..., 1] - f[..., 1]
+    rows = [c * dx + s * dy, -s * dx + c * dy]
+    if p.shape[-1] == 3:
+        rows.append(p[..., 2] - f[..., 2])
+    return np.stack(rows, axis=-1)
+
+
 def pose_in_frame(frame, pose) -> tuple[float, float, float]:
     """A pose given in the parent frame, expressed in the frame whose pose is `frame` (yaw wrapped)."""
-    fx, fy, fyaw = frame
-    x, y, yaw = pose
-    dx, dy, c, s = x - fx, y - fy, math.cos(fyaw), math.sin(fyaw)
-    return c * dx + s * dy, -s * dx + c * dy, math.remainder(yaw - fyaw, 2 * math.pi)
+    x, y = inverse_transform_points(frame, pose[:2]).tolist()
+    return x, y, math.remainder(pose[2] - frame[2], 2 * math.pi)
 
 
 # -- SE(3): transforms (x, y, z, qx, qy, qz, qw) ------------------------------------------------------

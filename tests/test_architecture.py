@@ -5,6 +5,7 @@ Layers, lowest first; a module may import its own layer and the layers below, ne
   costmap, planning, teb, sim, move_base            the navigation core: plain Python, no ROS
   ros                                               the nodes and their ROS shells
   launch, scenarios, viewer, testing                what a user runs (and what tests and benches share)
+Within a layer, two packages import each other one way at most (scenarios/ uses launch/, never back).
 """
 
 from __future__ import annotations
@@ -68,8 +69,12 @@ def internal_graph() -> dict[str, set[str]]:
             for path in source_files()}
 
 
+def package_of(module: str) -> str:
+    return module.split(".")[1] if "." in module else ""
+
+
 def layer_of(module: str) -> int:
-    sub = module.split(".")[1] if "." in module else ""
+    sub = package_of(module)
     for level, members in enumerate(LAYERS):
         if sub in members:
             return level
@@ -100,27 +105,47 @@ def test_no_module_imports_a_higher_layer():
     assert not offenders, "\n".join(offenders)
 
 
-def test_no_import_cycles():
-    graph = internal_graph()
+def cycles_in(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The cycles a depth-first walk of the graph meets, each as its nodes with the first one repeated."""
     state: dict[str, int] = {}      # 1: on the current path, 2: done
     path: list[str] = []
     cycles = []
 
-    def visit(module: str) -> None:
-        state[module] = 1
-        path.append(module)
-        for target in sorted(graph[module]):
+    def visit(node: str) -> None:
+        state[node] = 1
+        path.append(node)
+        for target in sorted(graph.get(node, ())):
             if state.get(target) == 1:
-                cycles.append(" -> ".join(path[path.index(target):] + [target]))
+                cycles.append(path[path.index(target):] + [target])
             elif target not in state:
                 visit(target)
         path.pop()
-        state[module] = 2
+        state[node] = 2
 
-    for module in sorted(graph):
-        if module not in state:
-            visit(module)
-    assert not cycles, "\n".join(cycles)
+    for node in sorted(graph):
+        if node not in state:
+            visit(node)
+    return cycles
+
+
+def test_no_import_cycles():
+    cycles = cycles_in(internal_graph())
+    assert not cycles, "\n".join(" -> ".join(cycle) for cycle in cycles)
+
+
+def test_packages_of_a_layer_do_not_depend_on_each_other_both_ways():
+    examples: dict[tuple[str, str], str] = {}        # (package, package it imports) -> one such import
+    for name, targets in sorted(internal_graph().items()):
+        for target in sorted(targets):
+            edge = (package_of(name), package_of(target))
+            if edge[0] != edge[1] and layer_of(name) == layer_of(target):
+                examples.setdefault(edge, f"{name} imports {target}")
+    graph: dict[str, set[str]] = {}
+    for source, target in examples:
+        graph.setdefault(source, set()).add(target)
+    cycles = cycles_in(graph)
+    assert not cycles, "\n".join(" -> ".join(cycle) + ": " + "; ".join(examples[edge] for edge in zip(cycle, cycle[1:]))
+                                  for cycle in cycles)
 
 
 @pytest.mark.parametrize("path", source_files() + sorted(ROOT.rglob("*.js")), ids=lambda p: str(p.relative_to(ROOT)))

@@ -51,6 +51,20 @@ def test_transform_points_places_points_and_poses():
     assert g.transform_points(pose, np.zeros((2, 2)), dtype=np.float32).dtype == np.float32
 
 
+def test_inverse_transform_points_undoes_transform_points():
+    frame = (0.5, -1.0, 2.5)
+    poses = np.array([[3.0, 1.0, -2.0], [-1.0, 0.25, 0.5]])
+    np.testing.assert_allclose(g.transform_points(frame, g.inverse_transform_points(frame, poses)), poses,
+                               atol=1e-12)
+    np.testing.assert_allclose(g.inverse_transform_points(frame, poses[:, :2]),
+                               g.inverse_transform_points(frame, poses)[:, :2], atol=0)
+    frames = np.array([frame, (0.0, 0.0, 0.0)])
+    both = g.inverse_transform_points(frames[:, None, :], poses[None, :, :2])
+    assert both.shape == (2, 2, 2)
+    np.testing.assert_allclose(both[1], poses[:, :2], atol=0)
+    np.testing.assert_allclose(both[0], g.inverse_transform_points(frame, poses[:, :2]), atol=0)
+
+
 def test_pose_in_frame_undoes_transform_points():
     frame = (0.5, -1.0, 2.5)
     pose = (3.0, 1.0, -2.0)

@@ -1,4 +1,5 @@
-"""Robot footprint: parsing, padding, radius polygons and the inscribed/circumscribed radii (docs/reference.md §2.2).
+"""Robot footprint: parsing, padding, radius polygons, the inscribed/circumscribed radii (docs/reference.md §2.2)
+and the footprint cost of poses on a costmap (base_local_planner's CostmapModel::footprintCost).
 
 A footprint is an (N, 2) float array of vertices in the robot base frame, in order around the outline.
 """
@@ -10,6 +11,7 @@ import math
 
 import numpy as np
 
+from simplebot_navigation.costmap.cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
 from simplebot_navigation.geometry import transform_points
 
 #: bounds of a footprint a user may give (docs/reference.md §2.2): more vertices cost every collision check,
@@ -113,18 +115,83 @@ def _distance_to_segment(p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
 
 
 def footprint_radii(footprint: np.ndarray) -> tuple[float, float]:
-    """(inscribed, circumscribed): nearest edge to the centre and farthest vertex from it.
-
-    Fewer than three points gives (inf, 0), as costmap_2d leaves its initial values.
+    """(inscribed, circumscribed) as costmap_2d's calculateMinAndMaxDistances: the nearest edge to the centre
+    and the farthest vertex from it (an edge is never nearer than its nearest point nor farther than its
+    farthest vertex). Fewer than three points give (inf, 0), the values costmap_2d leaves.
     """
     fp = np.asarray(footprint, dtype=float).reshape(-1, 2)
-    if len(fp) <= 2:
+    if len(fp) < 3:
         return math.inf, 0.0
-    vertex = np.hypot(fp[:, 0], fp[:, 1])
     edge = _distance_to_segment(fp, np.roll(fp, -1, axis=0))
-    return float(min(vertex.min(), edge.min())), float(max(vertex.max(), edge.max()))
+    return float(edge.min()), float(np.hypot(fp[:, 0], fp[:, 1]).max())
 
 
 def transform_footprint(footprint: np.ndarray, x: float, y: float, yaw: float) -> np.ndarray:
     """Footprint placed at the pose (x, y, yaw) in the global frame."""
     return transform_points((x, y, yaw), np.asarray(footprint, dtype=float).reshape(-1, 2))
+
+
+def line_cells(x0, y0, x1, y1):
+    """Vectorised costmap LineIterator (Bresenham) for many lines at once.
+
+    Returns (line index, mx, my) of every visited cell, endpoints included, in visiting order.
+    The minor coordinate after k steps advanced floor((den // 2 + k * numadd) / den) times.
+    """
+    dx, dy = np.abs(x1 - x0), np.abs(y1 - y0)
+    sx, sy = np.where(x1 >= x0, 1, -1), np.where(y1 >= y0, 1, -1)
+    x_major = dx >= dy
+    den = np.where(x_major, dx, dy)
+    numadd = np.where(x_major, dy, dx)
+    counts = den + 1
+    line = np.repeat(np.arange(len(x0)), counts)
+    k = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    den_l = np.maximum(den[line], 1)
+    minor = (den[line] // 2 + k * numadd[line]) // den_l
+    xm = x_major[line]
+    mx = x0[line] + sx[line] * np.where(xm, k, minor)
+    my = y0[line] + sy[line] * np.where(xm, minor, k)
+    return line, mx, my
+
+
+def footprint_costs(costmap, footprint: np.ndarray, poses: np.ndarray) -> np.ndarray:
+    """footprintCost sign per pose: -1 lethal, -2 unknown, -3 off map, 0 otherwise.
+
+    The outline is rasterised edge by edge with the LineIterator, and the first lethal or unknown cell
+    met in that order decides (lethal -> -1, unknown -> -2); a vertex or the centre off the map gives -3.
+    Fewer than three points check the centre cell only, where an inscribed cost counts as lethal.
+    """
+    poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+    fp = np.asarray(footprint, dtype=float).reshape(-1, 2)
+    out = np.zeros(len(poses))
+    grid = costmap.costmap
+    cx, cy, centre_ok = costmap.world_to_map_array(poses[:, 0], poses[:, 1])
+    out[~centre_ok] = -3.0
+    if len(fp) < 3:
+        cost = np.where(centre_ok, grid[np.where(centre_ok, cy, 0), np.where(centre_ok, cx, 0)], 0)
+        out[centre_ok & (cost == NO_INFORMATION)] = -2.0
+        out[centre_ok & ((cost == LETHAL_OBSTACLE) | (cost == INSCRIBED_INFLATED_OBSTACLE))] = -1.0
+        return out
+    c, s = np.cos(poses[:, 2])[:, None], np.sin(poses[:, 2])[:, None]
+    wx = poses[:, 0:1] + c * fp[None, :, 0] - s * fp[None, :, 1]
+    wy = poses[:, 1:2] + s * fp[None, :, 0] + c * fp[None, :, 1]
+    vx, vy, v_ok = costmap.world_to_map_array(wx, wy)
+    on_map = centre_ok & v_ok.all(axis=1)
+    out[centre_ok & ~on_map] = -3.0
+    idx = np.nonzero(on_map)[0]
+    if not len(idx):
+        return out
+    nv = len(fp)
+    x0, y0 = vx[idx].ravel(), vy[idx].ravel()
+    x1, y1 = np.roll(vx[idx], -1, axis=1).ravel(), np.roll(vy[idx], -1, axis=1).ravel()
+    # costmap_2d closes the polygon with an explicit last edge; the order of edges matters only
+    # for which of lethal/unknown is met first, and line i precedes line i+1 as in the loop.
+    line, mx, my = line_cells(x0, y0, x1, y1)
+    cost = grid[my, mx]
+    hit = (cost == LETHAL_OBSTACLE) | (cost == NO_INFORMATION)
+    if not hit.any():
+        return out
+    pose_of_cell = line[hit] // nv
+    first = np.unique(pose_of_cell, return_index=True)
+    first_cost = cost[hit][first[1]]
+    out[idx[first[0]]] = np.where(first_cost == LETHAL_OBSTACLE, -1.0, -2.0)
+    return out

@@ -12,7 +12,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from .cost_values import INSCRIBED_INFLATED_OBSTACLE, NO_INFORMATION
+from .cost_values import NO_INFORMATION
 from .costmap_2d import Costmap2D
 
 
@@ -166,12 +166,4 @@ class CostmapLayer(Layer, Costmap2D):
         dst = master.costmap[y0:yn, x0:xn]
         take = (layer != NO_INFORMATION) & ((dst == NO_INFORMATION) | (dst < layer))
         dst[take] = layer[take]
-
-    def update_with_addition(self, master: Costmap2D, x0: int, y0: int, xn: int, yn: int) -> None:
-        layer = self.costmap[y0:yn, x0:xn]
-        dst = master.costmap[y0:yn, x0:xn]
-        summed = np.minimum(dst.astype(np.int32) + layer, INSCRIBED_INFLATED_OBSTACLE - 1).astype(np.uint8)
-        result = np.where(dst == NO_INFORMATION, layer, summed)
-        known = layer != NO_INFORMATION
-        dst[known] = result[known]
 

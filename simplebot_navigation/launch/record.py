@@ -1,5 +1,5 @@
 """Record every topic of a run to MCAP, and plot a recorded run: the command line and the launcher's
---record entry around ros/recorder.py and scenarios/recording_plot.py.
+--record entry around ros/recorder.py and launch/recording_plot.py.
 
     python -m simplebot_navigation.launch navigation --record run.mcap      # with the launcher
     python -m simplebot_navigation.launch.record run.mcap                  # join a running system
@@ -16,7 +16,7 @@ from rclpy.utilities import remove_ros_args
 
 from simplebot_navigation.launch.loader import LaunchError, NodeSpec
 from simplebot_navigation.ros.recorder import Recorder
-from simplebot_navigation.scenarios.recording_plot import plot_recording
+from simplebot_navigation.launch.recording_plot import plot_recording
 
 
 def recorder_spec(path: str):

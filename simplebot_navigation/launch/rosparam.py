@@ -12,6 +12,7 @@ from typing import Any
 import yaml
 
 from simplebot_navigation.parameters import ParameterError
+from simplebot_navigation.parameters.overrides import set_in_tree
 from simplebot_navigation.parameters.ros2 import from_ros2_overrides, to_ros2_overrides
 
 __all__ = ["ParamError", "ParamServer", "from_ros2_overrides", "join_ns", "load_yaml_file", "to_ros2_overrides"]
@@ -92,13 +93,7 @@ class ParamServer:
         parts = [p for p in name.split("/") if p]
         if not parts:
             raise ParamError("cannot set a non-dict value on the root namespace")
-        node = self.tree
-        for part in parts[:-1]:
-            child = node.get(part)
-            if not isinstance(child, dict):
-                child = node[part] = {}
-            node = child
-        node[parts[-1]] = value
+        set_in_tree(self.tree, "/".join(parts), value, separator="/")
 
     def get(self, name: str, default: Any = KeyError) -> Any:
         node: Any = self.tree

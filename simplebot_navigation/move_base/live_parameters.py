@@ -20,7 +20,7 @@ from typing import Any, Iterable
 import numpy as np
 
 from simplebot_navigation.parameters import ParameterError, fields_of
-from simplebot_navigation.parameters.overrides import ParameterTable, lookup
+from simplebot_navigation.parameters.overrides import ParameterTable, lookup, set_in_tree
 
 from .config import MoveBaseConfig
 from .parameter_tree import COSTMAPS, NodeConfigs, apply_move_base_overrides, build_configs, live_parameter_table
@@ -114,7 +114,11 @@ class LiveParameters:
         if old == new or (old is _MISSING and new == lookup(self.table, name).default):
             return                                      # the value it has: nothing to do
         without = copy.deepcopy(tree)
-        _set_leaf(without, name, old)
+        if old is _MISSING:
+            parent, _, leaf = name.rpartition(".")
+            (_leaf(without, parent) if parent else without).pop(leaf, None)
+        else:
+            set_in_tree(without, name, old)
         if _same(build_configs(without), configs):
             raise ParameterError(f"{name}: not set to {value!r}, since it has no effect here: another parameter "
                                  "takes precedence (a footprint over robot_radius, a costmap-level key over its "
@@ -150,18 +154,6 @@ def _leaf(tree: dict, name: str) -> Any:
     for part in name.split("."):
         node = node.get(part, _MISSING) if isinstance(node, dict) else _MISSING
     return node
-
-
-def _set_leaf(tree: dict, name: str, value: Any) -> None:
-    """Set (or, for _MISSING, remove) a dotted name in a nested tree that has its parents."""
-    *parents, leaf = name.split(".")
-    node = tree
-    for part in parents:
-        node = node[part]
-    if value is _MISSING:
-        node.pop(leaf, None)
-    else:
-        node[leaf] = value
 
 
 def _same(a: Any, b: Any) -> bool:

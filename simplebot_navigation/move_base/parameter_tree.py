@@ -21,7 +21,6 @@ from .config import MoveBaseConfig
 from .plugins import GLOBAL_PLANNERS, LOCAL_PLANNERS, RECOVERY_BEHAVIORS, plugin_namespace
 
 COSTMAPS = ("global_costmap", "local_costmap")
-_UNSET = object()
 
 
 def _prefixed(prefix: str, cls) -> ParameterTable:
@@ -105,19 +104,6 @@ def check_tree(tree: dict) -> list[str]:
     """Build every configuration of the node from the tree (raising ParameterError on a bad value) and
     return the warnings the node would log."""
     return build_configs(tree).warnings
-
-
-def describe_parameters(tree: dict) -> list[str]:
-    """One line per parameter, ``name = value  # doc [unit] (range) -- status``, the value given in the tree
-    or else the declared default (for ``--print-params``)."""
-    lines = []
-    for name, spec in sorted(parameter_table(tree).items()):
-        node = tree
-        for part in name.split("."):
-            node = node.get(part, _UNSET) if isinstance(node, dict) else _UNSET
-        value = spec.default if node is _UNSET else node
-        lines.append(f"{name} = {value!r}  # {spec.describe()}")
-    return lines
 
 
 def apply_move_base_overrides(tree: dict, assignments, live: bool = False) -> tuple[dict, list[str]]:

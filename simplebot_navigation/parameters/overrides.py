@@ -50,9 +50,10 @@ def lookup(table: ParameterTable, name: str) -> Param:
     raise ParameterError(f"{name}: no such parameter{hint}")
 
 
-def set_in_tree(tree: dict, name: str, value: Any) -> None:
-    """Set a dotted name in a nested ROS 1 tree, creating namespaces on the way."""
-    *parents, leaf = name.split(".")
+def set_in_tree(tree: dict, name: str, value: Any, separator: str = ".") -> None:
+    """Set a name (dotted, or ``separator``-joined) in a nested ROS 1 tree, creating namespaces on the way;
+    a value where a namespace must go gives way to it."""
+    *parents, leaf = name.split(separator)
     node = tree
     for part in parents:
         child = node.get(part)

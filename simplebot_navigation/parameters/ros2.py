@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from .overrides import set_in_tree
 from .spec import ParameterError
 
 
@@ -75,14 +76,7 @@ def from_ros2_overrides(params: dict[str, Any]) -> dict:
     """Rebuild the ROS 1 tree a node was given: dotted names nest, plugin lists come back as [{name, type}]."""
     tree: dict = {}
     for name, value in params.items():
-        node = tree
-        parts = name.split(".")
-        for part in parts[:-1]:
-            child = node.get(part)
-            if not isinstance(child, dict):
-                child = node[part] = {}
-            node = child
-        node[parts[-1]] = list(value) if isinstance(value, (list, tuple)) else value
+        set_in_tree(tree, name, list(value) if isinstance(value, (list, tuple)) else value)
 
     def restore(node: dict) -> None:
         for key, value in list(node.items()):

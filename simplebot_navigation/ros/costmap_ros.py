@@ -71,7 +71,6 @@ class Costmap2DROS:
         self.last_pose_error = ""
         self._active = False
         self._stopped = False
-        self._paused = False
         #: global_frame <- robot_base_frame has been available; message drops are reported from then on
         self.tf_ready = False
         self._last_wait_warning = time.monotonic()
@@ -193,20 +192,12 @@ class Costmap2DROS:
     def start(self) -> None:
         """Re-subscribe after stop() (move_base restarts its costmaps on a new goal)."""
         self._stopped = False
-        self._paused = False
         self._activate()
 
     def stop(self) -> None:
         """Unsubscribe every source and stop updating."""
         self._stopped = True
         self._deactivate()
-
-    def pause(self) -> None:
-        """Stop updating but keep receiving data."""
-        self._paused = True
-
-    def resume(self) -> None:
-        self._paused = False
 
     def destroy(self) -> None:
         """Release every subscription, timer and publisher (the node itself stays)."""
@@ -264,7 +255,7 @@ class Costmap2DROS:
 
     # -- update loop ---------------------------------------------------------------------------------
     def _update_cycle(self) -> None:
-        if self._stopped or self._paused:
+        if self._stopped:
             return
         if not self.tf_ready:
             if not self.tf.can_transform(self.global_frame, self.robot_base_frame, Time()):

@@ -5,11 +5,11 @@ the ``<name>.*`` parameters of its node, plans on the global costmap's master gr
 the costmap's lock, and offers ROS 1's planner interfaces under the node's private namespace:
 ``~<name>/plan`` (nav_msgs/Path, every plan, empty on failure), ``~<name>/potential``
 (nav_msgs/OccupancyGrid, when publish_potential) and the ``~<name>/make_plan`` service
-(nav_msgs/GetPlan, whose tolerance is honoured).
+(nav_msgs/GetPlan, read as move_base's make_plan reads it: ros/move_base_goal.py plan_request).
 
 The costmap is duck-typed, so the planner does not depend on how the costmap is kept: it needs
-``costmap`` (Costmap2D), ``lock``, ``global_frame`` and ``get_robot_pose()`` -> (x, y, yaw, stamp)
-or None.
+``costmap`` (Costmap2D), ``lock``, ``global_frame``, ``tf`` (the transform buffer, for requests in
+other frames) and ``get_robot_pose()`` -> (x, y, yaw, stamp) or None.
 """
 
 from __future__ import annotations
@@ -28,7 +28,8 @@ from simplebot_navigation.move_base.plugins import plugin_namespace
 from simplebot_navigation.planning import (GlobalPlanner, GlobalPlannerConfig, PlanFailure, PlanResult,
                                            make_global_planner, potential_to_occupancy, warm_up)
 from simplebot_navigation.planning.config import parameter_specs, resolved_parameters
-from simplebot_navigation.ros.conversions import occupancy_grid_msg, path_msg, pose_to_xyyaw
+from simplebot_navigation.ros.conversions import occupancy_grid_msg, path_msg
+from simplebot_navigation.ros.move_base_goal import plan_request
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
 from simplebot_navigation.ros.publishers import create_publisher
 from simplebot_navigation.ros.tf import strip_frame
@@ -45,18 +46,6 @@ def potential_grid_msg(potential: np.ndarray, publish_scale: int, resolution: fl
                              frame_id, stamp)
     msg.data = potential_to_occupancy(potential, publish_scale).ravel().tobytes()
     return msg
-
-
-def _request_pose(role: str, stamped) -> tuple[float, float, float]:
-    """(x, y, yaw) of a GetPlan pose; ValueError naming the role for NaN/inf or a zero quaternion."""
-    p, q = stamped.pose.position, stamped.pose.orientation
-    values = (p.x, p.y, p.z, q.x, q.y, q.z, q.w)
-    if not all(math.isfinite(v) for v in values):
-        raise ValueError(f"the {role} pose is not finite: position ({p.x}, {p.y}, {p.z}), "
-                         f"orientation ({q.x}, {q.y}, {q.z}, {q.w})")
-    if q.x == q.y == q.z == q.w == 0.0:
-        raise ValueError(f"the {role} pose has a zero quaternion")
-    return pose_to_xyyaw(stamped.pose)
 
 
 class GlobalPlannerROS:
@@ -139,11 +128,11 @@ class GlobalPlannerROS:
             self.logger.warning(message)
 
     def _on_make_plan(self, request: GetPlan.Request, response: GetPlan.Response) -> GetPlan.Response:
-        """ROS 1 move_base's planService start rule: req.start if it has a frame, else the robot."""
+        """A refused request (plan_request says why) gets an empty plan, on ~<name>/plan too."""
         response.plan.header.frame_id = self.global_frame
         response.plan.header.stamp = self.node.get_clock().now().to_msg()
         try:
-            start, goal, tolerance = self._plan_request(request)
+            start, goal, tolerance = plan_request(request, self.costmap_ros)
         except ValueError as err:
             self.logger.error(f"{self.name}: make_plan request rejected: {err}")
             self.plan_pub.publish(path_msg(np.empty((0, 3)), self.global_frame, response.plan.header.stamp))
@@ -151,23 +140,3 @@ class GlobalPlannerROS:
         result = self.make_plan(start, goal, tolerance)
         response.plan = path_msg(result.poses, self.global_frame, response.plan.header.stamp)
         return response
-
-    def _plan_request(self, request: GetPlan.Request):
-        frame = self.global_frame
-        for role, stamped in (("start", request.start), ("goal", request.goal)):
-            given = strip_frame(stamped.header.frame_id)
-            if (role == "goal" or given) and given != frame:
-                raise ValueError(f"the {role} pose must be in the {frame!r} frame (the planner's global "
-                                 f"frame), not in {given!r}")
-        goal = _request_pose("goal", request.goal)
-        if request.start.header.frame_id:
-            start = _request_pose("start", request.start)
-        else:
-            robot = self.costmap_ros.get_robot_pose()
-            if robot is None:
-                raise ValueError("the request has no start frame and the robot pose is not available")
-            start = tuple(robot[:3])
-        tolerance = float(request.tolerance)
-        if not (math.isfinite(tolerance) and tolerance >= 0.0):
-            raise ValueError(f"tolerance must be finite and >= 0, got {tolerance}")
-        return start, goal, tolerance

@@ -32,14 +32,14 @@ from simplebot_navigation.move_base.state_machine import MoveBaseCore
 from simplebot_navigation.parameters import fields_of
 from simplebot_navigation.ros.conversions import path_msg, pose_to_xyyaw, xyyaw_to_pose
 from simplebot_navigation.ros.costmap_ros import Costmap2DROS
-from simplebot_navigation.ros.move_base_goal import MoveBaseGoal, validate_goal
+from simplebot_navigation.ros.move_base_goal import MoveBaseGoal, in_frame, plan_request, validate_pose
 from simplebot_navigation.ros.move_base_parameters import MoveBaseParameters
 from simplebot_navigation.ros.move_base_recoveries import MoveBaseRecoveryContext
 from simplebot_navigation.ros.move_base_stats import OUTCOMES, control_loop_status, navigation_status
 from simplebot_navigation.ros.move_base_supervision import MoveBaseSupervision
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
 from simplebot_navigation.ros.publishers import create_publisher, drop_event_handlers_of_best_effort_subscriptions
-from simplebot_navigation.ros.tf import Buffer, TransformException, TransformListener, strip_frame
+from simplebot_navigation.ros.tf import Buffer, TransformListener
 from simplebot_navigation.ros.node_main import run_node
 
 # The watchdog, status and diagnostics share one steady-clock timer (one executor wake-up where three
@@ -193,7 +193,7 @@ class MoveBaseNode(MoveBaseSupervision, MoveBaseParameters, Node):
         self.core.events.goal(self._now(), goal.id)
         self.watchdog.beat()  # the watchdog judges the loop from this goal on
         self._waiting_since = None
-        reason = validate_goal(goal.pose)
+        reason = validate_pose(goal.pose)
         target = None
         if reason is None:
             target, reason = self._goal_in_global_frame(goal.pose)
@@ -210,16 +210,9 @@ class MoveBaseNode(MoveBaseSupervision, MoveBaseParameters, Node):
 
     def _goal_in_global_frame(self, pose: PoseStamped):
         frame = self.global_costmap.global_frame
-        if strip_frame(pose.header.frame_id) == frame:
-            target = PoseStamped()
-            target.header.frame_id = frame
-            target.header.stamp = pose.header.stamp
-            target.pose = pose.pose
-        else:
-            try:
-                target = self.tf.transform_pose(pose, frame, latest=True)
-            except TransformException as err:
-                return None, f"cannot transform the goal from {pose.header.frame_id} to {frame}: {err}"
+        target, reason = in_frame(pose, frame, self.tf)
+        if target is None:
+            return None, reason
         x, y = target.pose.position.x, target.pose.position.y
         master = self.global_costmap.costmap
         if master.world_to_map(x, y) is None:
@@ -356,24 +349,19 @@ class MoveBaseNode(MoveBaseSupervision, MoveBaseParameters, Node):
         self.diagnostics_pub.publish(msg)
 
     def _on_make_plan(self, request: GetPlan.Request, response: GetPlan.Response) -> GetPlan.Response:
+        """move_base's planService: refused while a goal is active; the request is read by plan_request, the
+        rule of the planner's own make_plan."""
         frame = self.global_costmap.global_frame
         response.plan.header.frame_id = frame
         if self.goal is not None:
             self.get_logger().error("move_base must be in an inactive state to make a plan for an external user")
             return response
-        if request.start.header.frame_id:
-            start, reason = self._goal_in_global_frame(request.start)
-            start = pose_to_xyyaw(start.pose) if start is not None else None
-        else:
-            pose = self._robot_pose_global()
-            start, reason = (pose[:3], None) if pose is not None else (None, "no robot pose")
-        goal, goal_reason = self._goal_in_global_frame(request.goal)
-        reason = reason or goal_reason or (validate_goal(request.goal) if goal is not None else None)
-        if reason is not None or start is None:
-            self.get_logger().error(f"make_plan: {reason}")
+        try:
+            start, goal, tolerance = plan_request(request, self.global_costmap)
+        except ValueError as err:
+            self.get_logger().error(f"make_plan: {err}")
             return response
-        tolerance = request.tolerance if math.isfinite(request.tolerance) and request.tolerance > 0 else None
-        result = self.planner.make_plan(start, pose_to_xyyaw(goal.pose), tolerance)
+        result = self.planner.make_plan(start, goal, tolerance)
         if result.ok:
             response.plan = path_msg(result.poses, frame, self.get_clock().now().to_msg())
         return response

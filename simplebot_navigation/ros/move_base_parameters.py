@@ -19,10 +19,8 @@ from rclpy.parameter import Parameter
 from simplebot_navigation.move_base.live_parameters import (GLOBAL_PLANNER, LOCAL_PLANNER, MOVE_BASE,
                                                             LiveParameters, update_move_base_config)
 from simplebot_navigation.parameters import ParameterError
-from simplebot_navigation.ros.params import describe_declared, given_parameter_tree, refuse_unknown_parameters
-
-#: parameters of every rclpy node, handled by rclpy itself
-NODE_LEVEL = ("use_sim_time", "start_type_description_service")
+from simplebot_navigation.ros.params import (NODE_LEVEL, describe_declared, given_parameter_tree,
+                                             refuse_unknown_parameters)
 
 
 def _ours(name: str) -> bool:

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from simplebot_navigation.costmap.footprint import footprint_costs
+from simplebot_navigation.geometry import inverse_transform_points, transform_points
 from simplebot_navigation.move_base.recovery import PoseTrail
 from simplebot_navigation.move_base.recovery.spin import free_area_left_right
 from simplebot_navigation.ros.params import given_parameter_tree
-from simplebot_navigation.teb.feasibility import footprint_costs
 
 
 class MoveBaseRecoveryContext:
@@ -37,10 +38,7 @@ class MoveBaseRecoveryContext:
         here, there = node.global_costmap.get_robot_pose(), node.local_costmap.get_robot_pose()
         if here is None or there is None:
             return None
-        turn = there[2] - here[2]
-        c, s = np.cos(turn), np.sin(turn)
-        dx, dy = poses[:, 0] - here[0], poses[:, 1] - here[1]
-        return np.column_stack([there[0] + c * dx - s * dy, there[1] + s * dx + c * dy, poses[:, 2] + turn])
+        return transform_points(there[:3], inverse_transform_points(here[:3], poses))
 
     def footprint_clear(self, poses: np.ndarray) -> np.ndarray:
         """Per pose: no lethal or unknown cell on the footprint's outline; all False when the poses cannot be

@@ -23,14 +23,15 @@ from simplebot_navigation.parameters import Param, ParameterError
 from simplebot_navigation.parameters.overrides import lookup
 from simplebot_navigation.parameters.ros2 import from_ros2_overrides, to_ros2_overrides
 
-_NODE_LEVEL = {"use_sim_time", "start_type_description_service"}
+#: parameters rclpy gives every node itself: not part of any ROS 1 tree
+NODE_LEVEL = frozenset({"use_sim_time", "start_type_description_service"})
 _INT64 = 2 ** 63 - 1
 
 
 def given_parameter_tree(node: Node, prefix: str = "") -> dict:
     """The ROS 1 tree of the parameters this node was started with, below prefix ('' = all)."""
     values = {name: param.value for name, param in node.get_parameters_by_prefix(prefix).items()
-              if prefix or name not in _NODE_LEVEL}
+              if prefix or name not in NODE_LEVEL}
     return from_ros2_overrides(values)
 
 

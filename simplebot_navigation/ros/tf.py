@@ -165,10 +165,6 @@ class Buffer:
         with self._cond:
             self._edges = {child: edge for child, edge in self._edges.items() if edge.static}
 
-    def all_frames_as_string(self) -> str:
-        with self._cond:
-            return "".join(f"Frame {c} exists with parent {e.parent}.\n" for c, e in sorted(self._edges.items()))
-
     # -- lookup -----------------------------------------------------------------------------
     def _chain(self, frame: str) -> list[str]:
         chain = [frame]

@@ -28,6 +28,7 @@ import numpy as np
 
 from simplebot_navigation.costmap.footprint import footprint_radii, parse_footprint
 from simplebot_navigation.costmap.obstacle_layer import scan_problem
+from simplebot_navigation.geometry import inverse_transform_points
 from simplebot_navigation.parameters.spec import ParameterError, fields_of, param
 from simplebot_navigation.safety import collision_kernels as kernels
 
@@ -106,9 +107,7 @@ def moved_by(points: np.ndarray, v: float, w: float, dt: float) -> np.ndarray:
         dx, dy = v / w * math.sin(th), v / w * (1.0 - math.cos(th))
     else:
         dx, dy = v * dt, 0.0
-    c, s = math.cos(th), math.sin(th)
-    shifted = points - (dx, dy)
-    return np.stack([c * shifted[:, 0] + s * shifted[:, 1], -s * shifted[:, 0] + c * shifted[:, 1]], axis=1)
+    return inverse_transform_points((dx, dy, th), points)
 
 
 class CollisionMonitor:

@@ -17,6 +17,8 @@ from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from simplebot_navigation.geometry import inverse_transform_points
+
 from .world import Cylinder, Pose2D, World
 
 DEFAULT_RESOLUTION = 0.025
@@ -75,13 +77,13 @@ class _Grid:
         r0, c0 = self.cell(Pose2D(cx - ex, cy - ey))
         r1, c1 = self.cell(Pose2D(cx + ex, cy + ey))
         rows, cols = np.mgrid[r0:r1 + 1, c0:c1 + 1]
-        dx = self.origin[0] + (cols + 0.5) * self.resolution - cx
-        dy = self.origin[1] + (rows + 0.5) * self.resolution - cy
+        centres = np.stack([self.origin[0] + (cols + 0.5) * self.resolution,
+                            self.origin[1] + (rows + 0.5) * self.resolution], axis=-1)
         if isinstance(shape, Cylinder):
-            inside = np.hypot(dx, dy) <= shape.radius
+            inside = np.hypot(centres[..., 0] - cx, centres[..., 1] - cy) <= shape.radius
         else:
-            c, s = math.cos(shape.yaw), math.sin(shape.yaw)
-            inside = (np.abs(c * dx + s * dy) <= shape.size[0] / 2) & (np.abs(-s * dx + c * dy) <= shape.size[1] / 2)
+            local = np.abs(inverse_transform_points((cx, cy, shape.yaw), centres))
+            inside = (local[..., 0] <= shape.size[0] / 2) & (local[..., 1] <= shape.size[1] / 2)
         occupied[r0:r1 + 1, c0:c1 + 1] |= inside
 
 

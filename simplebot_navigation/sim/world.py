@@ -28,7 +28,7 @@ from typing import Any, Iterator, Mapping
 import numpy as np
 import yaml
 
-from simplebot_navigation.geometry import transform_points
+from simplebot_navigation.geometry import inverse_transform_points, transform_points
 
 DEFAULT_HEIGHT = 1.0
 DEFAULT_THICKNESS = 0.1
@@ -168,11 +168,10 @@ class World:
 
 
 def _shape_distance(shape: Box | Cylinder, pts: np.ndarray) -> np.ndarray:
-    rel = pts - np.asarray(shape.center)
     if isinstance(shape, Cylinder):
+        rel = pts - np.asarray(shape.center)
         return np.maximum(np.hypot(rel[:, 0], rel[:, 1]) - shape.radius, 0.0)
-    c, s = math.cos(shape.yaw), math.sin(shape.yaw)
-    local = np.abs(np.column_stack((c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1])))
+    local = np.abs(inverse_transform_points((*shape.center, shape.yaw), pts))
     outside = np.maximum(local - np.asarray(shape.size) / 2, 0.0)
     return np.hypot(outside[:, 0], outside[:, 1])
 

@@ -8,7 +8,7 @@ arithmetic, and a 20 Hz control cycle runs hundreds of evaluations (several band
 and five inner iterations, up to ten trial steps each). Written as plain loops over edges and
 compiled, one evaluation costs microseconds, the normal equations are accumulated straight into
 banded storage without scatter indices, and a whole inner loop (evaluate, assemble, damped
-banded Cholesky solve, step, chi2) is one call. teb/reference.py keeps the vectorised numpy
+banded Cholesky solve, step, chi2) is one call. testing/teb_reference.py keeps the vectorised numpy
 evaluation as the oracle the tests hold these kernels to. Every kernel is compiled with
 ``cache=True``, so only the very first process pays the compile time (see warm_up()), and
 releases the GIL.

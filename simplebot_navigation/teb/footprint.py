@@ -16,6 +16,7 @@ from functools import cached_property
 import numpy as np
 
 from simplebot_navigation.costmap.footprint import parse_footprint
+from simplebot_navigation.geometry import inverse_transform_points
 from simplebot_navigation.parameters import Param, ParameterError, fields_of, load, param
 
 MODEL_TYPES = ("point", "circular", "two_circles", "line", "polygon")
@@ -163,20 +164,13 @@ class FootprintModel:
             best_g = np.where(take[:, None], seg_g, best_g)
         return best_d, best_g
 
-    @staticmethod
-    def _to_robot_frame(poses: np.ndarray, points: np.ndarray) -> np.ndarray:
-        c, s = np.cos(poses[..., 2]), np.sin(poses[..., 2])
-        dx = points[..., 0] - poses[..., 0]
-        dy = points[..., 1] - poses[..., 1]
-        return np.stack([c * dx + s * dy, -s * dx + c * dy], axis=-1)
-
     def distances(self, poses: np.ndarray, points: np.ndarray) -> np.ndarray:
         """Distance matrix (N, M) from N poses (N,3) to M point obstacles (M,2)."""
         poses = np.asarray(poses, dtype=float).reshape(-1, 3)
         points = np.asarray(points, dtype=float).reshape(-1, 2)
         if not len(self.segments):
             return self._circle_pairs(poses[:, None, :], points[None, :, :], False)[0]
-        q = self._to_robot_frame(poses[:, None, :], points[None, :, :])
+        q = inverse_transform_points(poses[:, None, :], points[None, :, :])
         d, _ = self._robot_frame_distance(q.reshape(-1, 2))
         return d.reshape(len(poses), len(points))
 
@@ -184,7 +178,7 @@ class FootprintModel:
         """Pairwise distances (K,) between poses[k] (K,3) and points[k] (K,2)."""
         if not len(self.segments):
             return self._circle_pairs(poses, points, False)[0]
-        return self._robot_frame_distance(self._to_robot_frame(poses, points))[0]
+        return self._robot_frame_distance(inverse_transform_points(poses, points))[0]
 
     def _circle_pairs(self, poses, points, with_gradient: bool):
         """World-frame shortcut for circle-only models (point, circular, two_circles): the
@@ -214,7 +208,7 @@ class FootprintModel:
         """Pairwise distances (K,) between poses[k] and points[k], and d(dist)/d(x, y, theta) (K,3)."""
         if not len(self.segments):
             return self._circle_pairs(poses, points, True)
-        q = self._to_robot_frame(poses, points)
+        q = inverse_transform_points(poses, points)
         d, gq = self._robot_frame_distance(q)
         c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
         grad = np.empty((len(d), 3))

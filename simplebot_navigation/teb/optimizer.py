@@ -3,7 +3,7 @@
 Per outer iteration the band is resized, obstacles and via-points are associated with its poses
 (the g2o graph of one buildGraph call), and the Levenberg-Marquardt inner loop runs as one
 compiled call (teb/solver_kernels.py): every edge family is evaluated per edge, J^T J is accumulated
-into banded storage and solved by banded Cholesky with g2o's damping rule. teb/reference.py is
+into banded storage and solved by banded Cholesky with g2o's damping rule. testing/teb_reference.py is
 the numpy oracle of the same evaluation.
 """
 

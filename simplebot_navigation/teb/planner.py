@@ -11,11 +11,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from simplebot_navigation.costmap.footprint import footprint_radii
 from simplebot_navigation.geometry import normalize_theta
 from simplebot_navigation.parameters import fields_of
 from simplebot_navigation.teb.config import TebConfig
 from simplebot_navigation.teb.failure_detector import FailureDetector, buffer_length
-from simplebot_navigation.teb.feasibility import footprint_inscribed_radius, is_trajectory_feasible
+from simplebot_navigation.teb.feasibility import is_trajectory_feasible
 from simplebot_navigation.teb.footprint import FootprintModel
 from simplebot_navigation.teb.homotopy import HomotopyClassPlanner
 from simplebot_navigation.teb.obstacles import behind_robot_filter, costmap_point_obstacles
@@ -50,7 +51,7 @@ class TebLocalPlanner:
         self.model = FootprintModel.from_params(config.footprint_model)
         self.warnings = list(config.warnings) + self.model.warnings
         self.costmap_footprint = np.asarray(costmap_footprint, dtype=float).reshape(-1, 2)
-        self.costmap_inscribed_radius = footprint_inscribed_radius(self.costmap_footprint)
+        self.costmap_inscribed_radius = footprint_radii(self.costmap_footprint)[0]
         if self.model.inscribed_radius + config.min_obstacle_dist < self.costmap_inscribed_radius:
             self.warnings.append(
                 f"footprint model inscribed radius ({self.model.inscribed_radius:.3f}) + min_obstacle_dist "
@@ -101,7 +102,7 @@ class TebLocalPlanner:
     def set_costmap_footprint(self, costmap_footprint) -> None:
         """The local costmap's padded footprint changed: the feasibility check uses the new one."""
         self.costmap_footprint = np.asarray(costmap_footprint, dtype=float).reshape(-1, 2)
-        self.costmap_inscribed_radius = footprint_inscribed_radius(self.costmap_footprint)
+        self.costmap_inscribed_radius = footprint_radii(self.costmap_footprint)[0]
 
     # -- inputs -------------------------------------------------------------------------------
     def set_plan(self, global_plan_xyyaw) -> None:

@@ -2,8 +2,7 @@
 
 import pytest
 
-from simplebot_navigation.move_base.parameter_tree import (apply_move_base_overrides, check_tree, describe_parameters,
-                                                           parameter_table)
+from simplebot_navigation.move_base.parameter_tree import apply_move_base_overrides, check_tree, parameter_table
 from simplebot_navigation.parameters import ParameterError
 from simplebot_navigation.parameters.overrides import parse_assignment
 from simplebot_navigation.testing.lab_params import navigation_tree
@@ -107,14 +106,3 @@ def test_every_shipped_parameter_set_is_known_and_implemented(args):
     given = {k: v for k, v in move_base.parameters.items() if k != "use_sim_time"}
     warnings = check_tree(from_ros2_overrides(given))
     assert [w for w in warnings if "unknown parameter" in w or "no effect" in w] == []
-
-
-def test_every_parameter_is_described_with_its_value(lab):
-    lines = describe_parameters(lab)
-    assert len(lines) == len(parameter_table(lab))
-    assert "local_costmap.inflation_layer.inflation_radius = 1.5  # distance up to which obstacle cost is " \
-           "inflated [m] (>= 0)" in lines
-    assert any(line.startswith("TebLocalPlannerROS.divergence_detection_enable = False  # ") and
-               "accepted, not implemented" in line for line in lines)
-    assert any(line.startswith("TebLocalPlannerROS.oscillation_recovery = True  # ") and
-               "not implemented" not in line for line in lines)

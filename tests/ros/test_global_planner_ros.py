@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 import pytest
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import PoseStamped, TransformStamped
 from nav_msgs.msg import OccupancyGrid, Path
 from nav_msgs.srv import GetPlan
 from rclpy.context import Context
@@ -24,6 +24,7 @@ from simplebot_navigation.costmap.costmap_2d import Costmap2D
 from simplebot_navigation.planning import GLOBAL_PLANNER, NAVFN, GlobalPlannerConfig, PlanFailure
 from simplebot_navigation.ros.conversions import path_to_array, xyyaw_to_pose
 from simplebot_navigation.ros.global_planner_ros import GlobalPlannerROS, resolved_parameters
+from simplebot_navigation.ros.tf import Buffer
 
 RES, ORIGIN, CELLS = 0.2, -15.0, 150
 WALL_COL = 75                       # x in [0, 0.2)
@@ -65,6 +66,7 @@ class StandInCostmapROS:
     def __init__(self):
         self.lock = CountingLock()
         self.global_frame = "/" + FRAME       # a leading slash, as ROS 1 configs write it
+        self.tf = Buffer()                     # no transforms: a pose in another frame cannot be planned
         self.robot_pose = (*START, None)
         self.grid = wall_map()
         self.reads_outside_lock = 0
@@ -238,22 +240,35 @@ def test_get_plan_without_a_start_frame_starts_at_the_robot(ros):
     np.testing.assert_allclose(poses[-1], GOAL, atol=1e-9)
 
 
-def test_get_plan_rejects_other_frames_and_nan_with_a_reason(ros):
+def test_get_plan_rejects_untransformable_frames_and_nan_with_a_reason(ros):
     before = len(ros.plans)
     plan = ros.call(GOAL, START, goal_frame="odom")
     assert len(plan.poses) == 0 and plan.header.frame_id == FRAME
-    assert any("'map'" in msg and "'odom'" in msg for _, msg in ros.log.records)
+    assert any("cannot transform the goal from odom to map" in msg for _, msg in ros.log.records)
     plan = ros.call(GOAL, (-4.9, 0.1, 0.0), start_frame="base_link")
     assert len(plan.poses) == 0
-    assert any("start" in msg and "'base_link'" in msg for _, msg in ros.log.records)
+    assert any("cannot transform the start from base_link to map" in msg for _, msg in ros.log.records)
     plan = ros.call((float("nan"), 0.1, 0.0), START)
     assert len(plan.poses) == 0
-    assert any("goal pose is not finite" in msg for _, msg in ros.log.records)
+    assert any("goal has a NaN or inf" in msg for _, msg in ros.log.records)
     plan = ros.call(GOAL, START, tolerance=float("nan"))
     assert len(plan.poses) == 0
     assert any("tolerance" in msg for _, msg in ros.log.records)
     ros.spin_until(lambda: len(ros.plans) >= before + 4)
     assert all(len(p.poses) == 0 for p in ros.plans[before:before + 4])   # every request shows on ~plan
+
+
+def test_get_plan_moves_poses_from_other_frames_into_the_global_frame(ros):
+    shifted = TransformStamped(child_frame_id="shifted")
+    shifted.header.frame_id = FRAME
+    shifted.transform.translation.x = 1.0
+    shifted.transform.rotation.w = 1.0
+    ros.costmap_ros.tf.set_transform_static(shifted, "test")
+    try:
+        poses = path_to_array(ros.call((GOAL[0] - 1.0, GOAL[1], GOAL[2]), START, goal_frame="shifted"))
+    finally:
+        ros.costmap_ros.tf = Buffer()
+    np.testing.assert_allclose(poses[-1], GOAL, atol=1e-9)
 
 
 def test_goal_off_the_map_gives_an_empty_plan_a_throttled_warning_and_planning_goes_on(ros):

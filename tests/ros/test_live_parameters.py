@@ -19,6 +19,7 @@ from simplebot_navigation.costmap.costmap import Costmap
 from simplebot_navigation.costmap.footprint import parse_footprint
 from simplebot_navigation.move_base.live_parameters import LiveParameters
 from simplebot_navigation.parameters.overrides import lookup
+from simplebot_navigation.ros.params import NODE_LEVEL
 from simplebot_navigation.scenarios import NavigationSession
 from simplebot_navigation.sim.world import Pose2D
 from simplebot_navigation.testing.lab_params import move_base_tree
@@ -234,7 +235,7 @@ def test_describe_parameters_gives_each_parameter_its_description_and_range(sess
     assert plugin.description.endswith("requires restart") and frame.description.endswith("requires restart")
     node = session.move_base
     undescribed = [name for name in node.get_parameters_by_prefix("")
-                   if name not in ("use_sim_time", "start_type_description_service")
+                   if name not in NODE_LEVEL
                    and not node.describe_parameter(name).description]
     assert undescribed == []
 

@@ -1,4 +1,4 @@
-"""The compiled TEB kernels against the numpy reference (teb/reference.py)."""
+"""The compiled TEB kernels against the numpy reference (testing/teb_reference.py)."""
 
 import math
 
@@ -11,8 +11,8 @@ from simplebot_navigation.teb.config import TebConfig
 from simplebot_navigation.teb.footprint import FootprintModel
 from simplebot_navigation.teb.obstacles import FORCE_INCLUSION_SECTORS, GAP_FREE_FRACTION, associate_obstacles
 from simplebot_navigation.teb.optimizer import EdgeSet, RotType, TebOptimizer
-from simplebot_navigation.teb.reference import ReferenceEvaluation
-from simplebot_navigation.teb.reference import associate_obstacles as reference_association
+from simplebot_navigation.testing.teb_reference import ReferenceEvaluation
+from simplebot_navigation.testing.teb_reference import associate_obstacles as reference_association
 
 from .scenes import LAB_FOOTPRINT
 

@@ -5,7 +5,7 @@ from simplebot_navigation.teb.band import TimedElasticBand
 from simplebot_navigation.teb.config import TebConfig
 from simplebot_navigation.teb.footprint import FootprintModel
 from simplebot_navigation.teb.optimizer import EdgeSet, RotType, TebOptimizer
-from simplebot_navigation.teb.reference import ReferenceEvaluation
+from simplebot_navigation.testing.teb_reference import ReferenceEvaluation
 
 from .scenes import LAB_TWO_CIRCLES, straight_plan
 

@@ -18,7 +18,7 @@ from simplebot_navigation.launch.loader import LaunchError
 from simplebot_navigation.launch.record import recorder_spec
 from simplebot_navigation.ros.raw_topics import message_definition
 from simplebot_navigation.ros.recorder import Recorder
-from simplebot_navigation.scenarios.recording_plot import plot_recording
+from simplebot_navigation.launch.recording_plot import plot_recording
 from simplebot_navigation.ros.simulator_node import SimulatorNode
 from tests.viewer.conftest import FakeMoveBase, costmap_array
 

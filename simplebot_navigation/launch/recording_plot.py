@@ -15,11 +15,8 @@ GROUND_TRUTH = "/simplebot/ground_truth"
 GOAL_TOPICS = ("/move_base_simple/goal", "/move_base/current_goal")
 
 
-def plot_recording(mcap_path: str, png_path: str) -> dict:
-    """Render the recorded run: global costmap, odometry (and ground truth), every plan, the goals."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+def _read_recording(mcap_path: str):
+    """(costmap grid or None, tracks, plans, goals, stamps) of the topics plotted, as the run ends."""
     import numpy as np
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory
@@ -57,7 +54,17 @@ def plot_recording(mcap_path: str, png_path: str) -> dict:
             plans[name].append(np.array([(p.pose.position.x, p.pose.position.y) for p in msg.poses]).reshape(-1, 2))
     if not messages:
         raise ValueError(f"--plot: {mcap_path} has none of the topics to plot ({', '.join(topics)})")
+    return grid, tracks, plans, goals, stamps
 
+
+def plot_recording(mcap_path: str, png_path: str) -> dict:
+    """Render the recorded run: global costmap, odometry (and ground truth), every plan, the goals."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    grid, tracks, plans, goals, stamps = _read_recording(mcap_path)
     everything = [np.array(t) for t in tracks.values() if t] + [np.array(g)[:2].reshape(1, 2) for g in goals]
     if everything:  # frame the run, not the whole costmap
         pts = np.vstack(everything)
