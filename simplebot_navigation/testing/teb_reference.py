@@ -115,36 +115,7 @@ class ReferenceEvaluation:
         eps = cfg.penalty_epsilon
         n = len(dts)
         out = {}
-        dx, dy = np.diff(poses[:, 0]), np.diff(poses[:, 1])
-        cos, sin = np.cos(poses[:, 2]), np.sin(poses[:, 2])
-        c0, s0, c1, s1 = cos[:-1], sin[:-1], cos[1:], sin[1:]
-        dist = np.hypot(dx, dy)
-        proj = dx * c0 + dy * s0
-        u = 100.0 * proj
-        sig = u / (1.0 + np.abs(u))
-        inv_dt = 1.0 / dts
-        vw = np.empty((2, n))                                   # [v; omega] per segment
-        vw[0] = sig * dist * inv_dt
-        vw[1] = normalize_theta(np.diff(poses[:, 2])) * inv_dt
-        jvw = dproj = None
-        if with_jacobian:
-            inv = np.divide(1.0, dist, out=np.zeros(n), where=dist > 1e-12)
-            dproj = np.empty((n, 6))
-            dproj[:, 0], dproj[:, 1], dproj[:, 2] = -c0, -s0, dy * c0 - dx * s0
-            dproj[:, 3], dproj[:, 4], dproj[:, 5] = c0, s0, 0.0
-            a = (100.0 / (1.0 + np.abs(u)) ** 2 * dist * inv_dt)[:, None]
-            b = sig * inv * inv_dt
-            jvw = np.zeros((2, n, 7))
-            jv, jw = jvw[0], jvw[1]
-            jv[:, :6] = a * dproj
-            jv[:, 0] -= b * dx
-            jv[:, 1] -= b * dy
-            jv[:, 3] += b * dx
-            jv[:, 4] += b * dy
-            jv[:, 6] = -vw[0] * inv_dt
-            jw[:, 2] = -inv_dt
-            jw[:, 5] = inv_dt
-            jw[:, 6] = -vw[1] * inv_dt
+        vw, jvw, dproj, (proj, dx, dy, c0, s0, c1, s1) = self._segments(poses, dts, with_jacobian)
 
         # velocity
         w, lo, hi = self._vel_weight, self._vel_lower, self._vel_upper
@@ -198,6 +169,50 @@ class ReferenceEvaluation:
         w = math.sqrt(cfg.weight_optimaltime)
         out["time"] = (w * dts, np.full((n, 1), w) if with_jacobian else None)
 
+        self._placement_families(out, poses, edges, n, with_jacobian)
+        return out
+
+    @staticmethod
+    def _segments(poses: np.ndarray, dts: np.ndarray, with_jacobian: bool):
+        """Per segment: [v; omega], their Jacobians (2, n, 7) and the projection's (n, 6) when asked, and
+        (projection on the heading, dx, dy, cos/sin at both ends)."""
+        n = len(dts)
+        dx, dy = np.diff(poses[:, 0]), np.diff(poses[:, 1])
+        cos, sin = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+        c0, s0, c1, s1 = cos[:-1], sin[:-1], cos[1:], sin[1:]
+        dist = np.hypot(dx, dy)
+        proj = dx * c0 + dy * s0
+        u = 100.0 * proj
+        sig = u / (1.0 + np.abs(u))
+        inv_dt = 1.0 / dts
+        vw = np.empty((2, n))                                   # [v; omega] per segment
+        vw[0] = sig * dist * inv_dt
+        vw[1] = normalize_theta(np.diff(poses[:, 2])) * inv_dt
+        jvw = dproj = None
+        if with_jacobian:
+            inv = np.divide(1.0, dist, out=np.zeros(n), where=dist > 1e-12)
+            dproj = np.empty((n, 6))
+            dproj[:, 0], dproj[:, 1], dproj[:, 2] = -c0, -s0, dy * c0 - dx * s0
+            dproj[:, 3], dproj[:, 4], dproj[:, 5] = c0, s0, 0.0
+            a = (100.0 / (1.0 + np.abs(u)) ** 2 * dist * inv_dt)[:, None]
+            b = sig * inv * inv_dt
+            jvw = np.zeros((2, n, 7))
+            jv, jw = jvw[0], jvw[1]
+            jv[:, :6] = a * dproj
+            jv[:, 0] -= b * dx
+            jv[:, 1] -= b * dy
+            jv[:, 3] += b * dx
+            jv[:, 4] += b * dy
+            jv[:, 6] = -vw[0] * inv_dt
+            jw[:, 2] = -inv_dt
+            jw[:, 5] = inv_dt
+            jw[:, 6] = -vw[1] * inv_dt
+        return vw, jvw, dproj, (proj, dx, dy, c0, s0, c1, s1)
+
+    def _placement_families(self, out: dict, poses: np.ndarray, edges, n: int, with_jacobian: bool) -> None:
+        """The families that depend on where the poses are: obstacles, via-points, the preferred turn."""
+        cfg = self.cfg
+        eps = cfg.penalty_epsilon
         # obstacles (+ inflation), both from the same footprint-model distance
         if len(edges.obst_pose):
             if with_jacobian:
@@ -236,7 +251,6 @@ class ReferenceEvaluation:
                 jac = np.zeros((k, 6))
                 jac[:, 2], jac[:, 5] = -w * de * self.rotdir, w * de * self.rotdir
             out["prefer_rotdir"] = (w * e, jac)
-        return out
 
     @staticmethod
     def chi2(families: dict) -> float:
