@@ -51,7 +51,7 @@ from rclpy.node import Node  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 
 from simplebot_description import robot_description  # noqa: E402
-from simplebot_navigation.ros.simulator_node import SimulatorNode  # noqa: E402
+from simplebot_navigation.ros.simulator.simulator_node import SimulatorNode  # noqa: E402
 from simplebot_navigation.sim import SimplebotSim, load_world  # noqa: E402
 
 CMD_PERIOD = 0.1

@@ -13,12 +13,12 @@ class Executable:
 
 
 EXECUTABLES: dict[tuple[str, str], Executable] = {
-    ("simplebot_navigation", "simulator"): Executable("simplebot_navigation.ros.simulator_node", "SimulatorNode"),
-    ("move_base", "move_base"): Executable("simplebot_navigation.ros.move_base_node", "MoveBaseNode"),
+    ("simplebot_navigation", "simulator"): Executable("simplebot_navigation.ros.simulator.simulator_node", "SimulatorNode"),
+    ("move_base", "move_base"): Executable("simplebot_navigation.ros.move_base.move_base_node", "MoveBaseNode"),
     ("simplebot_navigation", "viewer"): Executable("simplebot_navigation.viewer.node", "ViewerNode"),
     ("simplebot_navigation", "collision_monitor"): Executable("simplebot_navigation.ros.collision_monitor_node",
                                                               "CollisionMonitorNode"),
-    ("simplebot_navigation", "foxglove_bridge"): Executable("simplebot_navigation.ros.foxglove_bridge",
+    ("simplebot_navigation", "foxglove_bridge"): Executable("simplebot_navigation.ros.tools.foxglove_bridge",
                                                             "FoxgloveBridge"),
 }
 

@@ -1,5 +1,5 @@
 """Record every topic of a run to MCAP, and plot a recorded run: the command line and the launcher's
---record entry around ros/recorder.py and launch/recording_plot.py.
+--record entry around ros/tools/recorder.py and launch/recording_plot.py.
 
     python -m simplebot_navigation.launch navigation --record run.mcap      # with the launcher
     python -m simplebot_navigation.launch.record run.mcap                  # join a running system
@@ -15,7 +15,7 @@ from pathlib import Path
 from rclpy.utilities import remove_ros_args
 
 from simplebot_navigation.launch.loader import LaunchError, NodeSpec
-from simplebot_navigation.ros.recorder import Recorder
+from simplebot_navigation.ros.tools.recorder import Recorder
 from simplebot_navigation.launch.recording_plot import plot_recording
 
 

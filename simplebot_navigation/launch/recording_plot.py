@@ -1,4 +1,4 @@
-"""Plot a run recorded to MCAP (ros/recorder.py): global costmap, odometry and ground truth,
+"""Plot a run recorded to MCAP (ros/tools/recorder.py): global costmap, odometry and ground truth,
 every plan, the goals. `python -m simplebot_navigation.launch.record --plot run.mcap run.png`."""
 
 from __future__ import annotations

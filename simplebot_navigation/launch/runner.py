@@ -243,7 +243,7 @@ def run_single_process(config: LaunchConfig, keep_run_dir: bool = False) -> int:
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
 
-    from simplebot_navigation.ros.lockstep import LockstepDriver
+    from simplebot_navigation.ros.simulator.lockstep import LockstepDriver
     from simplebot_navigation.ros.node_main import stopped_by_ctrl_c
 
     classes: list[tuple[NodeSpec, type]] = []

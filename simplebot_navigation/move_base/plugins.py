@@ -114,7 +114,7 @@ def _teb(given):
     return config, config.warnings + FootprintModel.from_params(config.footprint_model).warnings
 
 
-_ROS = "simplebot_navigation.ros"
+_ROS = "simplebot_navigation.ros.move_base"
 GLOBAL_PLANNERS = PluginRegistry("base_global_planner", [
     PluginSpec(GLOBAL_PLANNER, f"{_ROS}.global_planner_ros:GlobalPlannerROS", GlobalPlannerConfig, _global_planner),
     PluginSpec(NAVFN, f"{_ROS}.global_planner_ros:GlobalPlannerROS", NavfnParams, _navfn),

@@ -43,9 +43,9 @@ from simplebot_navigation.move_base.cycle_stats import CycleSnapshot
 from simplebot_navigation.move_base.events import MoveBaseStats
 from simplebot_navigation.move_base.plugins import plugin_namespace
 from simplebot_navigation.ros.conversions import quaternion_msg, yaw_of
-from simplebot_navigation.ros.lockstep import LockstepDriver
-from simplebot_navigation.ros.move_base_node import ACTION_SERVICE_QOS
-from simplebot_navigation.ros.simulator_node import SimulatorNode
+from simplebot_navigation.ros.simulator.lockstep import LockstepDriver
+from simplebot_navigation.ros.move_base.move_base_node import ACTION_SERVICE_QOS
+from simplebot_navigation.ros.simulator.simulator_node import SimulatorNode
 from simplebot_navigation.sim.world import Pose2D, World
 from simplebot_navigation.sim.world_loader import load_world
 

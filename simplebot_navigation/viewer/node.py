@@ -32,7 +32,7 @@ from sensor_msgs.msg import LaserScan
 from std_msgs.msg import String
 
 from simplebot_navigation.ros.conversions import path_to_array, pose_to_xyyaw, transform_to_xyyaw, xyyaw_to_pose
-from simplebot_navigation.ros.move_base_stats import NAVIGATION_STATUS
+from simplebot_navigation.ros.move_base.move_base_stats import NAVIGATION_STATUS
 from simplebot_navigation.ros.node_main import SetUpNode, run_node
 from simplebot_navigation.ros.params import declare_checked
 from simplebot_navigation.ros.tf import Buffer, TransformException, TransformListener, strip_frame

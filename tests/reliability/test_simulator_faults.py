@@ -5,7 +5,7 @@ from geometry_msgs.msg import TransformStamped
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from simplebot_navigation.ros.simulator_faults import SimulatorFaults
+from simplebot_navigation.ros.simulator.simulator_faults import SimulatorFaults
 
 
 @pytest.fixture

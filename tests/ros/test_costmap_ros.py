@@ -24,9 +24,9 @@ from sensor_msgs.msg import LaserScan
 
 from simplebot_navigation.costmap.cost_values import OCCUPANCY_GRID_TABLE
 from simplebot_navigation.launch.loader import load_launch
-from simplebot_navigation.ros import costmap_ros
-from simplebot_navigation.ros.costmap_input import point_cloud_xyz
-from simplebot_navigation.ros.costmap_ros import Costmap2DROS
+from simplebot_navigation.ros.costmap import costmap_ros
+from simplebot_navigation.ros.costmap.costmap_input import point_cloud_xyz
+from simplebot_navigation.ros.costmap.costmap_ros import Costmap2DROS
 from simplebot_navigation.ros.tf import Buffer, StaticTransformBroadcaster, TransformBroadcaster, TransformListener
 
 N_BEAMS, HALF_FOV, RANGE_MIN, RANGE_MAX = 683, 2.0944, 0.2, 5.6

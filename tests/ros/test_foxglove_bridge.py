@@ -22,9 +22,9 @@ from websockets.exceptions import InvalidStatus
 from websockets.sync.client import connect
 
 from simplebot_navigation.launch.loader import load_launch
-from simplebot_navigation.ros.foxglove_bridge import CLIENT_TOPICS, FoxgloveBridge
-from simplebot_navigation.ros.message_json import message_from_json
-from simplebot_navigation.ros.raw_topics import message_definition
+from simplebot_navigation.ros.tools.foxglove_bridge import CLIENT_TOPICS, FoxgloveBridge
+from simplebot_navigation.ros.tools.message_json import message_from_json
+from simplebot_navigation.ros.tools.raw_topics import message_definition
 from simplebot_navigation.scenarios.session import NavigationSession
 
 LAYOUT = Path(__file__).resolve().parents[2] / "config" / "simplebot.foxglove.json"
@@ -301,7 +301,7 @@ def test_a_bad_or_busy_port_is_named(context, bridge):
 
 
 def test_the_node_process_reports_a_bad_parameter_in_one_line():
-    result = subprocess.run([sys.executable, "-m", "simplebot_navigation.ros.foxglove_bridge", "--ros-args",
+    result = subprocess.run([sys.executable, "-m", "simplebot_navigation.ros.tools.foxglove_bridge", "--ros-args",
                              "-p", "port:=-1"], capture_output=True, text=True, timeout=60)
     assert result.returncode == 2
     assert result.stderr.strip() == "foxglove_bridge: foxglove_bridge parameter 'port' must be 0..65535, got -1"

@@ -23,7 +23,7 @@ from simplebot_navigation.costmap.cost_values import INSCRIBED_INFLATED_OBSTACLE
 from simplebot_navigation.costmap.costmap_2d import Costmap2D
 from simplebot_navigation.planning import GLOBAL_PLANNER, NAVFN, GlobalPlannerConfig, PlanFailure
 from simplebot_navigation.ros.conversions import path_to_array, xyyaw_to_pose
-from simplebot_navigation.ros.global_planner_ros import GlobalPlannerROS, resolved_parameters
+from simplebot_navigation.ros.move_base.global_planner_ros import GlobalPlannerROS, resolved_parameters
 from simplebot_navigation.ros.tf import Buffer
 
 RES, ORIGIN, CELLS = 0.2, -15.0, 150

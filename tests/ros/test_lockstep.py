@@ -18,8 +18,8 @@ from rclpy.task import Future
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Int32
 
-from simplebot_navigation.ros.lockstep import LockstepDriver, LockstepError
-from simplebot_navigation.ros.simulator_node import SimulatorNode
+from simplebot_navigation.ros.simulator.lockstep import LockstepDriver, LockstepError
+from simplebot_navigation.ros.simulator.simulator_node import SimulatorNode
 from tests.conftest import fresh_context
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))

@@ -4,7 +4,7 @@ import pytest
 from geometry_msgs.msg import PointStamped, PoseStamped, PoseWithCovarianceStamped
 from rclpy.serialization import deserialize_message, serialize_message
 
-from simplebot_navigation.ros.message_json import message_from_json
+from simplebot_navigation.ros.tools.message_json import message_from_json
 
 
 def test_a_pose_estimate_as_the_app_writes_it():

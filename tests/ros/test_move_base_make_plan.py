@@ -1,5 +1,5 @@
 """move_base's make_plan service (docs/reference.md §1.4) with the simulator in lockstep in the empty world: a
-request is read by the rule of the global planner's own service (ros/move_base_goal.py plan_request), and
+request is read by the rule of the global planner's own service (ros/move_base/move_base_goal.py plan_request), and
 move_base refuses it while a goal is active."""
 
 from __future__ import annotations

@@ -12,8 +12,8 @@ from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
 
-from simplebot_navigation.ros.simulator_node import SimulatorNode
-from simplebot_navigation.ros.simulator_robot import LATCHED
+from simplebot_navigation.ros.simulator.simulator_node import SimulatorNode
+from simplebot_navigation.ros.simulator.simulator_robot import LATCHED
 
 
 @pytest.fixture

@@ -20,7 +20,7 @@ from sensor_msgs.msg import LaserScan
 from std_msgs.msg import String
 
 from simplebot_description import robot_description
-from simplebot_navigation.ros.simulator_node import SimulatorNode, main as simulator_main
+from simplebot_navigation.ros.simulator.simulator_node import SimulatorNode, main as simulator_main
 from simplebot_navigation.ros.tf import Buffer, TransformListener
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)

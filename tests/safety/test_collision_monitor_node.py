@@ -13,8 +13,8 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from simplebot_navigation.ros.collision_monitor_node import CollisionMonitorNode
-from simplebot_navigation.ros.lockstep import LockstepDriver
-from simplebot_navigation.ros.simulator_node import SimulatorNode
+from simplebot_navigation.ros.simulator.lockstep import LockstepDriver
+from simplebot_navigation.ros.simulator.simulator_node import SimulatorNode
 from tests.conftest import fresh_context
 
 SIM_TIME = [Parameter("use_sim_time", value=True)]

@@ -19,7 +19,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from simplebot_navigation.costmap.cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
 from simplebot_navigation.ros.conversions import occupancy_grid_msg, path_msg, pose_array_msg, xyyaw_to_pose
-from simplebot_navigation.ros.simulator_node import SimulatorNode
+from simplebot_navigation.ros.simulator.simulator_node import SimulatorNode
 from simplebot_navigation.viewer.node import ViewerNode
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)

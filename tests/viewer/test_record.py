@@ -16,10 +16,10 @@ from rclpy.parameter import Parameter
 from simplebot_navigation.costmap.cost_values import OCCUPANCY_GRID_TABLE
 from simplebot_navigation.launch.loader import LaunchError
 from simplebot_navigation.launch.record import recorder_spec
-from simplebot_navigation.ros.raw_topics import message_definition
-from simplebot_navigation.ros.recorder import Recorder
+from simplebot_navigation.ros.tools.raw_topics import message_definition
+from simplebot_navigation.ros.tools.recorder import Recorder
 from simplebot_navigation.launch.recording_plot import plot_recording
-from simplebot_navigation.ros.simulator_node import SimulatorNode
+from simplebot_navigation.ros.simulator.simulator_node import SimulatorNode
 from tests.viewer.conftest import FakeMoveBase, costmap_array
 
 SECONDS = 1.0   # of simulated time, stepped in lockstep
@@ -138,7 +138,7 @@ def test_plot_names_a_missing_file(tmp_path):
 
 def test_record_option_checks_the_target(tmp_path):
     spec = recorder_spec(str(tmp_path / "run.mcap"))
-    assert (spec.pkg, spec.type, spec.parameters) == ("python", "simplebot_navigation.ros.recorder:Recorder",
+    assert (spec.pkg, spec.type, spec.parameters) == ("python", "simplebot_navigation.ros.tools.recorder:Recorder",
                                                       {"path": str(tmp_path / "run.mcap")})
     with pytest.raises(LaunchError, match="does not exist"):
         recorder_spec(str(tmp_path / "missing" / "run.mcap"))

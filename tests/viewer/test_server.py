@@ -13,7 +13,7 @@ from rclpy.parameter import Parameter
 
 from simplebot_navigation.move_base.events import MoveBaseEvents
 from simplebot_navigation.ros.conversions import yaw_of
-from simplebot_navigation.ros.move_base_stats import navigation_status
+from simplebot_navigation.ros.move_base.move_base_stats import navigation_status
 from simplebot_navigation.viewer.node import ViewerNode, body_outlines
 from simplebot_navigation.viewer.scene import UNKNOWN_CELL, Scene, downsample_grid
 from simplebot_description import robot_description

@@ -25,7 +25,7 @@ from simplebot_navigation.costmap.obstacle_layer import ObservationSource
 from simplebot_navigation.costmap.static_layer import StaticLayer
 from simplebot_navigation.geometry import quaternion_to_rotation_matrix
 from simplebot_navigation.ros.conversions import yaw_of
-from simplebot_navigation.ros.costmap_log import speaking_for
+from simplebot_navigation.ros.costmap.costmap_log import speaking_for
 from simplebot_navigation.ros.tf import TransformException, strip_frame
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)

@@ -31,12 +31,12 @@ from simplebot_navigation.move_base.recovery import PoseTrail
 from simplebot_navigation.move_base.state_machine import MoveBaseCore
 from simplebot_navigation.parameters import fields_of
 from simplebot_navigation.ros.conversions import path_msg, pose_to_xyyaw, xyyaw_to_pose
-from simplebot_navigation.ros.costmap_ros import Costmap2DROS
-from simplebot_navigation.ros.move_base_goal import MoveBaseGoal, in_frame, plan_request, validate_pose
-from simplebot_navigation.ros.move_base_parameters import MoveBaseParameters
-from simplebot_navigation.ros.move_base_recoveries import MoveBaseRecoveryContext
-from simplebot_navigation.ros.move_base_stats import OUTCOMES, control_loop_status, navigation_status
-from simplebot_navigation.ros.move_base_supervision import MoveBaseSupervision
+from simplebot_navigation.ros.costmap.costmap_ros import Costmap2DROS
+from simplebot_navigation.ros.move_base.move_base_goal import MoveBaseGoal, in_frame, plan_request, validate_pose
+from simplebot_navigation.ros.move_base.move_base_parameters import MoveBaseParameters
+from simplebot_navigation.ros.move_base.move_base_recoveries import MoveBaseRecoveryContext
+from simplebot_navigation.ros.move_base.move_base_stats import OUTCOMES, control_loop_status, navigation_status
+from simplebot_navigation.ros.move_base.move_base_supervision import MoveBaseSupervision
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
 from simplebot_navigation.ros.publishers import create_publisher, drop_event_handlers_of_best_effort_subscriptions
 from simplebot_navigation.ros.tf import Buffer, TransformListener

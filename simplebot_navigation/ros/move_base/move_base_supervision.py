@@ -17,7 +17,7 @@ from actionlib_msgs.msg import GoalStatus as ActionlibStatus
 from rclpy.clock import JumpHandle, JumpThreshold, TimeJump
 from rclpy.duration import Duration
 
-from simplebot_navigation.ros.move_base_goal import MoveBaseGoal
+from simplebot_navigation.ros.move_base.move_base_goal import MoveBaseGoal
 
 
 class CommandWatchdog:

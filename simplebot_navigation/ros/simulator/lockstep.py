@@ -29,7 +29,7 @@ from rclpy.clock import ClockType
 from rclpy.executors import SingleThreadedExecutor, TimeoutException
 from rclpy.node import Node
 
-from simplebot_navigation.ros.simulator_node import SimulatorNode
+from simplebot_navigation.ros.simulator.simulator_node import SimulatorNode
 
 MAX_CALLBACKS_PER_ROUND = 20000
 _NEW = object()

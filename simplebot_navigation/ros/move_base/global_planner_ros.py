@@ -5,7 +5,7 @@ the ``<name>.*`` parameters of its node, plans on the global costmap's master gr
 the costmap's lock, and offers ROS 1's planner interfaces under the node's private namespace:
 ``~<name>/plan`` (nav_msgs/Path, every plan, empty on failure), ``~<name>/potential``
 (nav_msgs/OccupancyGrid, when publish_potential) and the ``~<name>/make_plan`` service
-(nav_msgs/GetPlan, read as move_base's make_plan reads it: ros/move_base_goal.py plan_request).
+(nav_msgs/GetPlan, read as move_base's make_plan reads it: ros/move_base/move_base_goal.py plan_request).
 
 The costmap is duck-typed, so the planner does not depend on how the costmap is kept: it needs
 ``costmap`` (Costmap2D), ``lock``, ``global_frame``, ``tf`` (the transform buffer, for requests in
@@ -29,7 +29,7 @@ from simplebot_navigation.planning import (GlobalPlanner, GlobalPlannerConfig, P
                                            make_global_planner, potential_to_occupancy, warm_up)
 from simplebot_navigation.planning.config import parameter_specs, resolved_parameters
 from simplebot_navigation.ros.conversions import occupancy_grid_msg, path_msg
-from simplebot_navigation.ros.move_base_goal import plan_request
+from simplebot_navigation.ros.move_base.move_base_goal import plan_request
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
 from simplebot_navigation.ros.publishers import create_publisher
 from simplebot_navigation.ros.tf import strip_frame

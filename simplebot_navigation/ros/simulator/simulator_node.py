@@ -31,8 +31,8 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 from simplebot_description import robot_description
 from simplebot_navigation.ros.node_main import SetUpNode, run_node
 from simplebot_navigation.ros.params import declare_checked, refuse_unknown_parameters
-from simplebot_navigation.ros.simulator_faults import SimulatorFaults
-from simplebot_navigation.ros.simulator_robot import SimulatedRobotIO, set_stamp
+from simplebot_navigation.ros.simulator.simulator_faults import SimulatorFaults
+from simplebot_navigation.ros.simulator.simulator_robot import SimulatedRobotIO, set_stamp
 from simplebot_navigation.ros.tf import StaticTransformBroadcaster, TransformBroadcaster
 from simplebot_navigation.sim.simulator import SimplebotSim
 from simplebot_navigation.sim.starts import robot_starts

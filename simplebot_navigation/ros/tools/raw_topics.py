@@ -1,6 +1,6 @@
 """Every topic of the graph as raw CDR: discovery, the publishers' QoS, and the ros2msg schema of each type.
 
-The MCAP recorder (ros/recorder.py) and the Foxglove bridge (ros/foxglove_bridge.py) both pass messages
+The MCAP recorder (ros/tools/recorder.py) and the Foxglove bridge (ros/tools/foxglove_bridge.py) both pass messages
 on without decoding them, each labelled with the message definition rosbag2 and Foxglove read: the
 type's .msg text, then every type it uses after a line of 80 ``=`` and ``MSG: pkg/msg/Name``.
 Hidden topics (a name part starting with ``_``, such as action internals) are left out, as rosbag2

@@ -12,7 +12,7 @@ from nav_msgs.msg import OccupancyGrid
 
 from simplebot_navigation.costmap.cost_values import OCCUPANCY_GRID_TABLE
 from simplebot_navigation.ros.conversions import occupancy_grid_msg, polygon_msg
-from simplebot_navigation.ros.costmap_input import LATCHED, UPDATES_QOS
+from simplebot_navigation.ros.costmap.costmap_input import LATCHED, UPDATES_QOS
 from simplebot_navigation.ros.publishers import create_publisher
 
 

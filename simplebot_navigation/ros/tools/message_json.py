@@ -13,7 +13,7 @@ import json
 from rosidl_parser.definition import (AbstractGenericString, AbstractNestedType, Array, BasicType,
                                       BoundedSequence, NamespacedType)
 
-from simplebot_navigation.ros.raw_topics import message_class
+from simplebot_navigation.ros.tools.raw_topics import message_class
 
 FLOATS = {"float", "double", "long double"}
 INTEGERS = {"octet": (0, 255), "uint8": (0, 255), "int8": (-2**7, 2**7 - 1),

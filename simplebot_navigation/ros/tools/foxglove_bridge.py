@@ -1,6 +1,6 @@
 """Foxglove bridge: every topic of the run on a Foxglove WebSocket server, and goals back from the app.
 
-Each topic of the graph (found as the MCAP recorder finds them, ros/raw_topics.py) becomes a channel
+Each topic of the graph (found as the MCAP recorder finds them, ros/tools/raw_topics.py) becomes a channel
 with message encoding ``cdr`` and its ros2msg schema, so the Foxglove app decodes costmaps, plans,
 scans, footprints and TF without configuration. A topic is subscribed in ROS only while some client
 subscribes to its channel, raw (no decoding), and each message goes out as received, stamped with
@@ -14,7 +14,7 @@ with a warning naming the topic, in the log and to that client as a status messa
 not decode is dropped the same way. Only clients whose browser page comes from an allowed origin
 (``allowed_origins``: the Foxglove app and this robot's viewer by default; no Origin at all is a
 non-browser client) and that address this server by its own name get past the handshake
-(ros/foxglove_server.py). The server calls back from a thread of its own: the callbacks only queue what
+(ros/tools/foxglove_server.py). The server calls back from a thread of its own: the callbacks only queue what
 happened and trigger a guard condition, and the node acts on it in its executor, so lockstep keeps its order.
 """
 
@@ -30,11 +30,11 @@ from rclpy.qos import DurabilityPolicy
 from rclpy.serialization import deserialize_message
 from rclpy.subscription import Subscription
 
-from simplebot_navigation.ros.foxglove_server import STATUS_WARNING, FoxgloveServer
-from simplebot_navigation.ros.message_json import message_from_json
+from simplebot_navigation.ros.tools.foxglove_server import STATUS_WARNING, FoxgloveServer
+from simplebot_navigation.ros.tools.message_json import message_from_json
 from simplebot_navigation.ros.node_main import SetUpNode, run_node
 from simplebot_navigation.ros.params import declare_checked
-from simplebot_navigation.ros.raw_topics import RawTopic, TopicDiscovery, publisher_qos
+from simplebot_navigation.ros.tools.raw_topics import RawTopic, TopicDiscovery, publisher_qos
 from simplebot_navigation.web_host import FOXGLOVE_ALLOWED_ORIGINS
 
 #: ``allowed_origins``: browser pages that may connect, space-separated (the launch file's foxglove_allowed_origins)

@@ -1,7 +1,7 @@
 """Recorder: a node that records every topic to MCAP, as `ros2 bag record -a -s mcap` would.
 
 Messages are written as they arrive on the wire (serialized CDR, no decoding), with
-the ros2msg schemas rosbag2 writes (ros/raw_topics.py), so Foxglove, `ros2 bag info/play` and the
+the ros2msg schemas rosbag2 writes (ros/tools/raw_topics.py), so Foxglove, `ros2 bag info/play` and the
 `mcap` readers understand the file. Hidden topics are left out, as rosbag2 does by default. The launcher runs it with
 --record, or `python -m simplebot_navigation.launch.record run.mcap` joins a running system.
 """
@@ -14,7 +14,7 @@ import yaml
 from mcap.writer import CompressionType, Writer
 from rclpy.node import Node
 
-from simplebot_navigation.ros.raw_topics import TopicDiscovery, publisher_qos
+from simplebot_navigation.ros.tools.raw_topics import TopicDiscovery, publisher_qos
 
 # rosbag2 writes an infinite QoS duration as this pair
 _INFINITE_NS = 2**63 - 1

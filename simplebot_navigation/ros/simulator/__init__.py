@@ -1,0 +1,1 @@
+"""The simulator's node: its robots' topics and frames, injected faults, and lockstep stepping."""
