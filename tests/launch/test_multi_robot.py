@@ -13,11 +13,13 @@ def by_name(config):
 
 def test_robots_argument_gives_one_move_base_per_namespace():
     nodes = by_name(load_launch("multi_navigation", {"robots": "3", "starts": "0,0,0;2,0,0;4,0,0"}))
-    assert sorted(nodes) == ["/robot1/move_base", "/robot2/move_base", "/robot3/move_base", "/simulator"]
+    assert sorted(nodes) == [f"/robot{i}/{node}" for i in (1, 2, 3) for node in ("collision_monitor", "move_base")] \
+        + ["/simulator"]
     sim = nodes["/simulator"].parameters
     assert sim["namespaces"] == "robot1 robot2 robot3"
     assert sim["starts"] == "0,0,0;2,0,0;4,0,0"
-    assert sorted(by_name(load_launch("multi_navigation", {"robots": "1"}))) == ["/robot1/move_base", "/simulator"]
+    assert sorted(by_name(load_launch("multi_navigation", {"robots": "1"}))) == [
+        "/robot1/collision_monitor", "/robot1/move_base", "/simulator"]
 
 
 def test_each_move_base_gets_its_own_frames_and_topics():
@@ -32,14 +34,17 @@ def test_each_move_base_gets_its_own_frames_and_topics():
     # The rest of the lab's configuration is untouched.
     assert params["global_costmap.inflation_layer.inflation_radius"] == 1.5
     assert move_base.namespace == "/robot2"
-    assert ("cmd_vel", "simplebot_controller/cmd_vel") in move_base.remaps
+    assert ("cmd_vel", "cmd_vel_nav") in move_base.remaps
+    monitor = by_name(load_launch("multi_navigation", {"robots": "2"}))["/robot2/collision_monitor"]
+    assert monitor.parameters["base_frame"] == "robot2/base_link" and monitor.namespace == "/robot2"
 
 
 def test_single_robot_namespace_matches_the_multi_robot_one():
     single = by_name(load_launch("navigation", {"namespace": "robot1"}))
     multi = by_name(load_launch("multi_navigation", {"robots": "1"}))
-    assert sorted(single) == ["/robot1/move_base", "/simulator"]
-    assert single["/robot1/move_base"].parameters == multi["/robot1/move_base"].parameters
+    assert sorted(single) == ["/robot1/collision_monitor", "/robot1/move_base", "/simulator"]
+    for node in ("/robot1/move_base", "/robot1/collision_monitor"):
+        assert single[node].parameters == multi[node].parameters
     assert single["/simulator"].parameters["namespaces"] == "robot1"
 
 
