@@ -20,7 +20,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from simplebot_navigation.costmap.costmap import Costmap  # noqa: E402
+from simplebot_navigation.costmap.costmap_core import CostmapCore  # noqa: E402
 from simplebot_navigation.testing import costmap_scene as scenario  # noqa: E402
 from simplebot_navigation.testing.costmap_reference import ReferenceCostmap  # noqa: E402
 from simplebot_navigation.testing.lab_params import global_costmap_params, local_costmap_params  # noqa: E402
@@ -35,11 +35,11 @@ def stats(samples):
 
 def run(name: str, params: dict, steps: int):
     clock = [0.0]
-    cm = Costmap(name, params, clock=lambda: clock[0])
+    cm = CostmapCore(name, params, clock=lambda: clock[0])
     c = cm.config
     ref = ReferenceCostmap(c.size_x, c.size_y, c.resolution, c.origin_x, c.origin_y, c.rolling_window, True,
                            [tuple(p) for p in cm.footprint], 1.5, 8.0)
-    layer = cm.layered.layer("obstacles")
+    layer = cm.layer("obstacles")
     t_pkg, t_ref, t_scan, identical = [], [], [], True
     for k, (x, y, yaw) in enumerate(scenario.robot_path(steps + WARMUP)):
         clock[0] = 0.1 * k
@@ -58,7 +58,7 @@ def run(name: str, params: dict, steps: int):
         start = time.perf_counter()
         ref.update(x, y, yaw, observations)
         ref_time = time.perf_counter() - start
-        identical &= bool(np.array_equal(cm.master.costmap, np.array(ref.master, np.uint8)))
+        identical &= bool(np.array_equal(cm.costmap.costmap, np.array(ref.master, np.uint8)))
         if k >= WARMUP:
             t_pkg.append(pkg_time)
             t_ref.append(ref_time)

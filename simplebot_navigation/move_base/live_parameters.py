@@ -6,7 +6,7 @@ value, an unknown name, a restart-only parameter or one without effect here rais
 and nothing changes. An accepted change (``prepare``, then ``commit`` once the ROS side has stored it)
 updates the tree and builds every configuration again from it; the node takes them at its next control
 cycle (``take``), and each running object copies what may change from its own: MoveBaseConfig
-(update_move_base_config), Costmap.reconfigure, TebLocalPlanner.reconfigure, a new GlobalPlanner, the
+(update_move_base_config), CostmapCore.reconfigure, TebLocalPlanner.reconfigure, a new GlobalPlanner, the
 recoveries' configure, and the node's timers.
 """
 

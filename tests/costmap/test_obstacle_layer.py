@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from simplebot_navigation.costmap.cost_values import FREE_SPACE, LETHAL_OBSTACLE, NO_INFORMATION
-from simplebot_navigation.costmap.costmap import Costmap
+from simplebot_navigation.costmap.costmap_core import CostmapCore
 from simplebot_navigation.costmap.layered_costmap import LayeredCostmap
 from simplebot_navigation.costmap.obstacle_layer import (ObservationSource, ObstacleLayer,
                                                          laser_scan_to_observation, point_cloud_to_observation)
@@ -175,7 +175,7 @@ def test_unsupported_data_type_is_rejected():
 @pytest.mark.parametrize("params, steps", [(local_costmap_params, 6), (global_costmap_params, 4)])
 def test_lab_costmaps_match_the_per_ray_reference(params, steps):
     clock = Clock()
-    cm = Costmap("costmap", params(), clock=clock)
+    cm = CostmapCore("costmap", params(), clock=clock)
     c = cm.config
     ref = ReferenceCostmap(c.size_x, c.size_y, c.resolution, c.origin_x, c.origin_y, c.rolling_window, True,
                            [tuple(p) for p in cm.footprint], 1.5, 8.0)
@@ -187,19 +187,19 @@ def test_lab_costmaps_match_the_per_ray_reference(params, steps):
             ranges = scenario.scan_ranges(pose[0], pose[1], pose[3])
             cm.add_laser_scan(laser, ranges, scenario.ANGLE_MIN, scenario.ANGLE_INCREMENT, scenario.RANGE_MIN,
                               scenario.RANGE_MAX, pose, clock.now)
-            observations.append(cm.layered.layer("obstacles").buffers[laser].get_observations()[0])
+            observations.append(cm.layer("obstacles").buffers[laser].get_observations()[0])
         cm.update_map(x, y, yaw)
         window = ref.update(x, y, yaw, observations)
         assert cm.update_window == window
-        np.testing.assert_array_equal(cm.master.costmap, np.array(ref.master, np.uint8))
+        np.testing.assert_array_equal(cm.costmap.costmap, np.array(ref.master, np.uint8))
         assert cm.is_current()
-    assert (cm.master.costmap == LETHAL_OBSTACLE).sum() > 20
+    assert (cm.costmap.costmap == LETHAL_OBSTACLE).sum() > 20
 
 
 def test_recovery_clearing_forgets_obstacles_outside_the_square():
-    cm = Costmap("local_costmap", local_costmap_params())
+    cm = CostmapCore("local_costmap", local_costmap_params())
     cm.update_map(0.0, 0.0, 0.0)
-    layer = cm.layered.layer("obstacles")
+    layer = cm.layer("obstacles")
     layer.costmap[:] = LETHAL_OBSTACLE
     assert cm.clear_layers_outside(0.0, 0.0, 1.0) == ["obstacles"]
     mx, my = layer.world_to_map(0.0, 0.0)
@@ -211,7 +211,7 @@ def test_recovery_clearing_forgets_obstacles_outside_the_square():
 
 def test_forget_history_after_a_backward_time_jump_drops_observations_of_the_old_timeline():
     clock = Clock()
-    cm = Costmap("local_costmap", local_costmap_params(), clock=clock)
+    cm = CostmapCore("local_costmap", local_costmap_params(), clock=clock)
     clock.now = 60.0
     x, y, yaw = next(iter(scenario.robot_path(1)))
     for laser in scenario.LASERS:
@@ -219,12 +219,12 @@ def test_forget_history_after_a_backward_time_jump_drops_observations_of_the_old
         cm.add_laser_scan(laser, scenario.scan_ranges(pose[0], pose[1], pose[3]), scenario.ANGLE_MIN,
                           scenario.ANGLE_INCREMENT, scenario.RANGE_MIN, scenario.RANGE_MAX, pose, clock.now)
     cm.update_map(x, y, yaw)
-    assert (cm.master.costmap == LETHAL_OBSTACLE).any()
+    assert (cm.costmap.costmap == LETHAL_OBSTACLE).any()
 
     clock.now = 0.5                                   # the simulator restarted
     cm.forget_history()
-    layer = cm.layered.layer("obstacles")
+    layer = cm.layer("obstacles")
     assert all(not buffer.get_observations() for buffer in layer.buffers.values())
     cm.update_map(x, y, yaw)
-    assert not (cm.master.costmap == LETHAL_OBSTACLE).any(), "old obstacles came back from the buffers"
+    assert not (cm.costmap.costmap == LETHAL_OBSTACLE).any(), "old obstacles came back from the buffers"
     assert cm.is_current(), "sensors are judged from the jump on"

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from simplebot_navigation.costmap.costmap import Costmap
+from simplebot_navigation.costmap.costmap_core import CostmapCore
 from simplebot_navigation.costmap.inflation_layer import InflationLayer
 from simplebot_navigation.costmap.obstacle_layer import ObstacleLayer
 from simplebot_navigation.costmap.params import resolve_costmap_params
@@ -32,13 +32,13 @@ def test_lab_global_costmap():
 
 
 def test_lab_local_costmap_is_built():
-    cm = Costmap("local_costmap", local_costmap_params())
-    assert cm.layered.rolling_window and (cm.master.size_x, cm.master.resolution) == (100, 0.05)
-    assert [type(p) for p in cm.layered.plugins] == [ObstacleLayer, InflationLayer]
+    cm = CostmapCore("local_costmap", local_costmap_params())
+    assert cm.rolling_window and (cm.costmap.size_x, cm.costmap.resolution) == (100, 0.05)
+    assert [type(p) for p in cm.plugins] == [ObstacleLayer, InflationLayer]
     assert [src.name for _, src in cm.observation_sources()] == ["front_laser", "back_laser"]
     assert cm.inscribed_radius == pytest.approx(0.33)
     np.testing.assert_allclose(cm.oriented_footprint(1.0, 0.0, 0.0)[0], [1.48, 0.33])
-    assert cm.layered.layer("obstacles").default_value == 255
+    assert cm.layer("obstacles").default_value == 255
 
 
 def test_defaults_are_the_cfg_values():
@@ -112,7 +112,7 @@ def test_pre_hydro_conversion():
               "raytrace_range": 4.0, "max_obstacle_height": 0.6, "inflation_radius": 0.7,
               "cost_scaling_factor": 5.0, "observation_sources": "laser",
               "laser": {"data_type": "LaserScan", "clearing": True}}
-    cm = Costmap("c", params)
+    cm = CostmapCore("c", params)
     cfg = cm.config
     assert cfg.warnings == ['c: Parameter "plugins" not provided, loading pre-Hydro parameters']
     assert [(p.name, p.type) for p in cfg.plugins] == [("static_layer", "costmap_2d::StaticLayer"),
@@ -124,7 +124,7 @@ def test_pre_hydro_conversion():
     laser = obstacle["sources"][0]
     assert (laser.obstacle_range, laser.raytrace_range, laser.clearing, laser.marking) == (3.5, 4.0, True, True)
     assert (inflation["inflation_radius"], inflation["cost_scaling_factor"]) == (0.7, 5.0)
-    assert cfg.track_unknown_space is True and cm.master.default_value == 255
+    assert cfg.track_unknown_space is True and cm.costmap.default_value == 255
 
 
 def test_pre_hydro_without_static_map():
@@ -141,7 +141,7 @@ def test_footprint_and_robot_radius_are_searched_in_parent_namespaces():
 
 
 def test_source_lookup_errors():
-    cm = Costmap("local_costmap", local_costmap_params())
+    cm = CostmapCore("local_costmap", local_costmap_params())
     with pytest.raises(KeyError, match="'side_laser' is unknown"):
         cm.add_laser_scan("side_laser", [1.0], 0.0, 0.1, 0.1, 5.0, (0, 0, 0, 0), 0.0)
     cm.add_laser_scan("obstacles/front_laser", [1.0], 0.0, 0.1, 0.1, 5.0, (0, 0, 0, 0), 0.0)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from simplebot_navigation.costmap.cost_values import LETHAL_OBSTACLE
-from simplebot_navigation.costmap.costmap import Costmap
+from simplebot_navigation.costmap.costmap_core import CostmapCore
 from simplebot_navigation.costmap.plugins import LAYERS, LayerSpec
 from simplebot_navigation.launch.loader import LaunchError
 from simplebot_navigation.move_base.parameter_tree import parameter_table
@@ -46,13 +46,13 @@ def examples():
 
 
 def test_a_registered_layer_marks_the_costmap(examples):
-    costmap = Costmap("c", {"plugins": [{"name": "keep_out", "type": "example::KeepOutLayer"}],
+    costmap = CostmapCore("c", {"plugins": [{"name": "keep_out", "type": "example::KeepOutLayer"}],
                             "keep_out": {"zone": ZONE}, "width": 4, "height": 4, "origin_x": -2.0, "origin_y": -2.0,
                             "resolution": 0.1, "robot_radius": 0.3})
     costmap.update_map(0.0, 0.0, 0.0)
-    inside, outside = costmap.master.world_to_map(1.3, -1.5), costmap.master.world_to_map(0.5, 0.5)
-    assert costmap.master.get_cost(*inside) == LETHAL_OBSTACLE
-    assert costmap.master.get_cost(*outside) == 0
+    inside, outside = costmap.costmap.world_to_map(1.3, -1.5), costmap.costmap.world_to_map(0.5, 0.5)
+    assert costmap.costmap.get_cost(*inside) == LETHAL_OBSTACLE
+    assert costmap.costmap.get_cost(*outside) == 0
 
 
 def test_their_parameters_are_in_the_parameter_tree(examples):

@@ -15,7 +15,7 @@ from rcl_interfaces.srv import DescribeParameters, GetParameters, SetParameters
 from rclpy.node import Node
 from rclpy.parameter import Parameter, parameter_value_to_python
 
-from simplebot_navigation.costmap.costmap import Costmap
+from simplebot_navigation.costmap.costmap_core import CostmapCore
 from simplebot_navigation.costmap.footprint import parse_footprint
 from simplebot_navigation.move_base.live_parameters import LiveParameters
 from simplebot_navigation.parameters.overrides import lookup
@@ -203,7 +203,7 @@ def test_controller_frequency_changes_the_control_rate(session, driving):
 
 def test_costmap_rates_and_layers_follow_their_parameters(session):
     params, local = session.params, session.move_base.local_costmap
-    inflation = local.cm.layered.layer("inflation_layer")
+    inflation = local.cm.layer("inflation_layer")
     front = local.cm.observation_buffer("front_laser").source
     changes = {"local_costmap.update_frequency": 5.0, "local_costmap.inflation_layer.inflation_radius": 0.6,
                "local_costmap.inflation_layer.cost_scaling_factor": 4.0,
@@ -274,7 +274,7 @@ def _running_value(node, name: str):
         if rest[0] == "footprint":
             return str(costmap.cm.unpadded_footprint.round(3).tolist())
         return getattr(costmap.config, rest[0])
-    layer = costmap.cm.layered.layer(rest[0])
+    layer = costmap.cm.layer(rest[0])
     if len(rest) == 2:
         return getattr(layer, rest[1])
     return getattr(layer.buffers[rest[1]].source, rest[2])
@@ -306,16 +306,16 @@ def test_every_parameter_that_may_change_while_running_reaches_the_running_objec
 
 # -- the costmap takes a change (unit level) -----------------------------------------------------------------
 
-def _cost_beside_an_obstacle(costmap: Costmap, distance: float) -> int:
+def _cost_beside_an_obstacle(costmap: CostmapCore, distance: float) -> int:
     """Cost ``distance`` metres beside a lethal point 1 m ahead of the robot at the origin."""
     costmap.add_point_cloud("front_laser", [[1.0, 0.0, 0.1]], (0.0, 0.0, 0.1), stamp=0.0)
     costmap.update_map(0.0, 0.0, 0.0)
-    return int(costmap.master.costmap[costmap.master.world_to_map(1.0, distance)[::-1]])
+    return int(costmap.costmap.costmap[costmap.costmap.world_to_map(1.0, distance)[::-1]])
 
 
 def test_an_inflation_change_changes_the_cost_around_an_obstacle():
     tree = move_base_tree()
-    costmap = Costmap("local_costmap", tree["local_costmap"], parents=[("move_base", tree)])
+    costmap = CostmapCore("local_costmap", tree["local_costmap"], parents=[("move_base", tree)])
     live = LiveParameters(tree)
     assert lookup(live.table, "local_costmap.inflation_layer.inflation_radius").dynamic
     before = _cost_beside_an_obstacle(costmap, 0.6)

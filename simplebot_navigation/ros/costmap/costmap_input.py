@@ -1,7 +1,7 @@
 """What a Costmap2DROS reads: sensor messages through a tf2-style message filter, and StaticLayer maps.
 
 A LaserScan or PointCloud2 waits in its source's queue until the transform from its frame to the
-costmap's global frame at its stamp is known, then becomes an observation of the pure `Costmap`;
+costmap's global frame at its stamp is known, then becomes an observation of the pure `CostmapCore`;
 one that waits longer than transform_tolerance is dropped with the reason, as tf2_ros's
 MessageFilter does.
 """

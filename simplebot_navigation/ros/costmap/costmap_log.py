@@ -17,7 +17,7 @@ from contextlib import contextmanager
 
 import rclpy.logging
 
-from simplebot_navigation.costmap.costmap import warm_up
+from simplebot_navigation.costmap.costmap_core import warm_up
 
 #: the Costmap2DROS whose work is running in this context (it has `name` and `logger`)
 _SPEAKER: contextvars.ContextVar[object | None] = contextvars.ContextVar("costmap_speaker", default=None)

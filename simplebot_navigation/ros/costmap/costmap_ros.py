@@ -20,7 +20,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.time import Time
 
-from simplebot_navigation.costmap.costmap import Costmap
+from simplebot_navigation.costmap.costmap_core import CostmapCore
 from simplebot_navigation.costmap.costmap_2d import Costmap2D
 from simplebot_navigation.costmap.params import parameter_specs
 from simplebot_navigation.ros.conversions import yaw_of
@@ -58,7 +58,7 @@ class Costmap2DROS:
 
         given = given_parameter_tree(node, name)
         parents = [(node.get_fully_qualified_name(), given_parameter_tree(node))]
-        self.cm = Costmap(name, given, parents=parents, clock=self.now_s)
+        self.cm = CostmapCore(name, given, parents=parents, clock=self.now_s)
         self.config = self.cm.config
         for warning in self.cm.warnings:
             self.logger.warning(warning)
@@ -118,7 +118,7 @@ class Costmap2DROS:
         return tree
 
     def reconfigure(self, config) -> list[str]:
-        """A run-time change (Costmap.reconfigure): the layers take theirs, this shell its rates and
+        """A run-time change (CostmapCore.reconfigure): the layers take theirs, this shell its rates and
         tolerance. Returns the costmap-level names that changed."""
         with self.lock:
             changed = self.cm.reconfigure(config)
@@ -324,7 +324,7 @@ class Costmap2DROS:
     @property
     def costmap(self) -> Costmap2D:
         """The master grid; hold `lock` while reading it."""
-        return self.cm.master
+        return self.cm.costmap
 
     @property
     def footprint(self) -> np.ndarray:
@@ -370,6 +370,6 @@ class Costmap2DROS:
 
     def clear_layers_outside(self, robot_x: float, robot_y: float, reset_distance: float, layer_names=None,
                              invert_area: bool = False) -> list[str]:
-        """clear_costmap_recovery; see Costmap.clear_layers_outside."""
+        """clear_costmap_recovery; see CostmapCore.clear_layers_outside."""
         with self.lock:
             return self.cm.clear_layers_outside(robot_x, robot_y, reset_distance, layer_names, invert_area)

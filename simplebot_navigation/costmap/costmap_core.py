@@ -1,13 +1,17 @@
-"""Costmap: everything Costmap2DROS does except talking to ROS.
+"""CostmapCore: everything Costmap2DROS does except talking to ROS.
+
+Four classes make a costmap, each with one job: Costmap2D is a grid of costs; LayeredCostmap keeps the master
+grid and combines its layers into it; CostmapCore (a LayeredCostmap) builds the layers from the parameter
+tree and routes sensor data and live changes to them; Costmap2DROS (ros/costmap/) is the ROS shell around it.
 
 The ROS shell owns subscriptions, TF and publishing; it calls this class with plain data:
 
-    cm = Costmap("local_costmap", params, parents=[("/move_base", move_base_params)], clock=node_seconds)
+    cm = CostmapCore("local_costmap", params, parents=[("/move_base", move_base_params)], clock=node_seconds)
     for layer, source in cm.observation_sources(): subscribe to source.topic ...
     cm.add_laser_scan("front_laser", ranges, angle_min, angle_increment, range_min, range_max,
                       sensor_pose=(x, y, z, yaw), stamp=t)         # pose in cm.config.global_frame
     cm.update_map(x, y, yaw)                                       # robot pose in the global frame
-    cm.master.costmap, cm.update_window, cm.is_current(), cm.stale_sources()
+    cm.costmap.costmap, cm.update_window, cm.is_current(), cm.stale_sources()
 """
 
 from __future__ import annotations
@@ -18,7 +22,6 @@ import numpy as np
 
 from simplebot_navigation.parameters import fields_of
 
-from .costmap_2d import Costmap2D
 from .footprint import pad_footprint, transform_footprint
 from .layer import CostmapLayer, MapLayer, SensorLayer
 from .layered_costmap import LayeredCostmap
@@ -28,7 +31,10 @@ from .params import CostmapConfig, live_layer_params, resolve_costmap_params
 from .plugins import LAYERS
 
 
-class Costmap:
+class CostmapCore(LayeredCostmap):
+    """The pure core of a Costmap2DROS: a LayeredCostmap built from a costmap's parameter tree, its layers fed
+    with sensor data by source name, changed live by a new configuration."""
+
     def __init__(self, name: str, params: dict, parents=(), clock=time.monotonic):
         self.name = name
         self.config: CostmapConfig = resolve_costmap_params(params, name, parents)
@@ -36,10 +42,10 @@ class Costmap:
         self.warnings: list[str] = list(self.config.warnings)
         c = self.config
         period = 1.0 / c.update_frequency if c.update_frequency > 0 else 0.0
-        self.layered = LayeredCostmap(c.rolling_window, c.track_unknown_space, c.size_x, c.size_y,
-                                      c.resolution, c.origin_x, c.origin_y, clock=clock, update_period=period)
+        super().__init__(c.rolling_window, c.track_unknown_space, c.size_x, c.size_y, c.resolution, c.origin_x,
+                         c.origin_y, clock=clock, update_period=period)
         for plugin in c.plugins:
-            self.layered.add_plugin(LAYERS.create(plugin.name, plugin.kind, plugin.params))
+            self.add_plugin(LAYERS.create(plugin.name, plugin.kind, plugin.params))
         self.unpadded_footprint = c.footprint
         self.set_unpadded_footprint(c.footprint)
 
@@ -73,10 +79,10 @@ class Costmap:
 
     def static_layers(self) -> list[MapLayer]:
         """The layers that read a map topic, for the shell to subscribe."""
-        return [layer for layer in self.layered.plugins if isinstance(layer, MapLayer)]
+        return [layer for layer in self.plugins if isinstance(layer, MapLayer)]
 
     def _obstacle_layers(self) -> list[SensorLayer]:
-        return [layer for layer in self.layered.plugins if isinstance(layer, SensorLayer)]
+        return [layer for layer in self.plugins if isinstance(layer, SensorLayer)]
 
     def add_observation(self, source: str, observation: Observation) -> None:
         layer, src = self._find_source(source)
@@ -108,41 +114,10 @@ class Costmap:
                                                                    src.obstacle_range, src.raytrace_range))
 
     # -- updates ------------------------------------------------------------------
-    def update_map(self, robot_x: float, robot_y: float, robot_yaw: float) -> None:
-        self.layered.update_map(robot_x, robot_y, robot_yaw)
-
-    @property
-    def initialized(self) -> bool:
-        """True once an update has written the master grid."""
-        return self.layered.initialized
-
-    @property
-    def rolling_window(self) -> bool:
-        return self.layered.rolling_window
-
-    @property
-    def master(self) -> Costmap2D:
-        return self.layered.costmap
-
-    @property
-    def update_window(self) -> tuple[int, int, int, int] | None:
-        """Cells [x0, xn) x [y0, yn) rewritten by the last update_map (for costmap_updates)."""
-        return self.layered.update_window
-
-    def is_current(self) -> bool:
-        return self.layered.is_current()
-
-    def stale_sources(self) -> list[str]:
-        return self.layered.stale_sources()
-
-    def reset_layers(self) -> None:
-        """The clear_costmaps service: master to its default, every layer reset."""
-        self.layered.reset_layers()
-
     def forget_history(self) -> None:
         """After time jumped back: reset every layer and drop every buffered observation, whose stamps
         belong to a timeline that no longer exists."""
-        self.layered.reset_layers()
+        self.reset_layers()
         for layer in self._obstacle_layers():
             layer.clear_observations()
 
@@ -154,7 +129,7 @@ class Costmap:
         if layer_names is None:
             layers = self._obstacle_layers()
         else:
-            layers = [layer for layer in self.layered.plugins
+            layers = [layer for layer in self.plugins
                       if layer.name in layer_names and isinstance(layer, CostmapLayer)]
         for layer in layers:
             start_x, start_y = layer.world_to_map_no_bounds(robot_x - reset_distance / 2,
@@ -177,7 +152,7 @@ class Costmap:
                    if spec.dynamic and getattr(new, key) != getattr(c, key)]
         for key in changed:
             setattr(c, key, getattr(new, key))
-        self.layered.update_period = 1.0 / c.update_frequency if c.update_frequency > 0 else 0.0
+        self.update_period = 1.0 / c.update_frequency if c.update_frequency > 0 else 0.0
         if c.robot_radius != new.robot_radius or not np.array_equal(c.footprint, new.footprint):
             c.footprint, c.robot_radius = new.footprint, new.robot_radius
             self.set_unpadded_footprint(new.footprint)
@@ -187,7 +162,7 @@ class Costmap:
             changed.append("footprint")
         for plugin, running in zip(new.plugins, c.plugins):
             live = live_layer_params(plugin)
-            self.layered.layer(plugin.name).reconfigure(**live)
+            self.layer(plugin.name).reconfigure(**live)
             running.params.update({key: value for key, value in live.items() if key != "sources"})
         return changed
 
@@ -195,23 +170,10 @@ class Costmap:
     def set_unpadded_footprint(self, points) -> None:
         """New footprint (e.g. from the footprint topic); padding is applied here."""
         self.unpadded_footprint = np.asarray(points, dtype=float).reshape(-1, 2)
-        self.layered.set_footprint(pad_footprint(self.unpadded_footprint, self.config.footprint_padding))
-
-    @property
-    def footprint(self) -> np.ndarray:
-        """Padded footprint in the robot frame."""
-        return self.layered.footprint
+        self.set_footprint(pad_footprint(self.unpadded_footprint, self.config.footprint_padding))
 
     def oriented_footprint(self, x: float, y: float, yaw: float) -> np.ndarray:
-        return transform_footprint(self.layered.footprint, x, y, yaw)
-
-    @property
-    def inscribed_radius(self) -> float:
-        return self.layered.inscribed_radius
-
-    @property
-    def circumscribed_radius(self) -> float:
-        return self.layered.circumscribed_radius
+        return transform_footprint(self.footprint, x, y, yaw)
 
 
 _WARM_UP_PARAMS = {
@@ -225,6 +187,6 @@ _WARM_UP_PARAMS = {
 def warm_up() -> None:
     """Load the compiled kernels now: the first update otherwise takes about half a second,
     long enough to make sensors look stale when a node starts."""
-    cm = Costmap("warm_up", _WARM_UP_PARAMS)
+    cm = CostmapCore("warm_up", _WARM_UP_PARAMS)
     cm.add_laser_scan("scan", np.full(8, 0.5), -1.0, 0.25, 0.1, 1.0, (0.0, 0.0, 0.0, 0.0), 0.0)
     cm.update_map(0.0, 0.0, 0.0)
