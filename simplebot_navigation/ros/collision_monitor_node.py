@@ -2,9 +2,13 @@
 
 It takes the planner's commands on ``cmd_vel_nav`` and the raw scans, and publishes what may reach the
 wheels on ``simplebot_controller/cmd_vel`` (both relative, so they follow the namespace). Its only
-transforms are the lasers' static ones. Time is the node's clock: on simulated time a frozen simulator
-freezes the world too, and a stopped planner or a stale scan is measured in the same time the robot
-moves in.
+transforms are the lasers' static ones.
+
+Its clock is its scans' stamps (the newest seen): simulated time under a simulator, wall time on a robot,
+without following /clock, whose 100 messages a second alone cost a Python node more than the monitor's
+whole budget. A stopped planner or a stale lidar is measured in the time the robot moves in; a frozen
+simulator freezes the world too. When every lidar falls silent while commands still come, wall time
+decides (``scan_silence_timeout``).
 """
 
 from __future__ import annotations
@@ -27,23 +31,27 @@ from simplebot_navigation.geometry import quaternion_to_rotation_matrix
 from simplebot_navigation.parameters.spec import Param
 from simplebot_navigation.ros.node_main import SetUpNode, run_node
 from simplebot_navigation.ros.params import descriptor, refuse_unknown_parameters
-from simplebot_navigation.ros.publishers import create_publisher
+from simplebot_navigation.ros.publishers import create_publisher, drop_event_handlers_of_best_effort_subscriptions
 from simplebot_navigation.ros.tf import TF_STATIC_LISTENER_QOS, Buffer, TransformException
 from simplebot_navigation.safety.collision_monitor import (PARAMETERS, Action, CollisionMonitor,
                                                            CollisionMonitorConfig, moved_by)
 
-#: read at start-up only: the topics and the frame the scans are turned into
-TOPICS = {
+#: read at start-up only: the topics, the frame the scans are turned into, the wall-clock guard
+AT_START = {
     "base_frame": Param(str, "base_link", "", "the robot frame the body is given in", dynamic=False),
     "cmd_vel_in_topic": Param(str, "cmd_vel_nav", "", "the planner's commands", dynamic=False),
     "cmd_vel_out_topic": Param(str, "simplebot_controller/cmd_vel", "", "the base's commands", dynamic=False),
     "scan_topics": Param(list, ["front_laser/front_scan", "back_laser/back_scan"], "",
                          "the LaserScan topics to watch (at most 8)", dynamic=False),
+    "scan_silence_timeout": Param(float, 1.0, "s", "wall time without any scan, while commands come, that stops "
+                                  "the robot (0: off, as in lockstep, where wall time means nothing)",
+                                  low=0.0, high=60.0, dynamic=False),
 }
 MAX_SCAN_TOPICS = 8
 #: a command faster than this is not a command (m/s and rad/s)
 MAX_COMMAND = 100.0
-CHECK_PERIOD_S = 0.05
+#: a scan stamped this much before the newest one means time went back (a restarted simulation)
+TIME_JUMP_BACK_S = 1.0
 #: one line per kind of trouble (a source's scans, the commands, a zone) this often at most
 LOG_PERIOD_S = 2.0
 
@@ -62,7 +70,7 @@ class CollisionMonitorNode(SetUpNode):
 
     def _set_up(self) -> None:
         values = {}
-        for name, spec in {**PARAMETERS, **TOPICS}.items():
+        for name, spec in {**PARAMETERS, **AT_START}.items():
             default = spec.default if name != "footprint" else ""   # ROS 2 has no empty-list type
             given = self.declare_parameter(name, default, descriptor(spec)).value
             values[name] = spec.check(given, f"collision_monitor parameter '{name}'")
@@ -71,10 +79,13 @@ class CollisionMonitorNode(SetUpNode):
             raise ValueError(f"collision_monitor parameter 'scan_topics': 1 to {MAX_SCAN_TOPICS} topic names, "
                              f"got {topics!r}")
         self.base_frame = values.pop("base_frame").lstrip("/")
+        self.scan_silence_timeout = values.pop("scan_silence_timeout")
         cmd_in, cmd_out = values.pop("cmd_vel_in_topic"), values.pop("cmd_vel_out_topic")
         self.monitor = CollisionMonitor(CollisionMonitorConfig(**values))
         self.tf = Buffer(node=self)
-        self._last_command = None          # node-clock seconds of the last command received
+        self._now = -math.inf              # sensor time: the newest scan stamp, seconds
+        self._last_scan_wall = time.monotonic()
+        self._last_command = None          # sensor time of the last command received
         self._out = (0.0, 0.0)             # the last command published
         self._state = ""                   # what the last verdict was, to log changes only
         self._logged: dict[str, float] = {}  # kind -> monotonic time of its last line
@@ -85,20 +96,20 @@ class CollisionMonitorNode(SetUpNode):
             self.create_subscription(LaserScan, source.topic, lambda msg, s=source: self._on_scan(s, msg),
                                      qos_profile_sensor_data)
         self.create_subscription(Twist, cmd_in, self._on_command, 1)
-        self.create_timer(CHECK_PERIOD_S, self._check_silence)
+        if self.get_parameter("use_sim_time").value:
+            self.set_parameters([Parameter("use_sim_time", value=False)])   # drops the /clock subscription
+            self.get_logger().info("use_sim_time is not used: the scans' stamps are this node's clock")
+        drop_event_handlers_of_best_effort_subscriptions(self)     # the scans: every wake walks them
         refuse_unknown_parameters(self)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self._cmd_out = self.resolve_topic_name(cmd_out)
         self.get_logger().info(f"{self.resolve_topic_name(cmd_in)} -> {self._cmd_out}, watching "
                                f"{', '.join(self.resolve_topic_name(t) for t in topics)}")
 
-    def _now(self) -> float:
-        return self.get_clock().now().nanoseconds * 1e-9
-
     # -- parameters -----------------------------------------------------------------------------
     def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
         """Every change checked in full before it is taken; the new judgement replaces the old one whole."""
-        fixed = [p.name for p in params if p.name in TOPICS or p.name == "use_sim_time"]
+        fixed = [p.name for p in params if p.name in AT_START or p.name == "use_sim_time"]
         if fixed:
             return SetParametersResult(successful=False, reason=f"{', '.join(fixed)}: requires restart")
         try:
@@ -135,7 +146,10 @@ class CollisionMonitorNode(SetUpNode):
         return source.sensor[frame]
 
     def _on_scan(self, source: _Source, msg: LaserScan) -> None:
-        stamp = Time.from_msg(msg.header.stamp).nanoseconds * 1e-9 if msg.header.stamp.sec >= 0 else -math.inf
+        if msg.header.stamp.sec < 0:
+            self._warn(source.topic, f"{source.topic}: scan dropped: negative stamp {msg.header.stamp.sec} s")
+            return
+        stamp = Time.from_msg(msg.header.stamp).nanoseconds * 1e-9
         sensor = self._sensor(source, msg.header.frame_id.lstrip("/"))
         if sensor is None:
             return
@@ -145,16 +159,29 @@ class CollisionMonitorNode(SetUpNode):
         except ValueError as err:
             self._warn(source.topic, f"{source.topic}: scan dropped: {err}")
             return
+        if stamp < self._now - TIME_JUMP_BACK_S:    # a restarted simulation, or the scan before was hostile
+            self._warn("time", f"{source.topic}: time went back from {self._now:.2f} s to {stamp:.2f} s: "
+                               "every source starts again")
+            for other in self.sources:
+                other.points, other.stamp = None, -math.inf
+            self._last_command, self._now = None, stamp
+        self._now = max(self._now, stamp)
+        self._last_scan_wall = time.monotonic()
         source.points, source.stamp = points, stamp
+        self._check_silence()
 
     def _on_command(self, msg: Twist) -> None:
-        now = self._now()
+        now = self._now
         v, w = msg.linear.x, msg.angular.z
         if not (math.isfinite(v) and math.isfinite(w) and abs(v) <= MAX_COMMAND and abs(w) <= MAX_COMMAND):
             self._warn("command", f"command (linear.x {v!r}, angular.z {w!r}) is not a velocity: zero published")
             self._publish(0.0, 0.0, "stop: the last command was not a velocity")
             return
         self._last_command = now
+        silent = time.monotonic() - self._last_scan_wall
+        if 0 < self.scan_silence_timeout < silent:
+            self._publish(0.0, 0.0, f"stop: no scan for {silent:.1f} s (wall time)")
+            return
         points, stale = self._points_now(now)
         if stale:
             self._publish(0.0, 0.0, f"stop: {stale}")
@@ -177,14 +204,13 @@ class CollisionMonitorNode(SetUpNode):
         return np.concatenate(clouds), ""
 
     def _check_silence(self) -> None:
-        """No command for source_timeout: the planner stopped or died. Zero, for stop_pub_timeout."""
+        """No command for source_timeout: the planner stopped or died. Zero, for stop_pub_timeout (checked at
+        every scan, twice per 0.1 s with two lidars)."""
         if self._last_command is None:
             return
         config = self.monitor.config
-        silent = self._now() - self._last_command
-        if silent < 0:                   # the clock went back (a restarted simulation)
-            self._last_command = None
-        elif config.source_timeout < silent <= config.source_timeout + config.stop_pub_timeout:
+        silent = self._now - self._last_command
+        if config.source_timeout < silent <= config.source_timeout + config.stop_pub_timeout:
             self._publish(0.0, 0.0, f"stop: no command for {config.source_timeout:g} s")
 
     # -- output ---------------------------------------------------------------------------------

@@ -290,6 +290,8 @@ class NavigationSession(_Session):
                     elif spec.name == "move_base" and rtf == 0:
                         # In lockstep /clock waits for the nodes, not the other way round: no watchdog.
                         spec = dataclasses.replace(spec, parameters={**spec.parameters, "watchdog_timeout": 0.0})
+                    elif spec.name == "collision_monitor" and rtf == 0:    # nor a wall-clock guard
+                        spec = dataclasses.replace(spec, parameters={**spec.parameters, "scan_silence_timeout": 0.0})
                     cls = getattr(importlib.import_module(exe.module), exe.node_class)
                     self.nodes.append(cls(cli_args=ros_args(spec, write_params_file(spec, run_dir)),
                                           use_global_arguments=False, context=self.context))

@@ -5,12 +5,15 @@ robot stops short of it, for both bodies, forward and in reverse; without it, it
 """
 
 import math
+import time
 
 import pytest
-from geometry_msgs.msg import Twist
+from geometry_msgs.msg import TransformStamped, Twist
 from rclpy.exceptions import ParameterNotDeclaredException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from sensor_msgs.msg import LaserScan
+from tf2_msgs.msg import TFMessage
 
 from simplebot_navigation.ros.collision_monitor_node import CollisionMonitorNode
 from simplebot_navigation.ros.simulator.lockstep import LockstepDriver
@@ -73,6 +76,7 @@ def start(context, world, robot="box", yaw=0.0, namespace="", monitor=True, v=1.
         body = {"footprint": BOX} if robot == "box" else {"robot_radius": 0.3}
         if namespace:
             body["base_frame"] = f"{namespace}/base_link"
+        body["scan_silence_timeout"] = 0.0           # lockstep: wall time means nothing
         nodes.append(CollisionMonitorNode(context=context, namespace=namespace, parameter_overrides=SIM_TIME + [
             Parameter(k, value=val) for k, val in {**body, **monitor_params}.items()]))
     source = CommandSource(context, "cmd_vel_nav" if monitor else "simplebot_controller/cmd_vel", v,
@@ -116,7 +120,7 @@ def test_a_silent_command_source_gets_zero_within_the_source_timeout(context, wo
     driver.run_until(stopped_at + 0.5)
     after = [(t, v) for t, v, _ in source.sent_to_base if t > stopped_at]
     zero = next(t for t, v in after if v == 0.0)
-    assert zero - stopped_at <= 0.3 + 0.06          # source_timeout, and one check period
+    assert zero - stopped_at <= 0.3 + 0.1 + 0.01    # source_timeout, and the next scan (10 Hz)
     driver.executor.shutdown()
 
 
@@ -166,3 +170,72 @@ def test_live_parameters_are_checked_in_full(context, world):
     assert monitor.monitor.config.time_before_collision == 0.8
     assert monitor.monitor.config.stop_distance == 0.02                          # the refusals changed nothing
     driver.executor.shutdown()
+
+
+def scan_message(frame: str, stamp: float, distance: float = 3.0) -> LaserScan:
+    msg = LaserScan()
+    msg.header.frame_id = frame
+    msg.header.stamp.sec, msg.header.stamp.nanosec = int(stamp), int(round((stamp % 1) * 1e9))
+    msg.angle_min, msg.angle_increment, msg.range_min, msg.range_max = -2.0, 4.0 / 100, 0.2, 5.6
+    msg.ranges = [distance] * 101
+    return msg
+
+
+@pytest.fixture
+def bare_monitor(context):
+    """A monitor fed by direct calls, its output recorded: what it does with time."""
+    monitor = CollisionMonitorNode(context=context, parameter_overrides=[
+        Parameter("robot_radius", value=0.3), Parameter("scan_silence_timeout", value=0.2),
+        Parameter("use_sim_time", value=True)])
+    sent = []
+    monitor.cmd_pub.publish = lambda twist: sent.append(twist.linear.x)
+    transforms = []
+    for frame, x in (("front_laser_link", 0.2), ("back_laser_link", -0.2)):
+        tf = TransformStamped()
+        tf.header.frame_id, tf.child_frame_id = "base_link", frame
+        tf.transform.translation.x, tf.transform.rotation.w = x, 1.0
+        transforms.append(tf)
+    monitor._on_tf_static(TFMessage(transforms=transforms))
+
+    def scans(stamp: float) -> None:
+        for source, frame in zip(monitor.sources, ("front_laser_link", "back_laser_link")):
+            monitor._on_scan(source, scan_message(frame, stamp))
+
+    def command(v: float) -> float:
+        twist = Twist()
+        twist.linear.x = v
+        monitor._on_command(twist)
+        return sent[-1]
+
+    yield monitor, scans, command
+    monitor.destroy_node()
+
+
+def test_it_keeps_time_by_its_scans_not_by_clock(bare_monitor):
+    monitor, scans, command = bare_monitor
+    assert not monitor.get_parameter("use_sim_time").value     # no /clock subscription, and its cost
+    scans(5.0)
+    assert command(0.4) == pytest.approx(0.4)
+    scans(5.1)
+    scans(5.2)
+    scans(5.35)                                  # 0.35 s of scan time without a command: the planner is gone
+    assert monitor._out == (0.0, 0.0)
+
+
+def test_commands_while_every_lidar_is_silent_are_stopped_by_wall_time(bare_monitor):
+    _, scans, command = bare_monitor
+    scans(5.0)
+    assert command(0.4) == pytest.approx(0.4)
+    time.sleep(0.3)                              # scan_silence_timeout 0.2 s of wall time
+    assert command(0.4) == 0.0
+    scans(5.1)
+    assert command(0.4) == pytest.approx(0.4)
+
+
+def test_time_going_back_starts_every_source_again(bare_monitor):
+    monitor, scans, command = bare_monitor
+    scans(100.0)
+    monitor._on_scan(monitor.sources[0], scan_message("front_laser_link", 2.0))   # a restarted simulation
+    assert command(0.4) == 0.0                   # the back lidar has not spoken on the new timeline
+    scans(2.1)
+    assert command(0.4) == pytest.approx(0.4)
