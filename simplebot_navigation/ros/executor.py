@@ -11,17 +11,89 @@ then calls ``wake()``), runs subscription and timer callbacks directly, and hand
 (action servers, QoS events), services, clients, guard conditions and coroutine callbacks to rclpy's
 Task machinery, so their semantics stay rclpy's. It is only for one thread, and callback groups keep
 their meaning: an entity whose group is busy (a suspended coroutine) waits, as in rclpy.
+
+All this leans on rclpy's private internals, which pyproject.toml pins. Where the installed rclpy differs
+in any of them (``rclpy_differences``), ``LeanExecutor()`` warns once and is rclpy's SingleThreadedExecutor.
 """
 
 from __future__ import annotations
 
+import functools
 import inspect
 
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor, TimeoutObject
+import rclpy.executors
+from rclpy.client import Client
+from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
+from rclpy.guard_condition import GuardCondition
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.exceptions import InvalidHandle
+from rclpy.logging import get_logger
+from rclpy.node import Node
+from rclpy.service import Service
 from rclpy.subscription import Subscription
+from rclpy.timer import Timer
 from rclpy.utilities import timeout_sec_to_nsec
+from rclpy.waitable import Waitable
+
+_CLASSES = {c.__name__: c for c in (Executor, SingleThreadedExecutor, Node, Subscription, Timer, Service, Client,
+                                    GuardCondition, Waitable)}
+#: Executor methods the lean one calls, with the positional arguments it passes (self included)
+_CALLED = {"_make_handler": 4, "_take_timer": 2, "_take_subscription": 2, "_take_service": 2, "_take_client": 2,
+           "_take_guard_condition": 2, "_take_waitable": 2}
+#: rclpy functions and the attributes or methods they must set or call for the lean executor to work: the
+#: executor's state, the route from spin_once to the override, the entities' flags, and the wake-up
+#: that invalidates the cached wait set whenever a node adds or removes an entity
+_USES = {"Executor.__init__": ("_context", "_tasks", "_tasks_lock", "_guard", "_sigint_gc", "_is_shutdown"),
+         "SingleThreadedExecutor.spin_once": ("_spin_once_impl",),
+         "SingleThreadedExecutor.spin_once_until_future_complete": ("_spin_once_impl",),
+         "Subscription.__init__": ("_executor_event",), "Subscription.callback": ("_callback_type", "MessageOnly"),
+         "GuardCondition.__init__": ("_executor_event", "_executor_triggered"),
+         **{f"{kind}.__init__": ("_executor_event",) for kind in ("Timer", "Service", "Client", "Waitable")},
+         "Node._wake_executor": ("wake",),
+         **{f"Node.{verb}_{kind}": ("_wake_executor",) for verb in ("create", "destroy")
+            for kind in ("subscription", "timer", "service", "client", "guard_condition")},
+         "Node.add_waitable": ("_wake_executor",), "Node.remove_waitable": ("_wake_executor",)}
+#: methods of rclpy's C extension the lean executor calls on wait sets and handles
+_NATIVE = {"WaitSet": ("clear_entities", "add_subscription", "add_timer", "add_service", "add_client",
+                       "add_guard_condition", "wait", "get_ready_entities"),
+           "Subscription": ("take_message", "pointer"), "Timer": ("call_timer", "is_timer_ready", "pointer")}
+
+
+@functools.cache
+def rclpy_differences() -> tuple[str, ...]:
+    """How the installed rclpy differs from the internals the lean executor relies on; warns once if it does.
+
+    Checked without building an executor: methods by the arguments they are called with, instance attributes
+    by the names rclpy's own functions use (``co_names``), the C extension's methods by presence. Cached, so
+    a process warns once however many executors it builds.
+    """
+    found = []
+    for name, count in _CALLED.items():
+        try:
+            inspect.signature(getattr(Executor, name)).bind(*range(count))
+        except AttributeError:
+            found.append(f"no Executor.{name}")
+        except TypeError:
+            found.append(f"Executor.{name} does not take {count - 1} positional argument{'s' * (count > 2)}")
+    impl = getattr(SingleThreadedExecutor, "_spin_once_impl", None)
+    if impl is None or list(inspect.signature(impl).parameters) != ["self", "timeout_sec", "wait_condition"]:
+        found.append("SingleThreadedExecutor._spin_once_impl is not (self, timeout_sec, wait_condition)")
+    for where, names in _USES.items():
+        kind, function = where.split(".")
+        function = getattr(_CLASSES[kind], function, None)
+        code = getattr(getattr(function, "fset", function), "__code__", None)     # a property: its setter
+        missing = sorted(set(names) - set(code.co_names if code else ()))
+        found += [f"{where} does not use {', '.join(missing)}"] if missing else []
+    if not hasattr(rclpy.executors, "TimeoutObject"):
+        found.append("no rclpy.executors.TimeoutObject")
+    for kind, methods in _NATIVE.items():
+        missing = [m for m in methods if not hasattr(getattr(_rclpy, kind, None), m)]
+        found += [f"no _rclpy.{kind}.{', '.join(missing)}"] if missing else []
+    if found:
+        get_logger("lean_executor").warning(
+            f"rclpy differs from what LeanExecutor relies on ({'; '.join(found)}): rclpy's SingleThreadedExecutor "
+            "spins instead")
+    return tuple(found)
 
 
 class _Entities:
@@ -71,6 +143,11 @@ class _Entities:
 class LeanExecutor(SingleThreadedExecutor):
     """rclpy's SingleThreadedExecutor API (spin, spin_once, spin_until_future_complete), cheaper per wake."""
 
+    def __new__(cls, *, context=None):
+        if rclpy_differences():
+            return SingleThreadedExecutor(context=context)
+        return super().__new__(cls)
+
     def __init__(self, *, context=None):
         super().__init__(context=context)
         self._entities: _Entities | None = None
@@ -95,7 +172,7 @@ class LeanExecutor(SingleThreadedExecutor):
             self._entities = _Entities(self)
         entities = self._entities
         entities.fill()
-        if isinstance(timeout_sec, TimeoutObject):
+        if isinstance(timeout_sec, rclpy.executors.TimeoutObject):
             timeout_sec = timeout_sec.timeout
         entities.wait_set.wait(timeout_sec_to_nsec(timeout_sec))
         if self._is_shutdown:

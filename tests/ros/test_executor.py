@@ -1,5 +1,5 @@
 """The lean executor keeps rclpy's behaviour: timers, subscriptions, services, actions, coroutines, entities
-added while it spins, and exceptions from callbacks."""
+added while it spins, and exceptions from callbacks; on an rclpy whose internals differ it is rclpy's own."""
 
 import time
 
@@ -7,12 +7,14 @@ import pytest
 from std_srvs.srv import SetBool
 from rclpy.action import ActionClient, ActionServer
 from rclpy.callback_groups import ReentrantCallbackGroup
-from rclpy.executors import SingleThreadedExecutor
+from rclpy.executors import Executor, SingleThreadedExecutor
 from rclpy.node import Node
 from std_msgs.msg import String
 
 from move_base_msgs.action import MoveBase
-from simplebot_navigation.ros.executor import LeanExecutor
+from simplebot_navigation.ros.executor import LeanExecutor, rclpy_differences
+
+WARNING = "rclpy differs from what LeanExecutor relies on"
 
 
 @pytest.fixture
@@ -93,3 +95,39 @@ def test_an_exception_in_a_callback_reaches_the_spinner(nodes):
     with pytest.raises(RuntimeError, match="timer failed"):
         for _ in range(100):
             executor.spin_once(timeout_sec=0.05)
+
+
+@pytest.fixture
+def rclpy_patch(monkeypatch):
+    """A monkeypatch whose changes to rclpy the executor's check sees, and forgets once they are undone."""
+    rclpy_differences.cache_clear()
+    yield monkeypatch
+    monkeypatch.undo()
+    rclpy_differences.cache_clear()
+
+
+def test_the_installed_rclpy_has_the_internals_the_executor_relies_on(context, rclpy_patch, capfd):
+    assert rclpy_differences() == ()
+    executor = LeanExecutor(context=context)
+    assert type(executor) is LeanExecutor
+    executor.shutdown()
+    assert WARNING not in capfd.readouterr().err
+
+
+@pytest.mark.parametrize("change, named", [
+    (lambda patch: patch.delattr(Executor, "_make_handler"), "no Executor._make_handler"),
+    (lambda patch: patch.setattr(Executor, "_take_timer", lambda self: None),
+     "Executor._take_timer does not take 1 positional argument"),
+    (lambda patch: patch.setattr(SingleThreadedExecutor, "_spin_once_impl", lambda self, timeout_sec=None: None),
+     "SingleThreadedExecutor._spin_once_impl is not (self, timeout_sec, wait_condition)"),
+    (lambda patch: patch.setattr(Node, "_wake_executor", lambda self: None), "Node._wake_executor does not use wake"),
+], ids=["missing", "signature", "override", "no wake-up"])
+def test_an_rclpy_with_other_internals_gets_its_own_executor_and_one_warning(context, rclpy_patch, capfd, change,
+                                                                             named):
+    change(rclpy_patch)
+    executors = [LeanExecutor(context=context) for _ in range(3)]
+    assert [type(e) for e in executors] == [SingleThreadedExecutor] * 3
+    for executor in executors:
+        executor.shutdown()
+    warnings = [line for line in capfd.readouterr().err.splitlines() if WARNING in line]
+    assert len(warnings) == 1 and named in warnings[0], warnings
