@@ -166,3 +166,10 @@ def test_no_function_over_the_line_limit(path):
             if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and not _compiled(node)
             and node.end_lineno - node.lineno + 1 > MAX_FUNCTION_LINES]
     assert not long, f"{path.relative_to(ROOT.parent)}: {', '.join(long)}; split by what each part does"
+
+
+@pytest.mark.parametrize("path", source_files(), ids=lambda p: str(p.relative_to(ROOT)))
+def test_imports_are_absolute(path):
+    relative = [node.lineno for node in ast.walk(ast.parse(path.read_text()))
+                if isinstance(node, ast.ImportFrom) and node.level > 0]
+    assert not relative, f"{path.relative_to(ROOT.parent)}: relative imports at lines {relative}; write them absolute"

@@ -21,14 +21,13 @@ import time
 import numpy as np
 
 from simplebot_navigation.parameters import fields_of
-
-from .footprint import pad_footprint, transform_footprint
-from .layer import CostmapLayer, MapLayer, SensorLayer
-from .layered_costmap import LayeredCostmap
-from .obstacle_layer import (Observation, ObservationBuffer, ObservationSource, laser_scan_to_observation,
-                             point_cloud_to_observation)
-from .params import CostmapConfig, live_layer_params, resolve_costmap_params
-from .plugins import LAYERS
+from simplebot_navigation.costmap.footprint import pad_footprint, transform_footprint
+from simplebot_navigation.costmap.layer import CostmapLayer, MapLayer, SensorLayer
+from simplebot_navigation.costmap.layered_costmap import LayeredCostmap
+from simplebot_navigation.costmap.obstacle_layer import (Observation, ObservationBuffer, ObservationSource,
+                                                         laser_scan_to_observation, point_cloud_to_observation)
+from simplebot_navigation.costmap.params import CostmapConfig, live_layer_params, resolve_costmap_params
+from simplebot_navigation.costmap.plugins import LAYERS
 
 
 class CostmapCore(LayeredCostmap):

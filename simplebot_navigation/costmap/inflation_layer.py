@@ -16,9 +16,8 @@ import numba
 import numpy as np
 
 from simplebot_navigation.parameters import param
-
-from .cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
-from .layer import Bounds, Layer
+from simplebot_navigation.costmap.cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
+from simplebot_navigation.costmap.layer import Bounds, Layer
 
 
 def inflation_cost(distance_cells: float, resolution: float, inscribed_radius: float, weight: float) -> int:

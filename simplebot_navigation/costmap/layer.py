@@ -12,8 +12,8 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from .cost_values import NO_INFORMATION
-from .costmap_2d import Costmap2D
+from simplebot_navigation.costmap.cost_values import NO_INFORMATION
+from simplebot_navigation.costmap.costmap_2d import Costmap2D
 
 
 @dataclass

@@ -8,10 +8,10 @@ import time
 
 import numpy as np
 
-from .cost_values import FREE_SPACE, NO_INFORMATION
-from .costmap_2d import Costmap2D
-from .footprint import footprint_radii
-from .layer import Bounds, Layer
+from simplebot_navigation.costmap.cost_values import FREE_SPACE, NO_INFORMATION
+from simplebot_navigation.costmap.costmap_2d import Costmap2D
+from simplebot_navigation.costmap.footprint import footprint_radii
+from simplebot_navigation.costmap.layer import Bounds, Layer
 
 _log = logging.getLogger(__name__)
 

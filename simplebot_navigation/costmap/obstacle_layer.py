@@ -14,10 +14,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from simplebot_navigation.parameters import param
-
-from .cost_values import FREE_SPACE, LETHAL_OBSTACLE, NO_INFORMATION
-from .footprint import transform_footprint
-from .layer import Bounds, CostmapLayer
+from simplebot_navigation.costmap.cost_values import FREE_SPACE, LETHAL_OBSTACLE, NO_INFORMATION
+from simplebot_navigation.costmap.footprint import transform_footprint
+from simplebot_navigation.costmap.layer import Bounds, CostmapLayer
 
 _log = logging.getLogger(__name__)
 

@@ -16,10 +16,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from simplebot_navigation.parameters import PLUGIN_TYPE_KEY, Param, ParameterError, fields_of, load, namespace, param
-
-from .footprint import footprint_from_radius, parse_footprint
-from .obstacle_layer import SUPPORTED_DATA_TYPES, ObservationSource, ObservationSourceParams, ObstacleLayerParams
-from .plugins import LAYERS
+from simplebot_navigation.costmap.footprint import footprint_from_radius, parse_footprint
+from simplebot_navigation.costmap.obstacle_layer import (SUPPORTED_DATA_TYPES, ObservationSource,
+                                                         ObservationSourceParams, ObstacleLayerParams)
+from simplebot_navigation.costmap.plugins import LAYERS
 
 _MISSING = object()
 

@@ -13,11 +13,10 @@ from dataclasses import dataclass
 from typing import Iterator
 
 from simplebot_navigation.parameters import ParameterError
-
-from .inflation_layer import InflationLayer, InflationLayerParams
-from .layer import Layer
-from .obstacle_layer import ObstacleLayer, ObstacleLayerParams
-from .static_layer import StaticLayer, StaticLayerParams
+from simplebot_navigation.costmap.inflation_layer import InflationLayer, InflationLayerParams
+from simplebot_navigation.costmap.layer import Layer
+from simplebot_navigation.costmap.obstacle_layer import ObstacleLayer, ObstacleLayerParams
+from simplebot_navigation.costmap.static_layer import StaticLayer, StaticLayerParams
 
 #: the prefixes both ROS generations give the built-in layers' types
 _NAMESPACES = ("costmap_2d::", "nav2_costmap_2d::")

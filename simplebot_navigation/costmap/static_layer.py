@@ -14,9 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from simplebot_navigation.parameters import param
-
-from .cost_values import FREE_SPACE, LETHAL_OBSTACLE, NO_INFORMATION
-from .layer import Bounds, CostmapLayer
+from simplebot_navigation.costmap.cost_values import FREE_SPACE, LETHAL_OBSTACLE, NO_INFORMATION
+from simplebot_navigation.costmap.layer import Bounds, CostmapLayer
 
 _log = logging.getLogger(__name__)
 

@@ -11,8 +11,7 @@ from __future__ import annotations
 from simplebot_navigation.move_base.parameter_tree import apply_move_base_overrides
 from simplebot_navigation.parameters import ParameterError
 from simplebot_navigation.parameters.ros2 import to_ros2_overrides
-
-from .loader import LaunchConfig, LaunchError
+from simplebot_navigation.launch.loader import LaunchConfig, LaunchError
 
 NODE = "move_base"
 

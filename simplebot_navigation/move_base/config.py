@@ -8,8 +8,8 @@ from typing import Any
 
 from simplebot_navigation.costmap.params import SEARCHED_KEYS
 from simplebot_navigation.parameters import ParameterError, build, param
-
-from .plugins import CLEAR_COSTMAP_RECOVERY, NAVFN, RECOVERY_BEHAVIORS, ROTATE_RECOVERY, TEB_LOCAL_PLANNER
+from simplebot_navigation.move_base.plugins import (CLEAR_COSTMAP_RECOVERY, NAVFN, RECOVERY_BEHAVIORS, ROTATE_RECOVERY,
+                                                    TEB_LOCAL_PLANNER)
 
 DEFAULT_RECOVERY_BEHAVIORS = (
     {"name": "conservative_reset", "type": CLEAR_COSTMAP_RECOVERY},

@@ -21,10 +21,10 @@ import numpy as np
 
 from simplebot_navigation.parameters import ParameterError, fields_of
 from simplebot_navigation.parameters.overrides import ParameterTable, lookup, set_in_tree
-
-from .config import MoveBaseConfig
-from .parameter_tree import COSTMAPS, NodeConfigs, apply_move_base_overrides, build_configs, live_parameter_table
-from .plugins import plugin_namespace
+from simplebot_navigation.move_base.config import MoveBaseConfig
+from simplebot_navigation.move_base.parameter_tree import (COSTMAPS, NodeConfigs, apply_move_base_overrides,
+                                                           build_configs, live_parameter_table)
+from simplebot_navigation.move_base.plugins import plugin_namespace
 
 #: the parts of a node a change can reach, besides each costmap (by name) and each recovery (by name)
 MOVE_BASE, GLOBAL_PLANNER, LOCAL_PLANNER = "move_base", "global_planner", "local_planner"

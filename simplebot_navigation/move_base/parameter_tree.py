@@ -16,9 +16,8 @@ from simplebot_navigation.costmap.params import CostmapConfig, SearchedParams, p
 from simplebot_navigation.parameters import PLUGIN_TYPE_KEY, Param, build, fields_of
 from simplebot_navigation.parameters.overrides import ParameterTable, apply_overrides
 from simplebot_navigation.teb.footprint import FootprintModelParams
-
-from .config import MoveBaseConfig
-from .plugins import GLOBAL_PLANNERS, LOCAL_PLANNERS, RECOVERY_BEHAVIORS, plugin_namespace
+from simplebot_navigation.move_base.config import MoveBaseConfig
+from simplebot_navigation.move_base.plugins import GLOBAL_PLANNERS, LOCAL_PLANNERS, RECOVERY_BEHAVIORS, plugin_namespace
 
 COSTMAPS = ("global_costmap", "local_costmap")
 

@@ -22,11 +22,10 @@ from simplebot_navigation.parameters import ParameterError
 from simplebot_navigation.planning.config import GLOBAL_PLANNER, NAVFN, GlobalPlannerConfig, NavfnParams
 from simplebot_navigation.teb.config import TebConfig
 from simplebot_navigation.teb.footprint import FootprintModel
-
-from .recovery.backup import BackUpParams
-from .recovery.clear_costmap import ClearCostmapParams
-from .recovery.rotate import RotateParams
-from .recovery.spin import SpinParams
+from simplebot_navigation.move_base.recovery.backup import BackUpParams
+from simplebot_navigation.move_base.recovery.clear_costmap import ClearCostmapParams
+from simplebot_navigation.move_base.recovery.rotate import RotateParams
+from simplebot_navigation.move_base.recovery.spin import SpinParams
 
 TEB_LOCAL_PLANNER = "teb_local_planner/TebLocalPlannerROS"
 CLEAR_COSTMAP_RECOVERY = "clear_costmap_recovery/ClearCostmapRecovery"

@@ -16,7 +16,7 @@ from typing import Any, Callable
 
 import yaml
 
-from .spec import Param, ParameterError
+from simplebot_navigation.parameters.spec import Param, ParameterError
 
 ParameterTable = dict[str, Param]
 

@@ -10,8 +10,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from .overrides import set_in_tree
-from .spec import ParameterError
+from simplebot_navigation.parameters.overrides import set_in_tree
+from simplebot_navigation.parameters.spec import ParameterError
 
 
 def _array_value(key: str, values: list) -> list:

@@ -33,12 +33,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..costmap.cost_values import FREE_SPACE, LETHAL_OBSTACLE, NO_INFORMATION
-from ..costmap.costmap_2d import Costmap2D
-from . import expansion_kernels, path_kernels
-from .config import GLOBAL_PLANNER, NAVFN, GlobalPlannerConfig
-from .expansion_kernels import POT_HIGH
-from .orientation import orient_path
+from simplebot_navigation.costmap.cost_values import FREE_SPACE, LETHAL_OBSTACLE, NO_INFORMATION
+from simplebot_navigation.costmap.costmap_2d import Costmap2D
+from simplebot_navigation.planning import expansion_kernels, path_kernels
+from simplebot_navigation.planning.config import GLOBAL_PLANNER, NAVFN, GlobalPlannerConfig
+from simplebot_navigation.planning.expansion_kernels import POT_HIGH
+from simplebot_navigation.planning.orientation import orient_path
 
 # navfn's constants (navfn.h).
 _NAVFN_NEUTRAL = 50

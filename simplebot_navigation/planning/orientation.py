@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .config import OrientationMode
+from simplebot_navigation.planning.config import OrientationMode
 
 #: ForwardThenInterpolate: heading change (rad) that ends the final straight section.
 STRAIGHT_TOLERANCE = 0.35

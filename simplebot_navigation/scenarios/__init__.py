@@ -5,9 +5,10 @@
     results, worlds = run_scenarios(ScenarioOptions(world="lab", goals="nw_office;library"))
 """
 
-from .runner import GoalResult, ScenarioOptions, parse_goals, run_goal, run_scenarios, time_budget
-from .process_session import ProcessSession, RemoteSession
-from .session import GoalRun, NavigationSession
+from simplebot_navigation.scenarios.runner import (GoalResult, ScenarioOptions, parse_goals, run_goal, run_scenarios,
+                                                   time_budget)
+from simplebot_navigation.scenarios.process_session import ProcessSession, RemoteSession
+from simplebot_navigation.scenarios.session import GoalRun, NavigationSession
 
 __all__ = ["GoalResult", "GoalRun", "NavigationSession", "ProcessSession", "RemoteSession", "ScenarioOptions",
            "parse_goals", "run_goal", "run_scenarios", "time_budget"]

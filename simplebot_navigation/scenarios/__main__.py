@@ -17,9 +17,8 @@ from simplebot_description import builtin_worlds, robot_description
 from simplebot_navigation.launch.loader import LaunchError
 from simplebot_navigation.launch.nodes import ExecutableNotFound
 from simplebot_navigation.sim.world_loader import load_world
-
-from .report import plot, table, write_json
-from .runner import ScenarioOptions, parse_goals, run_scenarios
+from simplebot_navigation.scenarios.report import plot, table, write_json
+from simplebot_navigation.scenarios.runner import ScenarioOptions, parse_goals, run_scenarios
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -96,7 +95,7 @@ def _check(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Scenari
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["campaign"]:
-        from .campaign import main as campaign_main
+        from simplebot_navigation.scenarios.campaign import main as campaign_main
 
         return campaign_main(argv[1:])
     parser = _parser()

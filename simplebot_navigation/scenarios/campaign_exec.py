@@ -24,7 +24,7 @@ import time
 from collections import deque
 from typing import Iterator
 
-from .campaign_spec import Run
+from simplebot_navigation.scenarios.campaign_spec import Run
 
 DOMAIN_IDS = range(0, 102)       # valid Fast DDS domain ids on one host
 LOCK_FOLDER = os.path.join(tempfile.gettempdir(), "simplebot-ros-domains")

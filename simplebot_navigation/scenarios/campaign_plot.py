@@ -14,11 +14,10 @@ import numpy as np
 
 from simplebot_description import robot_description
 from simplebot_navigation.sim.world_loader import load_world
-
-from .campaign_spec import params_label, robot_body
-from .campaign_stats import group_key, success_times, summarize, wilson_interval
-from .report import plot
-from .runner import GoalResult, world_for_run
+from simplebot_navigation.scenarios.campaign_spec import params_label, robot_body
+from simplebot_navigation.scenarios.campaign_stats import group_key, success_times, summarize, wilson_interval
+from simplebot_navigation.scenarios.report import plot
+from simplebot_navigation.scenarios.runner import GoalResult, world_for_run
 
 HARDEST = 4
 DIFFICULTY_BINS = 4

@@ -11,9 +11,9 @@ import json
 import os
 from dataclasses import dataclass, field
 
-from .campaign_exec import CampaignError
-from .campaign_spec import CampaignSpec, Run, world_family
-from .report import finite
+from simplebot_navigation.scenarios.campaign_exec import CampaignError
+from simplebot_navigation.scenarios.campaign_spec import CampaignSpec, Run, world_family
+from simplebot_navigation.scenarios.report import finite
 
 FORMAT = "simplebot-campaign/1"
 MAX_ATTEMPTS = 2

@@ -20,9 +20,8 @@ from simplebot_description import robot_description
 from simplebot_navigation.launch.loader import LaunchError, load_launch
 from simplebot_navigation.launch.overrides import apply_set
 from simplebot_navigation.sim.world_loader import load_world
-
-from .runner import parse_goals
-from .session import launch_args
+from simplebot_navigation.scenarios.runner import parse_goals
+from simplebot_navigation.scenarios.session import launch_args
 
 ROBOT_BODY = re.compile(r"^(?P<name>box|round)(?::(?P<radius>\d+(?:\.\d+)?))?$")
 ROUND_RADIUS_RANGE = (0.1, 1.0)
@@ -230,8 +229,9 @@ def plan(spec: CampaignSpec) -> list[Run]:
     for params in spec.params:     # each parameter set checked as move_base would take it
         shipped, overrides = split_parameter_set(params)
         try:
-            apply_set(load_launch("navigation", launch_args("lab", "box", 0.3, 0.0, "tight" in shipped,
-                                                                collision_monitor="no_collision_monitor" not in shipped)), overrides)
+            args = launch_args("lab", "box", 0.3, 0.0, "tight" in shipped,
+                               collision_monitor="no_collision_monitor" not in shipped)
+            apply_set(load_launch("navigation", args), overrides)
         except LaunchError as err:
             raise SpecError(f"params: {params_label(params)!r}: {err}") from err
     runs = []

@@ -12,10 +12,10 @@ import os
 import sys
 import tempfile
 
-from .campaign_spec import Run, robot_body, split_parameter_set
-from .report import finite
-from .runner import parse_goals, run_goal, time_budget, world_for_run
-from .session import NavigationSession
+from simplebot_navigation.scenarios.campaign_spec import Run, robot_body, split_parameter_set
+from simplebot_navigation.scenarios.report import finite
+from simplebot_navigation.scenarios.runner import parse_goals, run_goal, time_budget, world_for_run
+from simplebot_navigation.scenarios.session import NavigationSession
 
 READY_TIMEOUT_S = 300.0
 

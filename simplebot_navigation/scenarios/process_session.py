@@ -25,8 +25,7 @@ from simplebot_navigation.launch.overrides import apply_set
 from simplebot_navigation.move_base.plugins import TEB_LOCAL_PLANNER, plugin_namespace
 from simplebot_navigation.sim.world import Pose2D
 from simplebot_navigation.sim.world_loader import load_world
-
-from .session import ScenarioClient, _Session, launch_args
+from simplebot_navigation.scenarios.session import ScenarioClient, _Session, launch_args
 
 WRAPPER_LAUNCH = """\
 # Written by the scenario runner: the navigation launch file plus the simulator's seed and noise.

@@ -9,8 +9,7 @@ from dataclasses import asdict
 import numpy as np
 
 from simplebot_navigation.sim.world import Cylinder, World
-
-from .runner import GoalResult, ScenarioOptions
+from simplebot_navigation.scenarios.runner import GoalResult, ScenarioOptions
 
 COLUMNS = [  # header, width, cell
     ("run", 3, lambda r: f"{r.run + 1}"),

@@ -16,9 +16,8 @@ from scipy.sparse.csgraph import dijkstra
 from simplebot_description import RobotDescription
 from simplebot_navigation.sim.world import Pose2D, World, write_world
 from simplebot_navigation.sim.world_gen import clutter_world
-
-from .process_session import ProcessSession, RemoteSession
-from .session import NavigationSession
+from simplebot_navigation.scenarios.process_session import ProcessSession, RemoteSession
+from simplebot_navigation.scenarios.session import NavigationSession
 
 BUDGET_SLACK = 2.0        # budget = BUDGET_FIXED_S + BUDGET_SLACK * shortest path / max_vel_x
 BUDGET_FIXED_S = 20.0

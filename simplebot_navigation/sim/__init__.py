@@ -1,11 +1,11 @@
 """Pure simulator core (no ROS): pybullet simplebot, diff drive, lidars, world files."""
 
-from .diff_drive import DiffDriveParams, OdomNoise
-from .lidar import LaserScanData
-from .simulator import CollisionReport, JointStates, Odometry, SimplebotSim
-from .world import Box, Cylinder, Pose2D, Wall, World, world_from_dict, write_world
-from .world_gen import clutter_world, door_goal_name, doors_world
-from .world_loader import load_world
+from simplebot_navigation.sim.diff_drive import DiffDriveParams, OdomNoise
+from simplebot_navigation.sim.lidar import LaserScanData
+from simplebot_navigation.sim.simulator import CollisionReport, JointStates, Odometry, SimplebotSim
+from simplebot_navigation.sim.world import Box, Cylinder, Pose2D, Wall, World, world_from_dict, write_world
+from simplebot_navigation.sim.world_gen import clutter_world, door_goal_name, doors_world
+from simplebot_navigation.sim.world_loader import load_world
 
 __all__ = [
     "Box",

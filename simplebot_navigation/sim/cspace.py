@@ -18,8 +18,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from simplebot_navigation.geometry import inverse_transform_points
-
-from .world import Cylinder, Pose2D, World
+from simplebot_navigation.sim.world import Cylinder, Pose2D, World
 
 DEFAULT_RESOLUTION = 0.025
 DEFAULT_MARGIN = 0.05

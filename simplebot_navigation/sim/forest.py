@@ -20,8 +20,8 @@ import numpy as np
 
 from simplebot_description import GENERATED_WORLD
 
-from .world import World
-from .world_gen import forest_world
+from simplebot_navigation.sim.world import World
+from simplebot_navigation.sim.world_gen import forest_world
 
 FOREST_BENCHMARK_SEEDS = tuple(range(200))
 BENCHMARK_ROBOT_RADIUS = 0.25

@@ -16,7 +16,7 @@ from types import MappingProxyType
 
 import numpy as np
 
-from .world import DEFAULT_HEIGHT, Box, World, world_from_dict
+from simplebot_navigation.sim.world import DEFAULT_HEIGHT, Box, World, world_from_dict
 
 MAP_KEYS = {"image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh", "mode"}
 WORLD_KEYS = {"name", "start", "goals", "height"}

@@ -21,9 +21,9 @@ import pybullet as pb
 
 from simplebot_description import RobotDescription
 
-from .diff_drive import DiffDriveParams, OdomNoise, WheelOdometry, ramp, wheel_targets
-from .lidar import LaserScanData, LidarRig
-from .world import Pose2D
+from simplebot_navigation.sim.diff_drive import DiffDriveParams, OdomNoise, WheelOdometry, ramp, wheel_targets
+from simplebot_navigation.sim.lidar import LaserScanData, LidarRig
+from simplebot_navigation.sim.world import Pose2D
 
 # How far the hull reaches above the highest lidar plane, so that every other lidar's beams meet it.
 _HULL_ABOVE_LIDARS = 0.05

@@ -29,10 +29,10 @@ import pybullet as pb
 
 from simplebot_description import RobotDescription
 
-from .diff_drive import DiffDriveParams, OdomNoise
-from .lidar import LaserScanData
-from .robot import CollisionGroups, CollisionReport, JointStates, Odometry, SimRobot
-from .world import Box, Cylinder, Pose2D, World
+from simplebot_navigation.sim.diff_drive import DiffDriveParams, OdomNoise
+from simplebot_navigation.sim.lidar import LaserScanData
+from simplebot_navigation.sim.robot import CollisionGroups, CollisionReport, JointStates, Odometry, SimRobot
+from simplebot_navigation.sim.world import Box, Cylinder, Pose2D, World
 
 # Collision filter groups. Bullet lets a ray hit an object only if the object's mask has bit 1
 # (the ray's own group), so only the ray mesh and the robots' hulls carry that bit.

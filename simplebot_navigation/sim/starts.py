@@ -8,7 +8,7 @@ import math
 
 from simplebot_description import RobotDescription
 
-from .world import Pose2D, World, check_poses_clear
+from simplebot_navigation.sim.world import Pose2D, World, check_poses_clear
 
 
 def parse_starts(text: str) -> tuple[Pose2D, ...]:

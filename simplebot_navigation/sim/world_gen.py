@@ -14,8 +14,8 @@ import numpy as np
 
 from simplebot_description import WORLDS_DIR
 
-from .cspace import DEFAULT_MARGIN, analyse
-from .world import Box, Cylinder, Pose2D, Wall, World, _shape_distance, write_world
+from simplebot_navigation.sim.cspace import DEFAULT_MARGIN, analyse
+from simplebot_navigation.sim.world import Box, Cylinder, Pose2D, Wall, World, _shape_distance, write_world
 
 OUTER_THICKNESS = 0.2
 

@@ -10,9 +10,9 @@ import yaml
 
 from simplebot_description import builtin_worlds, world_name_problem, world_path
 
-from .forest import generated_world
-from .map_import import world_from_map
-from .world import World, check_clearance, world_from_dict
+from simplebot_navigation.sim.forest import generated_world
+from simplebot_navigation.sim.map_import import world_from_map
+from simplebot_navigation.sim.world import World, check_clearance, world_from_dict
 
 
 def load_world(name_or_path: str | Path, robot_radius: float = 0.0) -> World:

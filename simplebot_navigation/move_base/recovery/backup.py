@@ -10,8 +10,7 @@ import numpy as np
 
 from simplebot_navigation.geometry import normalize_theta
 from simplebot_navigation.parameters import param
-
-from . import ParameterisedRecovery, PoseTrail, RecoveryContext, RecoveryStep
+from simplebot_navigation.move_base.recovery import ParameterisedRecovery, PoseTrail, RecoveryContext, RecoveryStep
 
 @dataclass
 class BackUpParams:

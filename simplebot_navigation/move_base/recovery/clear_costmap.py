@@ -6,8 +6,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from simplebot_navigation.parameters import PLUGIN_TYPE_KEY, ParameterError, build, param
-
-from . import RecoveryContext, RecoveryStep
+from simplebot_navigation.move_base.recovery import RecoveryContext, RecoveryStep
 
 @dataclass
 class ClearCostmapParams:

@@ -10,8 +10,7 @@ import numpy as np
 
 from simplebot_navigation.geometry import normalize_theta
 from simplebot_navigation.parameters import param
-
-from . import ParameterisedRecovery, RecoveryContext, RecoveryStep
+from simplebot_navigation.move_base.recovery import ParameterisedRecovery, RecoveryContext, RecoveryStep
 
 #: read from the (ROS 1 default) local planner's namespace when the behaviour's own has none
 BORROWED = ("acc_lim_theta", "max_vel_theta", "min_in_place_vel_theta", "yaw_goal_tolerance")

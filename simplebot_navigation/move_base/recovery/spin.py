@@ -11,8 +11,7 @@ import numpy as np
 from simplebot_navigation.costmap.cost_values import INSCRIBED_INFLATED_OBSTACLE
 from simplebot_navigation.geometry import normalize_theta
 from simplebot_navigation.parameters import param
-
-from . import ParameterisedRecovery, RecoveryContext, RecoveryStep
+from simplebot_navigation.move_base.recovery import ParameterisedRecovery, RecoveryContext, RecoveryStep
 
 #: the free area is weighed within this many circumscribed radii on either side
 FREE_SPACE_RADII = 2.0
