@@ -7,8 +7,8 @@ Starts ``navigation world:=lab rtf:=1 foxglove:=true respawn:=true`` (every node
 other node or program on the machine could:
   - sets hostile move_base, collision monitor and simulator parameters through their parameter services
     (ros2 param set);
-  - drives the robot at 1 m/s straight ahead on cmd_vel_nav, as a crazed move_base would, for 10 s: the
-    collision monitor must stop it with no collision;
+  - drives the robot at 1 m/s straight ahead on cmd_vel_nav, as a crazed move_base would, for 25 s (the lab's
+    outer wall is at most 15 m away): the collision monitor must stop it short of it, with no collision;
   - opens Foxglove WebSocket handshakes from a foreign web page and with a rebound host name;
   - runs the launcher and the campaign runner with unbounded or malformed arguments.
 Afterwards the simulator and move_base must be the processes that started, and an ordinary goal must succeed.
@@ -46,6 +46,7 @@ MOVE_BASE_PROBES = [
     ("TebLocalPlannerROS.max_vel_x", 1e308),
     ("local_costmap.inflation_layer.inflaton_radius", 1.0),
 ]
+DRIVE_S = 25.0
 COLLISION_MONITOR_PROBES = [("footprint", "robot"), ("footprint", "[[0, 0], [1, 1]]"), ("stop_distance", math.nan),
                             ("time_before_collision", 1e308), ("slowdown_distance", 0.01),
                             ("cmd_vel_out_topic", "/elsewhere"), ("stop_distanse", 0.1)]
@@ -93,20 +94,26 @@ def handshake(port: int, origin: str | None, host: str) -> str:
 
 
 def hostile_drive(session) -> tuple[str, str, str, bool]:
-    """1 m/s straight ahead on cmd_vel_nav for 10 s (wall clock), then zero: nothing may be hit."""
+    """1 m/s straight ahead on cmd_vel_nav for 25 s (wall clock), then zero: nothing may be hit, and the robot
+    ends up standing short of what it was driven at."""
     from geometry_msgs.msg import Twist
 
     publisher = session.client.create_publisher(Twist, "/cmd_vel_nav", 1)
     ahead, stop = Twist(), Twist()
     ahead.linear.x = 1.0
     collisions, start = session.client.collisions, session.pose()
-    session.spin_wall(10.0, lambda: publisher.publish(ahead) and False)
+    session.spin_wall(DRIVE_S - 1.0, lambda: publisher.publish(ahead) and False)
+    before_last_second = session.pose()
+    session.spin_wall(1.0, lambda: publisher.publish(ahead) and False)
     publisher.publish(stop)
     session.client.destroy_publisher(publisher)
-    moved = math.hypot(session.pose().x - start.x, session.pose().y - start.y)
+    end = session.pose()
+    moved = math.hypot(end.x - start.x, end.y - start.y)
+    last_second = math.hypot(end.x - before_last_second.x, end.y - before_last_second.y)
     new = session.client.collisions - collisions
-    return ("cmd_vel_nav 1 m/s ahead for 10 s", "a crazed move_base", f"drove {moved:.2f} m, {new} collisions",
-            new == 0)
+    return (f"cmd_vel_nav 1 m/s ahead for {DRIVE_S:g} s", "a crazed move_base",
+            f"drove {moved:.2f} m, {last_second:.2f} m in the last second, {new} collisions",
+            new == 0 and last_second < 0.05)
 
 
 def main() -> int:
