@@ -117,14 +117,14 @@ class ViewerServer:
         return dict(zip(("x", "y", "yaw"), values))
 
     def _handler_class(self):
-        return type("Handler", (_RequestHandler,), {"viewer": self})
+        return type("Handler", (_RequestHandler,), {"viewer": self, "timeout": REQUEST_TIMEOUT_S})
 
 
 class _RequestHandler(BaseHTTPRequestHandler):
-    """One viewer request; ``viewer`` is the ViewerServer it answers for (set by ViewerServer._handler_class)."""
+    """One viewer request; ``viewer`` is the ViewerServer it answers for and ``timeout`` the socket's, both set by
+    ViewerServer._handler_class when the server is made."""
     viewer: "ViewerServer"
     protocol_version = "HTTP/1.1"
-    timeout = REQUEST_TIMEOUT_S
 
     def log_message(self, *args) -> None:  # the console belongs to the navigation nodes
         pass
