@@ -282,7 +282,7 @@ def _running_value(node, name: str):
 
 def test_every_parameter_that_may_change_while_running_reaches_the_running_objects(session):
     node = session.move_base
-    table = node._live.table
+    table = node.live_parameters.table
     current = {name: p.value for name, p in node.get_parameters_by_prefix("").items()}
     shadowed = ("global_costmap.robot_radius", "local_costmap.robot_radius")    # the lab gives a footprint
     live = {name: spec for name, spec in table.items()

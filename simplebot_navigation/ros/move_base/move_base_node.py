@@ -33,10 +33,10 @@ from simplebot_navigation.parameters import fields_of
 from simplebot_navigation.ros.conversions import path_msg, pose_to_xyyaw, xyyaw_to_pose
 from simplebot_navigation.ros.costmap.costmap_ros import Costmap2DROS
 from simplebot_navigation.ros.move_base.move_base_goal import MoveBaseGoal, in_frame, plan_request, validate_pose
-from simplebot_navigation.ros.move_base.move_base_parameters import MoveBaseParameters
+from simplebot_navigation.ros.move_base.move_base_parameters import MoveBaseLiveParameters
 from simplebot_navigation.ros.move_base.move_base_recoveries import MoveBaseRecoveryContext
 from simplebot_navigation.ros.move_base.move_base_stats import OUTCOMES, control_loop_status, navigation_status
-from simplebot_navigation.ros.move_base.move_base_supervision import MoveBaseSupervision
+from simplebot_navigation.ros.move_base.move_base_supervision import MoveBaseSupervisor
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
 from simplebot_navigation.ros.publishers import create_publisher, drop_event_handlers_of_best_effort_subscriptions
 from simplebot_navigation.ros.tf import Buffer, TransformListener
@@ -55,7 +55,7 @@ ACTION_SERVICE_QOS = QoSProfile(depth=50, history=HistoryPolicy.KEEP_LAST, relia
                                 durability=DurabilityPolicy.VOLATILE)
 
 
-class MoveBaseNode(MoveBaseSupervision, MoveBaseParameters, Node):
+class MoveBaseNode(Node):
     def __init__(self, **kwargs):
         started = time.perf_counter()
         kwargs.setdefault("automatically_declare_parameters_from_overrides", True)
@@ -98,17 +98,14 @@ class MoveBaseNode(MoveBaseSupervision, MoveBaseParameters, Node):
         self.cycle_stats = ControlLoopStats(self.period)
         self._last_missed_warning = -math.inf
         self._control_timer = self.create_timer(self.period, self._control_cycle)
-        self.watchdog = self._start_watchdog()
-        self._watchdog_tripped = False
-        self._waiting_since: float | None = None   # node time since when the goal lacks its pose or sensors
-        self._jump_handle = self._watch_for_time_jumps()
+        self.supervisor = MoveBaseSupervisor(self)
         self.diagnostics_pub = create_publisher(self, DiagnosticArray, "/diagnostics", 10)
         self._diagnostics_snapshot = self.cycle_stats.snapshot()
         # On the steady clock: the watchdog, status and diagnostics must keep going when /clock stops.
         self._housekeeping_ticks = 0
         self.create_timer(HOUSEKEEPING_PERIOD_S, self._housekeeping, clock=Clock(clock_type=ClockType.STEADY_TIME))
         drop_event_handlers_of_best_effort_subscriptions(self)
-        self._start_live_parameters()
+        self.live_parameters = MoveBaseLiveParameters(self)
         self.get_logger().info(f"move_base ready: {self.cfg.base_global_planner} + {self.cfg.base_local_planner}, "
                                f"controller {self.cfg.controller_frequency:g} Hz, "
                                f"{len(self.core.recoveries)} recovery behaviours "
@@ -191,8 +188,7 @@ class MoveBaseNode(MoveBaseSupervision, MoveBaseParameters, Node):
         goal.status = ActionlibStatus.ACTIVE
         self.goal = goal
         self.core.events.goal(self._now(), goal.id)
-        self.watchdog.beat()  # the watchdog judges the loop from this goal on
-        self._waiting_since = None
+        self.supervisor.goal_accepted()
         reason = validate_pose(goal.pose)
         target = None
         if reason is None:
@@ -205,7 +201,7 @@ class MoveBaseNode(MoveBaseSupervision, MoveBaseParameters, Node):
         xyyaw = pose_to_xyyaw(target.pose)
         self.get_logger().info(f"new goal ({xyyaw[0]:.2f}, {xyyaw[1]:.2f}, yaw {xyyaw[2]:.2f}) "
                                f"in {target.header.frame_id}")
-        self._publish_zero()
+        self.publish_zero()
         self.core.set_goal(xyyaw, self._now())
 
     def _goal_in_global_frame(self, pose: PoseStamped):
@@ -231,7 +227,7 @@ class MoveBaseNode(MoveBaseSupervision, MoveBaseParameters, Node):
         """End a goal from outside the state machine (cancel, preemption, an error): stop the robot, drop the
         goal from the state machine, and report the end."""
         self.core.reset()
-        self._publish_zero()
+        self.publish_zero()
         self._finish(goal, status, text)
 
     def _finish(self, goal: MoveBaseGoal, status: int, text: str) -> None:
@@ -251,19 +247,15 @@ class MoveBaseNode(MoveBaseSupervision, MoveBaseParameters, Node):
 
     def _housekeeping(self) -> None:
         self._housekeeping_ticks += 1
-        if self.cfg.watchdog_timeout > 0:
-            self._watchdog()
+        self.supervisor.check_watchdog()
         if self._housekeeping_ticks % STATUS_TICKS == 0:
             self._publish_status()
         if self._housekeeping_ticks % DIAGNOSTICS_TICKS == 0:
             self._publish_diagnostics()
 
     def _control_cycle(self) -> None:
-        self.watchdog.beat()
-        self._apply_parameter_changes()
-        if self._watchdog_tripped:
-            self._watchdog_tripped = False
-            self.get_logger().info("control loop running again")
+        self.supervisor.loop_ran()
+        self.live_parameters.apply_pending()
         goal = self.goal
         if goal is None:
             return
@@ -273,10 +265,10 @@ class MoveBaseNode(MoveBaseSupervision, MoveBaseParameters, Node):
         started = time.perf_counter()
         pose = self._robot_pose_global()
         if pose is None:
-            self._publish_zero()
+            self.publish_zero()
             self.get_logger().warn(f"waiting for the robot pose: {self.global_costmap.last_pose_error}",
                                    throttle_duration_sec=5.0)
-            self._wait_for_data(f"no robot pose: {self.global_costmap.last_pose_error}")
+            self.supervisor.wait_for_data(f"no robot pose: {self.global_costmap.last_pose_error}")
             return
         if goal.handle is not None:
             feedback = MoveBase.Feedback()
@@ -286,16 +278,16 @@ class MoveBaseNode(MoveBaseSupervision, MoveBaseParameters, Node):
             goal.handle.publish_feedback(feedback)
         stale = self.local_costmap.stale_sources()
         if stale:
-            self._wait_for_data(f"sensor data out of date: {', '.join(f'local_costmap/{s}' for s in stale)}")
+            self.supervisor.wait_for_data(f"sensor data out of date: {', '.join(f'local_costmap/{s}' for s in stale)}")
             if self.goal is None:
                 return
         else:
-            self._waiting_since = None
+            self.supervisor.data_ok()
         try:
             out = self.core.cycle(self._now(), pose[:3], self.local_costmap.is_current(),
                                   ", ".join(f"local_costmap/{s}" for s in stale))
         except Exception as exc:  # noqa: BLE001 - a bug in a planner must stop the robot, not the node
-            self._abort_on_internal_error(goal, exc)
+            self.supervisor.abort_on_internal_error(goal, exc)
             return
         if out.cmd is not None:
             self._publish_cmd(*out.cmd)
@@ -315,12 +307,24 @@ class MoveBaseNode(MoveBaseSupervision, MoveBaseParameters, Node):
             self.get_logger().warn(f"Control loop missed its desired rate of {self.cfg.controller_frequency:.4f}Hz"
                                    f"... the loop actually took {elapsed:.4f} seconds")
 
+    def destroy_node(self) -> None:
+        self.supervisor.stop()
+        super().destroy_node()
+
+    def set_controller_frequency(self, hz: float) -> None:
+        """The control timer, its statistics and the local planner follow the new rate from now on."""
+        self.period = 1.0 / hz
+        self._control_timer.timer_period_ns = round(self.period * 1e9)
+        self._control_timer.reset()          # the next cycle one new period from now
+        self.cycle_stats.set_period(self.period)
+        self.controller.set_controller_frequency(hz)
+
     def _publish_cmd(self, v: float, omega: float) -> None:
         twist = Twist()
         twist.linear.x, twist.angular.z = float(v), float(omega)
         self.cmd_vel_pub.publish(twist)
 
-    def _publish_zero(self) -> None:
+    def publish_zero(self) -> None:
         self._publish_cmd(0.0, 0.0)
 
     # -- status, services -----------------------------------------------------------------------

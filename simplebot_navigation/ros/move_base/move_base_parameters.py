@@ -1,17 +1,18 @@
 """move_base's parameters while it runs: what ``ros2 param set`` accepts takes effect, and what it refuses
 it refuses with the reason; ``ros2 param describe`` gives each parameter its description and range.
 
-A mixin of MoveBaseNode. The checks and the configurations come from move_base/live_parameters.py (no
-rclpy); this shell converts ROS 2 parameters, answers the set request at once, and applies an accepted
-change at the start of the next control cycle, on the executor's thread: TEB, the costmaps and their
-layers, the global planner and the recoveries take their new configurations, and the control, update
-and publish timers their new periods.
+A collaborator of MoveBaseNode (``MoveBaseLiveParameters(node)``). The checks and the configurations come from
+move_base/live_parameters.py (no rclpy); this shell converts ROS 2 parameters, answers the set request at once,
+and applies an accepted change at the start of the next control cycle (``apply_pending``), on the executor's
+thread: TEB, the costmaps and their layers, the global planner and the recoveries take their new
+configurations, and the control, update and publish timers their new periods.
 """
 
 from __future__ import annotations
 
 import array
 import threading
+from typing import Protocol
 
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.parameter import Parameter
@@ -36,20 +37,39 @@ def _changes(params: list[Parameter]) -> list[tuple]:
     return [(param.name, ros1_value(param.value)) for param in params if _ours(param.name)]
 
 
-class MoveBaseParameters:
-    """Run-time parameter changes of MoveBaseNode (dynamic_reconfigure semantics)."""
+class LiveParameterHost(Protocol):
+    """What MoveBaseLiveParameters changes: a rclpy Node (its parameters and logger) with these parts."""
+    cfg: object                 # MoveBaseConfig
+    global_costmap: object      # Costmap2DROS
+    local_costmap: object
+    planner: object             # GlobalPlannerPlugin
+    controller: object          # LocalPlannerPlugin
+    recovery_instances: dict    # behaviour name -> Recovery
 
-    def _start_live_parameters(self) -> None:
-        """After every part has declared its parameters: describe those the launcher gave, then take
-        every change through the parameter layer's checks."""
-        self._live = LiveParameters(given_parameter_tree(self))
+    def set_controller_frequency(self, hz: float) -> None:
+        """The control timer and its statistics follow the new rate (the controller is told here)."""
+
+
+class MoveBaseLiveParameters:
+    """Run-time parameter changes of a move_base node (dynamic_reconfigure semantics). Built after every part
+    has declared its parameters: it describes those the launcher gave, then takes every change through the
+    parameter layer's checks."""
+
+    def __init__(self, node: LiveParameterHost):
+        self.node = node
+        self._live = LiveParameters(given_parameter_tree(node))
         self._live_lock = threading.Lock()   # a set request may come from another thread than the cycle
-        describe_declared(self, self._live.table)
+        describe_declared(node, self._live.table)
         self._prepared = None
-        refuse_unknown_parameters(self)
-        self.add_pre_set_parameters_callback(self._normalize_parameters)
-        self.add_on_set_parameters_callback(self._on_set_parameters)
-        self.add_post_set_parameters_callback(self._on_parameters_set)
+        refuse_unknown_parameters(node)
+        node.add_pre_set_parameters_callback(self._normalize_parameters)
+        node.add_on_set_parameters_callback(self._on_set_parameters)
+        node.add_post_set_parameters_callback(self._on_parameters_set)
+
+    @property
+    def table(self):
+        """Every parameter a running node takes, by ROS 2 name, with its spec."""
+        return self._live.table
 
     def _normalize_parameters(self, params: list[Parameter]) -> list[Parameter]:
         """Store what the node runs with: 1 for a float parameter becomes 1.0 (ROS 1 read it as 1.0)."""
@@ -77,7 +97,7 @@ class MoveBaseParameters:
                 self._prepared = self._live.prepare(changes)
             except Exception as err:  # noqa: BLE001 - see the docstring
                 reason = str(err) if isinstance(err, ParameterError) else f"{type(err).__name__}: {err}"
-                self.get_logger().warn(f"parameter change refused: {reason}")
+                self.node.get_logger().warn(f"parameter change refused: {reason}")
                 return SetParametersResult(successful=False, reason=reason)
         return SetParametersResult(successful=True)
 
@@ -92,12 +112,12 @@ class MoveBaseParameters:
                 warnings = self._live.commit(prepared if prepared is not None and prepared.assignments == changes
                                              else self._live.prepare(changes))
             except Exception as err:  # noqa: BLE001 - only if another thread's change got in between: say so
-                self.get_logger().error(f"parameter change stored but not applied: {err}")
+                self.node.get_logger().error(f"parameter change stored but not applied: {err}")
                 return
         for warning in warnings:
-            self.get_logger().warn(warning)
+            self.node.get_logger().warn(warning)
 
-    def _apply_parameter_changes(self) -> None:
+    def apply_pending(self) -> None:
         """At the start of a control cycle: the changes accepted since the last one take effect."""
         with self._live_lock:
             change = self._live.take()
@@ -106,34 +126,26 @@ class MoveBaseParameters:
         try:
             self._apply(change)
         except Exception as err:  # noqa: BLE001 - a failed reconfiguration must not end the control loop
-            self.get_logger().error(f"parameter change not fully applied ({change.describe()}): "
+            self.node.get_logger().error(f"parameter change not fully applied ({change.describe()}): "
                                     f"{type(err).__name__}: {err}")
             return
-        self.get_logger().info(f"parameters changed: {change.describe()}")
+        self.node.get_logger().info(f"parameters changed: {change.describe()}")
 
     def _apply(self, change) -> None:
-        configs, parts = change.configs, change.parts
-        if MOVE_BASE in parts and "controller_frequency" in update_move_base_config(self.cfg, configs.move_base):
-            self._set_controller_frequency(self.cfg.controller_frequency)
-        for costmap in (self.global_costmap, self.local_costmap):
+        node, configs, parts = self.node, change.configs, change.parts
+        if MOVE_BASE in parts and "controller_frequency" in update_move_base_config(node.cfg, configs.move_base):
+            node.set_controller_frequency(node.cfg.controller_frequency)
+        for costmap in (node.global_costmap, node.local_costmap):
             if costmap.name not in parts:
                 continue
             changed = costmap.reconfigure(configs.costmaps[costmap.name])
-            if "footprint" in changed and costmap is self.local_costmap:
-                self.controller.set_costmap_footprint(costmap.footprint)
+            if "footprint" in changed and costmap is node.local_costmap:
+                node.controller.set_costmap_footprint(costmap.footprint)
         if GLOBAL_PLANNER in parts:
-            self.planner.reconfigure(configs.global_planner)
+            node.planner.reconfigure(configs.global_planner)
         if LOCAL_PLANNER in parts:
-            self.controller.reconfigure(configs.local_planner)
-        for name, recovery in self.recovery_instances.items():
+            node.controller.reconfigure(configs.local_planner)
+        for name, recovery in node.recovery_instances.items():
             if name in parts:
                 for warning in recovery.configure(configs.recoveries[name]):
-                    self.get_logger().warn(warning)
-
-    def _set_controller_frequency(self, hz: float) -> None:
-        """The control timer, its statistics and the local planner follow the new rate from now on."""
-        self.period = 1.0 / hz
-        self._control_timer.timer_period_ns = round(self.period * 1e9)
-        self._control_timer.reset()          # the next cycle one new period from now
-        self.cycle_stats.set_period(self.period)
-        self.controller.set_controller_frequency(hz)
+                    node.get_logger().warn(warning)

@@ -1,8 +1,8 @@
 """What move_base does when its inputs fail: a stopped clock, missing data, a backward time jump, and
 when its own planners fail with an exception.
 
-A mixin of MoveBaseNode: it works on the node's goal, state machine, costmaps and controller, and is
-kept apart so the node's file stays about its interfaces.
+A collaborator of MoveBaseNode (``MoveBaseSupervisor(node)``): it works on the node's goal, costmaps and
+controller through the interface ``SupervisedNode`` states, so the node's file stays about its interfaces.
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import threading
 import time
 import traceback
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Protocol
 
 from actionlib_msgs.msg import GoalStatus as ActionlibStatus
 from rclpy.clock import JumpHandle, JumpThreshold, TimeJump
@@ -59,67 +59,104 @@ class CommandWatchdog:
                     return
 
 
-class MoveBaseSupervision:
-    """The watchdog, max_wait, the reaction to time jumping back, and internal errors."""
+class SupervisedNode(Protocol):
+    """What MoveBaseSupervisor watches over: a rclpy Node (its clock and logger) with these parts."""
+    cfg: object                 # MoveBaseConfig: watchdog_timeout, max_wait
+    goal: object                # the active MoveBaseGoal, or None
+    controller: object          # LocalPlannerPlugin
+    global_costmap: object      # Costmap2DROS
+    local_costmap: object
 
-    def _abort_on_internal_error(self, goal: MoveBaseGoal, exc: Exception) -> None:
+    def publish_zero(self) -> None:
+        """Zero velocity to the base, from any thread."""
+
+    def end_goal(self, goal, status: int, text: str) -> None:
+        """Stop the robot, drop the goal from the state machine, report its end."""
+
+
+class MoveBaseSupervisor:
+    """The watchdog, max_wait, the reaction to time jumping back, and internal errors of a move_base node.
+
+    The control cycle tells it ``loop_ran()`` and, while the goal lacks its pose or sensors, ``wait_for_data``
+    (``data_ok()`` when they are back); the steady housekeeping timer calls ``check_watchdog()``."""
+
+    def __init__(self, node: SupervisedNode):
+        self.node = node
+        self.watchdog = CommandWatchdog(node.publish_zero, lambda: node.cfg.watchdog_timeout,
+                                        lambda: node.goal is not None)
+        self._tripped = False
+        self._waiting_since: float | None = None   # node time since when the goal lacks its pose or sensors
+        self._jump_handle: JumpHandle = node.get_clock().create_jump_callback(
+            JumpThreshold(min_forward=None, min_backward=Duration(nanoseconds=-1), on_clock_change=False),
+            post_callback=self._on_time_jump)
+
+    def _now(self) -> float:
+        return self.node.get_clock().now().nanoseconds / 1e9
+
+    def goal_accepted(self) -> None:
+        """A new goal: the watchdog judges the loop from now on, and the goal has not waited yet."""
+        self.watchdog.beat()
+        self._waiting_since = None
+
+    def loop_ran(self) -> None:
+        self.watchdog.beat()
+        if self._tripped:
+            self._tripped = False
+            self.node.get_logger().info("control loop running again")
+
+    def stop(self) -> None:
+        self.watchdog.stop()
+
+    def abort_on_internal_error(self, goal: MoveBaseGoal, exc: Exception) -> None:
         """Stop the robot and end the goal with the error; the node stays up for the next goal."""
         where = traceback.extract_tb(exc.__traceback__)[-1]
         text = (f"internal error in the control cycle: {type(exc).__name__}: {exc} "
                 f"({Path(where.filename).name}:{where.lineno}); robot stopped, goal aborted")
-        self.get_logger().error(text + "\n" + "".join(traceback.format_exception(exc)))
-        self.end_goal(goal, ActionlibStatus.ABORTED, text)
+        self.node.get_logger().error(text + "\n" + "".join(traceback.format_exception(exc)))
+        self.node.end_goal(goal, ActionlibStatus.ABORTED, text)
 
-    def _watch_for_time_jumps(self) -> JumpHandle:
-        return self.get_clock().create_jump_callback(
-            JumpThreshold(min_forward=None, min_backward=Duration(nanoseconds=-1), on_clock_change=False),
-            post_callback=self._on_time_jump)
-
-    def _start_watchdog(self) -> CommandWatchdog:
-        return CommandWatchdog(self._publish_zero, lambda: self.cfg.watchdog_timeout, lambda: self.goal is not None)
-
-    def destroy_node(self) -> None:
-        self.watchdog.stop()
-        super().destroy_node()
-
-    def _watchdog(self) -> None:
+    def check_watchdog(self) -> None:
         """Say why the robot was stopped, and abort after max_wait. The loop runs on /clock, so a dead simulator
         (or time source) silences it; the watchdog's thread has already sent the zero command."""
+        cfg = self.node.cfg
         silent = self.watchdog.silent_for()
-        if self.goal is None or silent < self.cfg.watchdog_timeout:
+        if cfg.watchdog_timeout <= 0 or self.node.goal is None or silent < cfg.watchdog_timeout:
             return
-        if not self._watchdog_tripped:
-            self._watchdog_tripped = True
-            self.get_logger().error(f"no control cycle for {silent:.2f} s of wall time (is /clock running? "
-                                    f"node time {self._now():.2f} s): robot stopped")
-        if 0 < self.cfg.max_wait < silent:
+        if not self._tripped:
+            self._tripped = True
+            self.node.get_logger().error(f"no control cycle for {silent:.2f} s of wall time (is /clock running? "
+                                         f"node time {self._now():.2f} s): robot stopped")
+        if 0 < cfg.max_wait < silent:
             self._abort_waiting(f"no control cycle for {silent:.0f} s of wall time (is /clock running?)")
 
     def _on_time_jump(self, jump: TimeJump) -> None:
         """A restarted simulator or a looped bag: what was seen belongs to another timeline. Costmaps and the
         controller start again (TF clears itself), and a goal in progress is aborted, since its robot pose,
         plan and timers are gone. New goals work as soon as data flows again."""
+        node = self.node
         back = -jump.delta.nanoseconds * 1e-9
-        for costmap in (self.global_costmap, self.local_costmap):
+        for costmap in (node.global_costmap, node.local_costmap):
             costmap.forget_history()
-        self.controller.reset()
+        node.controller.reset()
         self._waiting_since = None
-        self.get_logger().warn(f"time jumped back by {back:.2f} s (simulator restarted?): costmaps cleared")
-        if self.goal is not None:
+        node.get_logger().warn(f"time jumped back by {back:.2f} s (simulator restarted?): costmaps cleared")
+        if node.goal is not None:
             reason = f"time jumped back by {back:.2f} s (simulator restarted?)"
-            self.get_logger().error(f"Aborting the goal: {reason}")
-            self.end_goal(self.goal, ActionlibStatus.ABORTED, reason)
+            node.get_logger().error(f"Aborting the goal: {reason}")
+            node.end_goal(node.goal, ActionlibStatus.ABORTED, reason)
 
-    def _wait_for_data(self, reason: str) -> None:
+    def data_ok(self) -> None:
+        self._waiting_since = None
+
+    def wait_for_data(self, reason: str) -> None:
         """A goal may wait max_wait seconds of node time for its pose and sensors, then it is aborted."""
         now = self._now()
         if self._waiting_since is None:
             self._waiting_since = now
-        elif 0 < self.cfg.max_wait < now - self._waiting_since:
+        elif 0 < self.node.cfg.max_wait < now - self._waiting_since:
             self._abort_waiting(f"{reason} for {now - self._waiting_since:.0f} s")
 
     def _abort_waiting(self, reason: str) -> None:
-        message = f"Aborting the goal: {reason} (max_wait {self.cfg.max_wait:g} s)"
-        self.get_logger().error(message)
-        self.end_goal(self.goal, ActionlibStatus.ABORTED, message)
-
+        message = f"Aborting the goal: {reason} (max_wait {self.node.cfg.max_wait:g} s)"
+        self.node.get_logger().error(message)
+        self.node.end_goal(self.node.goal, ActionlibStatus.ABORTED, message)
