@@ -18,9 +18,9 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from simplebot_navigation.scenarios.campaign import run_campaign  # noqa: E402
-from simplebot_navigation.scenarios.campaign_exec import LocalExecutor, RayExecutor  # noqa: E402
-from simplebot_navigation.scenarios.campaign_spec import spec_from_dict  # noqa: E402
+from simplebot_navigation.scenarios.campaign.cli import run_campaign  # noqa: E402
+from simplebot_navigation.scenarios.campaign.execution import LocalExecutor, RayExecutor  # noqa: E402
+from simplebot_navigation.scenarios.campaign.spec import spec_from_dict  # noqa: E402
 
 GOALS = ["1,0,0", "0.8,0.4,0.5"]
 OUTCOME = ("success", "status", "time_s", "path_length", "collisions", "final")

@@ -41,7 +41,7 @@ from websockets.sync.client import ClientConnection, connect  # noqa: E402
 
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
 
-from simplebot_navigation.scenarios.campaign_exec import domain_lease  # noqa: E402
+from simplebot_navigation.scenarios.campaign.execution import domain_lease  # noqa: E402
 from simplebot_navigation.scenarios.process_session import ProcessSession  # noqa: E402
 from simplebot_navigation.testing.proc_stats import cpu_seconds, loadavg  # noqa: E402
 

@@ -27,7 +27,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[0] = str(ROOT)
 
-from simplebot_navigation.scenarios.campaign_exec import domain_lease  # noqa: E402
+from simplebot_navigation.scenarios.campaign.execution import domain_lease  # noqa: E402
 
 MOVE_BASE_PROBES = [
     ("local_costmap.footprint", "robot"),

@@ -24,7 +24,7 @@ import rclpy
 from rclpy.context import Context
 from rclpy.node import Node
 
-from simplebot_navigation.scenarios.campaign_exec import DOMAIN_IDS, domain_lease
+from simplebot_navigation.scenarios.campaign.execution import DOMAIN_IDS, domain_lease
 
 #: the domain of the whole pytest process (conftest.py at the root, or CI's): leased domains avoid it
 SESSION_DOMAIN = int(os.environ["ROS_DOMAIN_ID"])

@@ -95,7 +95,7 @@ def _check(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Scenari
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["campaign"]:
-        from simplebot_navigation.scenarios.campaign import main as campaign_main
+        from simplebot_navigation.scenarios.campaign.cli import main as campaign_main
 
         return campaign_main(argv[1:])
     parser = _parser()

@@ -1,4 +1,4 @@
-"""Stands in for campaign_worker in the executor tests: instant, scripted results, crashes and hangs.
+"""Stands in for the campaign worker (scenarios/campaign/worker.py) in the executor tests: instant, scripted results, crashes and hangs.
 
 The run's seed picks the behaviour: seed 7 crashes on its first attempt, seed 8 hangs on its first
 attempt, seed 9 always crashes; every attempt appends "seed domain" to $FAKE_WORKER_LOG, and

@@ -11,14 +11,14 @@ import time
 
 import pytest
 
-from simplebot_navigation.scenarios import campaign_exec
-from simplebot_navigation.scenarios.campaign import Progress, main, run_campaign
-from simplebot_navigation.scenarios.campaign_exec import CampaignError, LocalExecutor, RayExecutor, domain_lease
-from simplebot_navigation.scenarios.campaign_plot import hardest_runs, success_by_difficulty, summary_figure
-from simplebot_navigation.scenarios.campaign_results import read_results
-from simplebot_navigation.scenarios.campaign_spec import (SpecError, expand_worlds, plan, robot_body, spec_from_dict,
+from simplebot_navigation.scenarios.campaign import execution
+from simplebot_navigation.scenarios.campaign.cli import Progress, main, run_campaign
+from simplebot_navigation.scenarios.campaign.execution import CampaignError, LocalExecutor, RayExecutor, domain_lease
+from simplebot_navigation.scenarios.campaign.plot import hardest_runs, success_by_difficulty, summary_figure
+from simplebot_navigation.scenarios.campaign.results import read_results
+from simplebot_navigation.scenarios.campaign.spec import (SpecError, expand_worlds, plan, robot_body, spec_from_dict,
                                                           split_parameter_set)
-from simplebot_navigation.scenarios.campaign_stats import compare, fisher_p, summarize, welch_p, wilson_interval
+from simplebot_navigation.scenarios.campaign.stats import compare, fisher_p, summarize, welch_p, wilson_interval
 from simplebot_navigation.sim.world_loader import load_world
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -145,7 +145,7 @@ def test_crashes_and_hangs_are_recorded_with_their_log_and_retried_once(tmp_path
 
 
 def test_concurrent_runs_never_share_a_domain(tmp_path, monkeypatch):
-    monkeypatch.setattr(campaign_exec, "LOCK_FOLDER", str(tmp_path))  # no campaign of this host in the way
+    monkeypatch.setattr(execution, "LOCK_FOLDER", str(tmp_path))  # no campaign of this host in the way
     with domain_lease(40, avoid=41) as a, domain_lease(40, avoid=41) as b, domain_lease(40, avoid=41) as c:
         assert (a, b, c) == (40, 42, 43)  # taken in order from the first, the campaign's own id skipped
     with domain_lease(101, avoid=None) as a, domain_lease(101, avoid=None) as b:
@@ -160,9 +160,9 @@ def test_without_ray_the_error_says_how_to_install_it(monkeypatch):
 
 CAMPAIGN_SCRIPT = """
 import sys
-from simplebot_navigation.scenarios.campaign import run_campaign
-from simplebot_navigation.scenarios.campaign_exec import LocalExecutor
-from simplebot_navigation.scenarios.campaign_spec import spec_from_dict
+from simplebot_navigation.scenarios.campaign.cli import run_campaign
+from simplebot_navigation.scenarios.campaign.execution import LocalExecutor
+from simplebot_navigation.scenarios.campaign.spec import spec_from_dict
 spec = spec_from_dict({"worlds": "lab", "goals": "library", "seeds": "0-5"})
 run_campaign(spec, sys.argv[1], LocalExecutor(1, command=tuple(sys.argv[2:])), resume=True)
 """

@@ -1,6 +1,6 @@
 """Where campaign runs execute: worker processes on this machine (--jobs N) or Ray tasks (--ray).
 
-Either way each run is a fresh ``campaign_worker`` process with a ROS domain id of its own and
+Either way each run is a fresh worker process (``campaign/worker.py``) with a ROS domain id of its own and
 localhost-only discovery, set in its environment before Python starts. The domain id is leased
 with a lock file on the host (``flock``), so runs that share a machine - threads of one campaign,
 Ray tasks, or two campaigns at once - never share a domain. A run that exits without a result is
@@ -24,14 +24,14 @@ import time
 from collections import deque
 from typing import Iterator
 
-from simplebot_navigation.scenarios.campaign_spec import Run
+from simplebot_navigation.scenarios.campaign.spec import Run
 
 DOMAIN_IDS = range(0, 102)       # valid Fast DDS domain ids on one host
 LOCK_FOLDER = os.path.join(tempfile.gettempdir(), "simplebot-ros-domains")
 LEASE_POLL_S = 0.5
 RAY_CONNECT_TIMEOUT_S = 30.0
 LOG_TAIL_LINES = 30
-WORKER_MODULE = ("-u", "-m", "simplebot_navigation.scenarios.campaign_worker")
+WORKER_MODULE = ("-u", "-m", "simplebot_navigation.scenarios.campaign.worker")
 
 
 class CampaignError(RuntimeError):

@@ -11,8 +11,8 @@ import json
 import os
 from dataclasses import dataclass, field
 
-from simplebot_navigation.scenarios.campaign_exec import CampaignError
-from simplebot_navigation.scenarios.campaign_spec import CampaignSpec, Run, world_family
+from simplebot_navigation.scenarios.campaign.execution import CampaignError
+from simplebot_navigation.scenarios.campaign.spec import CampaignSpec, Run, world_family
 from simplebot_navigation.scenarios.report import finite
 
 FORMAT = "simplebot-campaign/1"

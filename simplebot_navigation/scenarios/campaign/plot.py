@@ -14,8 +14,8 @@ import numpy as np
 
 from simplebot_description import robot_description
 from simplebot_navigation.sim.world_loader import load_world
-from simplebot_navigation.scenarios.campaign_spec import params_label, robot_body
-from simplebot_navigation.scenarios.campaign_stats import group_key, success_times, summarize, wilson_interval
+from simplebot_navigation.scenarios.campaign.spec import params_label, robot_body
+from simplebot_navigation.scenarios.campaign.stats import group_key, success_times, summarize, wilson_interval
 from simplebot_navigation.scenarios.report import plot
 from simplebot_navigation.scenarios.runner import GoalResult, world_for_run
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from simplebot_navigation.scenarios.campaign_spec import params_label
+from simplebot_navigation.scenarios.campaign.spec import params_label
 
 Z95 = 1.959963984540054
 ALPHA = 0.05

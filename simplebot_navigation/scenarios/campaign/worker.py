@@ -1,4 +1,4 @@
-"""One campaign run in a process of its own: ``python -m simplebot_navigation.scenarios.campaign_worker RUN OUT``.
+"""One campaign run in a process of its own: ``python -m simplebot_navigation.scenarios.campaign.worker RUN OUT``.
 
 RUN is the run's record as JSON, OUT the file the result goes to. The process is started fresh for
 every run with its own ROS_DOMAIN_ID already in its environment, so rclpy and DDS never see another
@@ -12,7 +12,7 @@ import os
 import sys
 import tempfile
 
-from simplebot_navigation.scenarios.campaign_spec import Run, robot_body, split_parameter_set
+from simplebot_navigation.scenarios.campaign.spec import Run, robot_body, split_parameter_set
 from simplebot_navigation.scenarios.report import finite
 from simplebot_navigation.scenarios.runner import parse_goals, run_goal, time_budget, world_for_run
 from simplebot_navigation.scenarios.session import NavigationSession

@@ -18,11 +18,11 @@ from collections import deque
 
 import yaml
 
-from simplebot_navigation.scenarios.campaign_exec import CampaignError, LocalExecutor, RayExecutor
-from simplebot_navigation.scenarios.campaign_results import ResultsFile, latest_by_run, read_results
-from simplebot_navigation.scenarios.campaign_spec import (CampaignSpec, Run, SpecError, params_label, plan,
+from simplebot_navigation.scenarios.campaign.execution import CampaignError, LocalExecutor, RayExecutor
+from simplebot_navigation.scenarios.campaign.results import ResultsFile, latest_by_run, read_results
+from simplebot_navigation.scenarios.campaign.spec import (CampaignSpec, Run, SpecError, params_label, plan,
                                                           spec_from_dict)
-from simplebot_navigation.scenarios.campaign_stats import compare, comparison_table, summarize, summary_table
+from simplebot_navigation.scenarios.campaign.stats import compare, comparison_table, summarize, summary_table
 
 POLL_S = 1.0
 MAX_JOBS = 256
@@ -202,7 +202,7 @@ def main(argv: list[str] | None = None) -> int:
     print(summary_table(summarize(records)))
     print(f"results in {args.out}")
     if args.plot:
-        from simplebot_navigation.scenarios.campaign_plot import hardest_runs, summary_figure
+        from simplebot_navigation.scenarios.campaign.plot import hardest_runs, summary_figure
 
         summary_figure(args.plot, records)
         print(f"summary figure in {args.plot}; hardest runs in {', '.join(hardest_runs(args.plot, records))}")
