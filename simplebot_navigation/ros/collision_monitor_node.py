@@ -60,7 +60,7 @@ LOG_PERIOD_S = 2.0
 class _Source:
     topic: str
     points: np.ndarray | None = None    # robot frame, as the scan saw them
-    stamp: float = -math.inf            # node-clock seconds of the scan
+    stamp: float = -math.inf            # its stamp, seconds (the node's sensor time)
     sensor: dict = dataclasses.field(default_factory=dict)   # frame_id -> (2, 3), from /tf_static
 
 
