@@ -12,13 +12,20 @@ import hashlib
 from pathlib import Path
 
 
-def drop_stale_kernel_caches(package_dir: str | Path, modules: tuple[str, ...]) -> None:
-    """Delete the numba cache files of ``modules`` (in ``package_dir``) unless their sources are unchanged
-    since the caches were written; call it before any of their functions is compiled or loaded."""
+#: geometry_kernels.py, which kernels of several packages inline
+SHARED_KERNELS = Path(__file__).with_name("geometry_kernels.py")
+
+
+def drop_stale_kernel_caches(package_dir: str | Path, modules: tuple[str, ...], inlined: tuple[Path, ...] = ()
+                             ) -> None:
+    """Delete the numba cache files of ``modules`` (in ``package_dir``) unless their sources, and those of the
+    ``inlined`` files of other packages they call, are unchanged since the caches were written; call it before
+    any of their functions is compiled or loaded."""
     package_dir = Path(package_dir)
     cache_dir = package_dir / "__pycache__"
     try:
-        digest = hashlib.sha256(b"".join((package_dir / f"{m}.py").read_bytes() for m in modules)).hexdigest()
+        sources = [package_dir / f"{m}.py" for m in modules] + [Path(p) for p in inlined]
+        digest = hashlib.sha256(b"".join(path.read_bytes() for path in sources)).hexdigest()
         stamp = cache_dir / f"numba-{'+'.join(modules)}.sha256"
         if stamp.is_file() and stamp.read_text() == digest:
             return

@@ -18,7 +18,7 @@ import pytest
 PACKAGE = "simplebot_navigation"
 ROOT = Path(__file__).resolve().parents[1] / PACKAGE
 LAYERS = [
-    {"geometry", "paths", "parameters", "kernel_cache", "web_host", ""},
+    {"geometry", "geometry_kernels", "paths", "parameters", "kernel_cache", "web_host", ""},
     {"costmap", "planning", "teb", "sim", "move_base", "safety"},
     {"ros"},
     {"launch", "scenarios", "viewer", "testing"},

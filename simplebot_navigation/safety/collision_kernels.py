@@ -15,21 +15,15 @@ import math
 import numpy as np
 from numba import njit
 
+from simplebot_navigation.geometry_kernels import inside_polygon
+
 
 @njit(cache=True, nogil=True)
 def _inside(qx, qy, vertices, radius):
-    """Even-odd rule for a polygon, distance for a circle."""
+    """Distance for a circle, the even-odd rule for a polygon."""
     if radius > 0.0:
         return qx * qx + qy * qy <= radius * radius
-    inside = False
-    nv = vertices.shape[0]
-    for i in range(nv):
-        j = i - 1 if i > 0 else nv - 1
-        xi, yi, xj, yj = vertices[i, 0], vertices[i, 1], vertices[j, 0], vertices[j, 1]
-        if (yi > qy) != (yj > qy):
-            if qx < (xj - xi) * (qy - yi) / (yj - yi) + xi:
-                inside = not inside
-    return inside
+    return inside_polygon(qx, qy, vertices)
 
 
 @njit(cache=True, nogil=True)

@@ -3,9 +3,10 @@ compiled by numba (teb/*_kernels.py; warm_up() compiles or loads it ahead of the
 
 from pathlib import Path
 
-from simplebot_navigation.kernel_cache import drop_stale_kernel_caches
+from simplebot_navigation.kernel_cache import SHARED_KERNELS, drop_stale_kernel_caches
 
-drop_stale_kernel_caches(Path(__file__).parent, ("footprint_kernels", "edge_kernels", "solver_kernels"))
+drop_stale_kernel_caches(Path(__file__).parent, ("footprint_kernels", "edge_kernels", "solver_kernels"),
+                         inlined=(SHARED_KERNELS,))
 
 from simplebot_navigation.teb.config import TebConfig
 from simplebot_navigation.teb.footprint import FootprintModel

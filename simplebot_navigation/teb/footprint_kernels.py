@@ -12,24 +12,12 @@ import math
 import numpy as np
 from numba import njit
 
+from simplebot_navigation.geometry_kernels import inside_polygon
+
 _TWO_PI = 2.0 * math.pi
 
 
 # -- footprint models ------------------------------------------------------------------------------
-@njit(cache=True, nogil=True)
-def _inside_polygon(qx, qy, vertices):
-    """Even-odd rule."""
-    inside = False
-    nv = vertices.shape[0]
-    for i in range(nv):
-        j = i - 1 if i > 0 else nv - 1
-        xi, yi, xj, yj = vertices[i, 0], vertices[i, 1], vertices[j, 0], vertices[j, 1]
-        if (yi > qy) != (yj > qy):
-            if qx < (xj - xi) * (qy - yi) / (yj - yi) + xi:
-                inside = not inside
-    return inside
-
-
 @njit(cache=True, nogil=True)
 def footprint_distance(x, y, th, px, py, model):
     """Distance from the model placed at pose (x, y, th) to the point (px, py), and its gradient
@@ -70,7 +58,7 @@ def footprint_distance_trig(x, y, c, s, px, py, model):
             if norm < seg_d:
                 seg_d = norm
                 gqx, gqy = (ex / norm, ey / norm) if norm > 1e-12 else (0.0, 0.0)
-        if closed and _inside_polygon(qx, qy, vertices):
+        if closed and inside_polygon(qx, qy, vertices):
             seg_d, gqx, gqy = -seg_d, -gqx, -gqy
         if seg_d < best:
             best, gx, gy, gth = seg_d, -(c * gqx - s * gqy), -(s * gqx + c * gqy), gqx * qy - gqy * qx
