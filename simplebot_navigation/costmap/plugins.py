@@ -8,11 +8,10 @@ to add one.
 
 from __future__ import annotations
 
-import contextlib
 from dataclasses import dataclass
-from typing import Iterator
 
 from simplebot_navigation.parameters import ParameterError
+from simplebot_navigation.parameters.registry import Registry
 from simplebot_navigation.costmap.inflation_layer import InflationLayer, InflationLayerParams
 from simplebot_navigation.costmap.layer import Layer
 from simplebot_navigation.costmap.obstacle_layer import ObstacleLayer, ObstacleLayerParams
@@ -37,50 +36,37 @@ def builtin(layer: type[Layer], params: type, parent_keys: tuple[str, ...] = ())
     return LayerSpec(layer.__name__, tuple(ns + layer.__name__ for ns in _NAMESPACES), layer, params, parent_keys)
 
 
-class LayerRegistry:
-    def __init__(self, specs=()):
-        self._by_kind: dict[str, LayerSpec] = {}
-        for spec in specs:
-            self.register(spec)
+class LayerRegistry(Registry[LayerSpec]):
+    """Layers by kind; a type string selects one kind only."""
 
-    def register(self, spec: LayerSpec) -> LayerSpec:
-        taken = [t for t in spec.types if any(t in other.types for other in self._by_kind.values())]
-        if spec.kind in self._by_kind or taken:
-            raise ValueError(f"costmap layer {spec.kind} ({', '.join(taken) or spec.kind}) is registered already")
-        self._by_kind[spec.kind] = spec
-        return spec
+    def key(self, spec: LayerSpec) -> str:
+        return spec.kind
 
-    def unregister(self, kind: str) -> None:
-        self._by_kind.pop(kind, None)
-
-    @contextlib.contextmanager
-    def registered(self, spec: LayerSpec) -> Iterator[LayerSpec]:
-        """The layer type is known inside the block only (for a test's own layer)."""
-        self.register(spec)
-        try:
-            yield spec
-        finally:
-            self.unregister(spec.kind)
+    def conflict(self, spec: LayerSpec) -> str | None:
+        taken = [t for t in spec.types if any(t in other.types for other in self._specs.values())]
+        if spec.kind in self._specs or taken:
+            return f"costmap layer {spec.kind} ({', '.join(taken) or spec.kind}) is registered already"
+        return None
 
     @property
     def specs(self) -> tuple[LayerSpec, ...]:
-        return tuple(self._by_kind.values())
+        return tuple(self._specs.values())
 
     def spec(self, kind: str) -> LayerSpec:
-        return self._by_kind[kind]
+        return self._specs[kind]
 
     def kind(self, plugin_type: str, plugin_name: str) -> str:
         """The kind a type string selects; ParameterError naming the supported types for any other."""
-        for spec in self._by_kind.values():
+        for spec in self._specs.values():
             if plugin_type in spec.types:
                 return spec.kind
-        supported = ", ".join(t for spec in self._by_kind.values() for t in spec.types)
+        supported = ", ".join(t for spec in self._specs.values() for t in spec.types)
         raise ParameterError(f"costmap plugin {plugin_name!r} has unsupported type {plugin_type!r}; "
                              f"supported types: {supported}")
 
     def create(self, plugin_name: str, kind: str, params: dict) -> Layer:
         """A new layer from its resolved parameter dict (see params.py)."""
-        return self._by_kind[kind].layer(plugin_name, **params)
+        return self._specs[kind].layer(plugin_name, **params)
 
 
 LAYERS = LayerRegistry([

@@ -11,14 +11,14 @@ add one.
 
 from __future__ import annotations
 
-import contextlib
 import importlib
 from dataclasses import dataclass
-from typing import Any, Callable, Iterator, Protocol
+from typing import Any, Callable, Protocol
 
 import numpy as np
 
 from simplebot_navigation.parameters import ParameterError
+from simplebot_navigation.parameters.registry import Registry
 from simplebot_navigation.planning.config import GLOBAL_PLANNER, NAVFN, GlobalPlannerConfig, NavfnParams
 from simplebot_navigation.teb.config import TebConfig
 from simplebot_navigation.teb.footprint import FootprintModel
@@ -58,36 +58,22 @@ class PluginSpec:
         return found
 
 
-class PluginRegistry:
+class PluginRegistry(Registry[PluginSpec]):
     """The types one move_base parameter (base_global_planner, ...) may name."""
 
     def __init__(self, parameter: str, specs=()):
         self.parameter = parameter
-        self._specs: dict[str, PluginSpec] = {}
-        for spec in specs:
-            self.register(spec)
+        super().__init__(specs)
+
+    def key(self, spec: PluginSpec) -> str:
+        return spec.type
+
+    def conflict(self, spec: PluginSpec) -> str | None:
+        return f"{self.parameter}: type {spec.type!r} is registered already" if spec.type in self._specs else None
 
     @property
     def types(self) -> tuple[str, ...]:
         return tuple(self._specs)
-
-    def register(self, spec: PluginSpec) -> PluginSpec:
-        if spec.type in self._specs:
-            raise ValueError(f"{self.parameter}: type {spec.type!r} is registered already")
-        self._specs[spec.type] = spec
-        return spec
-
-    def unregister(self, plugin_type: str) -> None:
-        self._specs.pop(plugin_type, None)
-
-    @contextlib.contextmanager
-    def registered(self, spec: PluginSpec) -> Iterator[PluginSpec]:
-        """The type is known inside the block only (for a test's own plugin)."""
-        self.register(spec)
-        try:
-            yield spec
-        finally:
-            self.unregister(spec.type)
 
     def spec(self, plugin_type: str) -> PluginSpec:
         """The registration of a type; ParameterError naming the known types for any other."""

@@ -1,6 +1,8 @@
 """move_base without base_local_planner in its parameters starts the local planner this package has, and every
 registered plugin type names an implementation that exists."""
 
+import dataclasses
+
 import pytest
 
 from simplebot_navigation.move_base.config import MoveBaseConfig
@@ -17,3 +19,13 @@ def test_the_default_local_planner_is_one_move_base_can_build():
 def test_every_registered_type_loads(registry):
     for plugin_type in registry.types:
         assert callable(registry.spec(plugin_type).load()), plugin_type
+
+
+def test_a_type_is_registered_once_and_a_test_registration_ends_with_its_block():
+    spec = LOCAL_PLANNERS.spec(TEB_LOCAL_PLANNER)
+    with pytest.raises(ValueError, match="registered already"):
+        LOCAL_PLANNERS.register(spec)
+    twin = dataclasses.replace(spec, type="example/Twin")
+    with LOCAL_PLANNERS.registered(twin):
+        assert LOCAL_PLANNERS.spec("example/Twin") is twin
+    assert "example/Twin" not in LOCAL_PLANNERS.types

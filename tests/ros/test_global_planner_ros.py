@@ -34,6 +34,17 @@ GOAL = (5.1, 0.1, math.pi / 2)      # cell (100, 75) centre
 FRAME = "map"
 
 
+def plan_request(goal, start, tolerance: float, goal_frame: str, start_frame: str) -> GetPlan.Request:
+    """A nav_msgs/GetPlan request for (x, y, yaw) poses; no start: the robot's pose."""
+    request = GetPlan.Request(tolerance=float(tolerance))
+    request.goal = PoseStamped(pose=xyyaw_to_pose(*goal))
+    request.goal.header.frame_id = goal_frame
+    if start is not None:
+        request.start = PoseStamped(pose=xyyaw_to_pose(*start))
+        request.start.header.frame_id = start_frame
+    return request
+
+
 def wall_map() -> Costmap2D:
     cm = Costmap2D(CELLS, CELLS, RES, ORIGIN, ORIGIN)
     for offset, cost in ((0, LETHAL_OBSTACLE), (1, INSCRIBED_INFLATED_OBSTACLE), (2, 100), (3, 30)):
@@ -126,13 +137,7 @@ class Harness:
         return result, self.plans[-1]
 
     def call(self, goal, start=None, tolerance=0.0, goal_frame=FRAME, start_frame=FRAME) -> Path:
-        request = GetPlan.Request(tolerance=float(tolerance))
-        request.goal = PoseStamped(pose=xyyaw_to_pose(*goal))
-        request.goal.header.frame_id = goal_frame
-        if start is not None:
-            request.start = PoseStamped(pose=xyyaw_to_pose(*start))
-            request.start.header.frame_id = start_frame
-        future = self.client.call_async(request)
+        future = self.client.call_async(plan_request(goal, start, tolerance, goal_frame, start_frame))
         self.spin_until(future.done)
         return future.result().plan
 

@@ -8,13 +8,13 @@ import math
 
 import numpy as np
 import pytest
-from geometry_msgs.msg import PoseStamped
 from nav_msgs.srv import GetPlan
 from rclpy.node import Node
 
-from simplebot_navigation.ros.conversions import path_to_array, xyyaw_to_pose
+from simplebot_navigation.ros.conversions import path_to_array
 from simplebot_navigation.scenarios import NavigationSession
 from simplebot_navigation.sim.world import Pose2D
+from tests.ros.test_global_planner_ros import plan_request
 
 pytestmark = pytest.mark.timeout(180)
 WALL_GUARD_S = 60.0
@@ -33,13 +33,7 @@ def session():
 
 
 def call(session, goal, goal_frame=GLOBAL_FRAME, start=None, tolerance=0.0):
-    request = GetPlan.Request(tolerance=float(tolerance))
-    request.goal = PoseStamped(pose=xyyaw_to_pose(*goal))
-    request.goal.header.frame_id = goal_frame
-    if start is not None:
-        request.start = PoseStamped(pose=xyyaw_to_pose(*start))
-        request.start.header.frame_id = GLOBAL_FRAME
-    future = session.make_plan.call_async(request)
+    future = session.make_plan.call_async(plan_request(goal, start, tolerance, goal_frame, GLOBAL_FRAME))
     session.run_until(stop=future.done, wall_timeout_s=WALL_GUARD_S)
     return future.result().plan
 
