@@ -1,9 +1,11 @@
 """Real-time load: the lab tour through the launcher's processes at real time, with and without stress.
 
     .venv/bin/python bench/realtime.py [--goals nw_office,library] [--stress 2] [--baseline ../other-checkout]
+    .venv/bin/python bench/realtime.py --world crowd:2 --arg robot:=round --arg radius:=0.25 --arg tight:=true \
+        --set TebLocalPlannerROS.max_vel_x=1.0 ... --stress 0      # a crowd world: 24 moving obstacles in view
 
 Each run starts ``python -m simplebot_navigation.launch navigation world:=lab rtf:=1`` (every node its
-own process, as a user runs it), sends the tour's goals one after the other through the move_base
+own process, as a user runs it; ``--world``, ``--arg`` and ``--set`` change what it starts), sends the tour's goals one after the other through the move_base
 action and measures, only while a goal is active ("while driving"):
 
   CPU %       utime + stime of the move_base, simulator and collision_monitor processes
@@ -54,9 +56,9 @@ from rclpy.node import Node  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 
 from move_base_msgs.action import MoveBase  # noqa: E402
-from simplebot_description import robot_description  # noqa: E402
 from simplebot_navigation.geometry import pose_in_frame  # noqa: E402
-from simplebot_navigation.launch.loader import load_launch  # noqa: E402
+from simplebot_navigation.launch.loader import LaunchError, load_launch  # noqa: E402
+from simplebot_navigation.launch.overrides import apply_set  # noqa: E402
 from simplebot_navigation.ros.conversions import quaternion_msg, yaw_of  # noqa: E402
 from simplebot_navigation.scenarios.runner import parse_goals, time_budget  # noqa: E402
 from simplebot_navigation.sim.world import Pose2D, World  # noqa: E402
@@ -82,6 +84,7 @@ class Version:
     checkout: Path
     domain: int
     launch_args: tuple[str, ...] = ()
+    world: str = WORLD
 
 
 @dataclass
@@ -162,7 +165,7 @@ class Run:
         env = dict(os.environ, ROS_DOMAIN_ID=str(version.domain))
         with open(self.log_file, "w", encoding="utf-8") as log:
             self.launcher = subprocess.Popen(
-                [version.python, "-u", "-m", "simplebot_navigation.launch", "navigation", f"world:={WORLD}",
+                [version.python, "-u", "-m", "simplebot_navigation.launch", "navigation", f"world:={version.world}",
                  "rtf:=1", *version.launch_args], cwd=version.checkout, env=env, stdout=log, stderr=subprocess.STDOUT,
                 stdin=subprocess.DEVNULL, start_new_session=True)
         self.context = rclpy.Context()
@@ -196,7 +199,7 @@ class Run:
     def drive(self, world: World, goals: list[Pose2D], max_vel_x: float, result: RunResult) -> None:
         """Each goal in turn; CPU, cycles and cmd_vel intervals accumulate over the goals' active spans."""
         for goal in goals:
-            budget = time_budget(world, self.client.pose, goal, max_vel_x)
+            budget = world.extra.get("time_budget") or time_budget(world, self.client.pose, goal, max_vel_x)
             cpu0 = {name: cpu_seconds(pid) for name, pid in self.pids.items()}
             wall0, sim0 = time.monotonic(), self.client.sim_time()
             epoch0 = time.time_ns()
@@ -326,7 +329,12 @@ def describe(checkout: Path) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--goals", help="goal names of the lab world, comma-separated (default: the whole tour)")
+    parser.add_argument("--world", default=WORLD, help=f"the world to drive in (default: {WORLD})")
+    parser.add_argument("--goals", help="goal names of the world, comma-separated (default: all, the lab's tour)")
+    parser.add_argument("--arg", action="append", default=[], metavar="NAME:=VALUE",
+                        help="a launch argument for every version (robot:=round, tight:=true, ...)")
+    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                        help="a move_base parameter for every version (the launcher's --set)")
     parser.add_argument("--stress", type=int, default=2, help="busy-loop processes of the stress runs (0: none)")
     parser.add_argument("--baseline", type=Path, help="a checkout to compare against")
     parser.add_argument("--baseline-python", type=Path,
@@ -341,27 +349,31 @@ def main() -> None:
     signal.signal(signal.SIGTERM, signal.default_int_handler)  # stopped from outside, it still stops its launchers
     if args.stress < 0:
         parser.error(f"--stress must be >= 0, got {args.stress}")
-    world = load_world(WORLD, robot_radius=robot_description("box").inscribed_radius)
+    launch_args = {name: value for name, _, value in (a.partition(":=") for a in args.arg)}
+    common = tuple(args.arg) + tuple(f"--set={s}" for s in args.set)
     try:
+        world = load_world(args.world)
         goals = parse_goals(args.goals, world)
-    except ValueError as err:
+        config = load_launch("navigation", {"world": args.world, **launch_args})
+        apply_set(config, args.set)
+    except (ValueError, LaunchError) as err:
         parser.error(str(err))
-    versions = [Version(f"current {describe(ROOT)}", args.python, ROOT, args.domain)]
+    versions = [Version(f"current {describe(ROOT)}", args.python, ROOT, args.domain, common, args.world)]
     if args.without_monitor:
         versions.append(Version(f"current {describe(ROOT)} collision_monitor:=false", args.python, ROOT,
-                                args.domain + 1, ("collision_monitor:=false",)))
+                                args.domain + 1, common + ("collision_monitor:=false",), args.world))
     if args.baseline is not None:
         python = args.baseline_python or args.baseline / ".venv" / "bin" / "python"
         if not python.exists():
             parser.error(f"--baseline {args.baseline}: no {python}")
         versions.append(Version(f"baseline {describe(args.baseline)}", str(python), args.baseline.resolve(),
-                                args.baseline_domain))
-    move_base = next(n for n in load_launch("navigation", {"world": WORLD}).nodes if n.name == "move_base")
+                                args.baseline_domain, common, args.world))
+    move_base = next(n for n in config.nodes if n.name == "move_base")
     max_vel_x = float(move_base.parameters.get("TebLocalPlannerROS.max_vel_x", 0.4))
     period_ms = 1e3 / float(move_base.parameters.get("controller_frequency", 20.0))
 
     log_dir = tempfile.mkdtemp(prefix="simplebot_realtime_")
-    print(f"lab tour: {', '.join(g.name for g in goals)}; launcher logs in {log_dir}", flush=True)
+    print(f"{args.world}: {', '.join(g.name for g in goals)}; launcher logs in {log_dir}", flush=True)
     results = [run_tour(v, "normal", world, goals, max_vel_x, log_dir) for v in versions]
     if args.stress:
         stress = start_stress(args.stress)

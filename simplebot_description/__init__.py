@@ -6,8 +6,9 @@ from pathlib import Path
 from .robot import BODIES, FixedJoint, RobotDescription, ScanParams, robot_description, urdf_string
 
 WORLDS_DIR = Path(__file__).resolve().parent / "worlds"
-#: names of the generated world families ("forest", "forest:12"); the simulator generates them
-GENERATED_WORLD = re.compile(r"forest(?::(\d+))?")
+#: names of the generated world families ("forest", "forest:12", "crowd:3", "people:7"); the simulator
+#: generates them (group 1: the family, group 2: the seed, 0 when left out)
+GENERATED_WORLD = re.compile(r"(forest|crowd|people)(?::(\d+))?")
 WORLD_FILE_SUFFIXES = (".yaml", ".yml")
 
 
@@ -31,7 +32,7 @@ def world_name_problem(name: str) -> str | None:
         return None
     path = Path(name)
     if path.suffix.lower() not in WORLD_FILE_SUFFIXES:
-        return (f"not a built-in world ({', '.join(builtin_worlds())}), a generated one (forest, forest:<seed>) "
+        return (f"not a built-in world ({', '.join(builtin_worlds())}), a generated one (forest, forest:<seed>, crowd:<seed>, people:<seed>) "
                 f"or a world/map file ({' or '.join(WORLD_FILE_SUFFIXES)})")
     if not path.is_file():
         return "no such file"

@@ -35,7 +35,7 @@ class GoalResult:
     x: float
     y: float
     yaw: float
-    status: str                  # SUCCEEDED / ABORTED / CANCELED / REJECTED / TIMEOUT / HUNG
+    status: str                  # SUCCEEDED / ARRIVED (within the world's success_radius) / ABORTED / CANCELED / REJECTED / TIMEOUT / HUNG
     success: bool
     failures: list[str]          # why it is not a success
     reason: str                  # move_base's status text
@@ -117,10 +117,10 @@ def parse_goals(text: str | None, world: World) -> list[Pose2D]:
 
 
 def world_for_run(world: str, seed: int, folder: str) -> str:
-    """The world argument of one run: 'clutter' is regenerated with the run's seed, 'forest' is
-    benchmark forest <seed>, others as given."""
-    if world == "forest":
-        return f"forest:{seed}"
+    """The world argument of one run: 'clutter' is regenerated with the run's seed, 'forest', 'crowd'
+    and 'people' are that family's world <seed>, others as given."""
+    if world in ("forest", "crowd", "people"):
+        return f"{world}:{seed}"
     if world != "clutter":
         return world
     path = os.path.join(folder, f"clutter_{seed}.yaml")
@@ -200,16 +200,24 @@ def run_goal(session: NavigationSession | RemoteSession, goal: Pose2D, budget_s:
     collisions0, stats0 = session.client.collisions, session.stats()
     wall_start = time.monotonic()
     run = session.send_goal(goal)
-    hung, timed_out = "", False
+    hung, timed_out, arrived = "", False, False
+    success_radius = session.world.extra.get("success_radius")
+
+    def within_success_radius() -> bool:
+        truth = session.client.truth
+        return bool(success_radius and truth and math.hypot(truth[-1][1] - goal.x, truth[-1][2] - goal.y)
+                    <= success_radius)
+
     try:
-        session.run_until(run.sent_at + budget_s, lambda: run.done, wall_timeout_s)
-        timed_out = not run.done
-        if timed_out:
+        session.run_until(run.sent_at + budget_s, lambda: run.done or within_success_radius(), wall_timeout_s)
+        arrived = within_success_radius()
+        timed_out = not run.done and not arrived
+        if not run.done:
             session.cancel(run)
             session.run_until(session.time + CANCEL_WAIT_S, lambda: run.done, wall_timeout_s)
     except TimeoutError as err:  # the wall-clock guard: the session is not fit for more goals
         hung = str(err)
-    end = run.finished_at if run.done else session.time
+    end = run.finished_at if run.done and not arrived else session.time
     truth = np.array(session.truth_since(run.sent_at, end) or [(session.time, start.x, start.y, start.yaw)])
     final = (float(truth[-1, 1]), float(truth[-1, 2]), float(truth[-1, 3]))
     position_error = math.hypot(final[0] - goal.x, final[1] - goal.y)
@@ -226,12 +234,12 @@ def run_goal(session: NavigationSession | RemoteSession, goal: Pose2D, budget_s:
         failures.append(f"hung: {hung}")
     elif timed_out:
         failures.append(f"timeout: no result within the {budget_s:.0f} s budget")
+    elif arrived:
+        status = "ARRIVED"
     elif status != "SUCCEEDED":
         failures.append(status.lower() + (f": {run.reason}" if run.reason else ""))
-    if position_error > xy_tol:
-        failures.append(f"{position_error:.2f} m from the goal (xy_goal_tolerance {xy_tol:g})")
-    if yaw_error > yaw_tol:
-        failures.append(f"yaw off by {yaw_error:.2f} rad (yaw_goal_tolerance {yaw_tol:g})")
+    if not arrived:
+        failures += _pose_failures(position_error, yaw_error, success_radius, xy_tol, yaw_tol)
     if collisions:
         failures.append(f"{collisions} collision(s)")
     return GoalResult(
@@ -247,6 +255,20 @@ def run_goal(session: NavigationSession | RemoteSession, goal: Pose2D, budget_s:
         final=final, position_error=position_error, yaw_error=yaw_error,
         wall_s=time.monotonic() - wall_start, max_vel_x=session.controller_param("max_vel_x", 0.4),
         trajectory=_thinned(truth))
+
+
+def _pose_failures(position_error, yaw_error, success_radius, xy_tol, yaw_tol) -> list[str]:
+    """Where the robot ended against the goal: within the world's success_radius when it has one
+    (the benchmark's arrival, yaw free), else within move_base's goal tolerances."""
+    if success_radius:
+        return [f"{position_error:.2f} m from the goal (success radius {success_radius:g})"] \
+            if position_error > success_radius else []
+    failures = []
+    if position_error > xy_tol:
+        failures.append(f"{position_error:.2f} m from the goal (xy_goal_tolerance {xy_tol:g})")
+    if yaw_error > yaw_tol:
+        failures.append(f"yaw off by {yaw_error:.2f} rad (yaw_goal_tolerance {yaw_tol:g})")
+    return failures
 
 
 def _thinned(truth: np.ndarray) -> list[tuple[float, ...]]:
@@ -285,7 +307,8 @@ def run_scenarios(options: ScenarioOptions, progress: Callable[[str], None] = pr
             session.wait_ready(wall_timeout_s=options.wall_timeout_s or 120.0)
             max_vel_x = session.controller_param("max_vel_x", 0.4)
             for number, goal in enumerate(goals, 1):
-                budget = options.time_budget or time_budget(session.world, session.pose(), goal, max_vel_x)
+                budget = (options.time_budget or session.world.extra.get("time_budget")
+                          or time_budget(session.world, session.pose(), goal, max_vel_x))
                 result = run_goal(session, goal, budget, index, options.wall_timeout_s)
                 results.append(result)
                 verdict = "ok  " if result.success else "FAIL"

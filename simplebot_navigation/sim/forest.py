@@ -1,7 +1,7 @@
 """The forest benchmark: a fixed set of seeded forest worlds that spans difficulty, and its report.
 
 ``--world forest:<seed>`` (anywhere load_world takes a world name; plain ``forest`` is seed 0) is
-``benchmark_forest(seed)``: the seed draws the knobs (how much of the field to fill, the minimum
+``benchmark_forest(seed)`` (world_loader.generated_world): the seed draws the knobs (how much of the field to fill, the minimum
 passage) as well as the layout, so consecutive seeds differ in difficulty, not only in layout.
 
     python -m simplebot_navigation.sim.forest --report [--seeds 0-199]
@@ -17,8 +17,6 @@ import sys
 import time
 
 import numpy as np
-
-from simplebot_description import GENERATED_WORLD
 
 from simplebot_navigation.sim.world import World
 from simplebot_navigation.sim.world_gen import forest_world
@@ -40,14 +38,6 @@ def benchmark_knobs(seed: int) -> dict:
 def benchmark_forest(seed: int) -> World:
     """Benchmark world ``seed``: a 10 x 4.5 m field, checked solvable for the round body r = 0.25 m."""
     return forest_world(seed, robot_radius=BENCHMARK_ROBOT_RADIUS, **benchmark_knobs(seed))
-
-
-def generated_world(name: str) -> World | None:
-    """The world a generated-family name stands for ("forest", "forest:12"), or None for other names."""
-    match = GENERATED_WORLD.fullmatch(name)
-    if match is None:
-        return None
-    return benchmark_forest(int(match.group(1) or 0))
 
 
 def _seeds(text: str) -> list[int]:

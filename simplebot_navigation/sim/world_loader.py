@@ -8,15 +8,28 @@ from pathlib import Path
 
 import yaml
 
-from simplebot_description import builtin_worlds, world_name_problem, world_path
+from simplebot_description import GENERATED_WORLD, builtin_worlds, world_name_problem, world_path
 
-from simplebot_navigation.sim.forest import generated_world
+from simplebot_navigation.sim.crowd import crowd_world, people_world
+from simplebot_navigation.sim.forest import benchmark_forest
 from simplebot_navigation.sim.map_import import world_from_map
 from simplebot_navigation.sim.world import World, check_clearance, world_from_dict
 
 
+GENERATED_FAMILIES = {"forest": benchmark_forest, "crowd": crowd_world, "people": people_world}
+
+
+def generated_world(name: str) -> World | None:
+    """The world a generated-family name stands for ("forest", "forest:12", "crowd:3", "people:7"; no
+    seed is seed 0), or None for other names."""
+    match = GENERATED_WORLD.fullmatch(name)
+    if match is None:
+        return None
+    return GENERATED_FAMILIES[match.group(1)](int(match.group(2) or 0))
+
+
 def load_world(name_or_path: str | Path, robot_radius: float = 0.0) -> World:
-    """Load a built-in world by name, a generated one ("forest:<seed>"), a world YAML file, or a
+    """Load a built-in world by name, a generated one ("forest:<seed>", "crowd:<seed>", "people:<seed>"), a world YAML file, or a
     map_server map.yaml.
 
     ``robot_radius`` is the clearance the start and the goals need from every obstacle (pass the

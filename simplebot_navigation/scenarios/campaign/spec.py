@@ -19,6 +19,7 @@ from dataclasses import asdict, dataclass, field
 from simplebot_description import robot_description
 from simplebot_navigation.launch.loader import LaunchError, load_launch
 from simplebot_navigation.launch.overrides import apply_set
+from simplebot_navigation.sim.crowd import crowd_level
 from simplebot_navigation.sim.world_loader import load_world
 from simplebot_navigation.scenarios.runner import parse_goals
 from simplebot_navigation.scenarios.session import launch_args
@@ -81,9 +82,13 @@ def expand_worlds(names: list[str], key: str = "worlds") -> list[str]:
 
 
 def world_family(world: str) -> str:
-    """What the summary groups by: 'forest:17' -> 'forest', a file -> its stem, a built-in world -> itself."""
+    """What the summary groups by: 'forest:17' -> 'forest', a crowd world by its level ('crowd:17' ->
+    'crowd hard'), a file -> its stem, a built-in world -> itself."""
     name = world.split("/")[-1]
-    return name.split(":")[0] if ":" in name else re.sub(r"\.ya?ml$", "", name)
+    if ":" not in name:
+        return re.sub(r"\.ya?ml$", "", name)
+    family, seed = name.split(":", 1)
+    return f"crowd {crowd_level(int(seed))}" if family == "crowd" and seed.isdigit() else family
 
 
 def robot_body(robot: str, key: str = "robots") -> tuple[str, float]:
