@@ -55,6 +55,8 @@ PERSON_HEIGHT = 1.7
 PERSON_SPEEDS = (0.6, 1.4)
 PEOPLE_COUNT = (3, 8)
 PEOPLE_TIME_BUDGET_S = 100.0
+#: a crossing walker passes 1.7 m from the start, a body length and more from the robot
+PEOPLE_START_CLEAR_M = 1.5
 #: the lab's corridor runs along x between y = -1.25 and 1.25; the robot drives it from START to GOAL
 PEOPLE_START = (-9.5, 0.0)
 PEOPLE_GOAL = (4.5, 0.0)
@@ -180,9 +182,9 @@ def _person(rng, points, index: int, kind: str) -> dict:
     speed = float(rng.uniform(*PERSON_SPEEDS))
     times = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(path, axis=0).T) / speed)])
     keyframes = [[round(float(t), 3), round(float(x), 3), round(float(y), 3)] for t, (x, y) in zip(times, path)]
-    phase = _clear_phase(rng, keyframes, float(times[-1]), PEOPLE_START, START_CLEAR_M)
+    phase = _clear_phase(rng, keyframes, float(times[-1]), PEOPLE_START, PEOPLE_START_CLEAR_M)
     if phase is None:
-        raise ValueError(f"people: {kind} {index} cannot keep {START_CLEAR_M} m from the start")
+        raise ValueError(f"people: {kind} {index} cannot keep {PEOPLE_START_CLEAR_M} m from the start")
     return {"shape": "cylinder", "radius": PERSON_RADIUS, "height": PERSON_HEIGHT, "keyframes": keyframes,
             "interpolation": "linear", "loop": True, "phase": phase, "name": f"{kind} {index}"}
 
@@ -195,8 +197,10 @@ def _head_on_walker(rng, index: int) -> dict:
 
 def _crossing_walker(rng, index: int) -> dict:
     north, south = CROSSINGS[int(rng.integers(len(CROSSINGS)))]
-    points = [[north, CORRIDOR_HALF_WIDTH + ROOM_DEPTH - 1.0], [north, CORRIDOR_HALF_WIDTH + 0.4],
-              [south, -CORRIDOR_HALF_WIDTH - 0.4], [south, -CORRIDOR_HALF_WIDTH - ROOM_DEPTH + 1.0]]
+    # Straight through the middle of each door, diagonally across the corridor between them.
+    inside = CORRIDOR_HALF_WIDTH - 0.45
+    points = [[north, CORRIDOR_HALF_WIDTH + ROOM_DEPTH - 1.0], [north, inside],
+              [south, -inside], [south, -CORRIDOR_HALF_WIDTH - ROOM_DEPTH + 1.0]]
     if rng.uniform() < 0.5:
         points.reverse()
     return _person(rng, points, index, "crossing walker")
