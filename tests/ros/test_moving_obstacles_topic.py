@@ -13,6 +13,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from visualization_msgs.msg import Marker, MarkerArray
 
 from simplebot_navigation.ros.simulator.simulator_node import SimulatorNode
+from simplebot_navigation.scenarios.session import ScenarioClient
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 # The robot starts at (1, 2) facing +y; a cylinder walks at it from behind (0.5 m/s) and a box stays put.
@@ -38,9 +39,10 @@ def stepper(context, tmp_path_factory):
     probe.create_subscription(DiagnosticStatus, "/simplebot/collisions", seen["collisions"].append, LATCHED)
     probe.create_subscription(Log, "/rosout", seen["log"].append,
                               QoSProfile(depth=1000, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+    client = ScenarioClient(context)   # what the scenario runner reads the collisions with
     executor = SingleThreadedExecutor(context=context)
-    executor.add_node(sim)
-    executor.add_node(probe)
+    for node in (sim, probe, client):
+        executor.add_node(node)
 
     def pump(done, timeout=5.0):
         deadline = time.monotonic() + timeout
@@ -49,10 +51,11 @@ def stepper(context, tmp_path_factory):
             executor.spin_once(timeout_sec=0.01)
 
     pump(lambda: seen["collisions"] and sim.count_subscribers("/sim/moving_obstacles") >= 1)
+    seen["client"] = client
     yield sim, seen, pump
     executor.shutdown()
-    probe.destroy_node()
-    sim.destroy_node()
+    for node in (client, probe, sim):
+        node.destroy_node()
 
 
 def test_markers_follow_the_obstacles_in_odom(stepper):
@@ -83,6 +86,8 @@ def test_a_strike_on_the_standing_robot_is_reported_as_such(stepper):
     assert (report["count"], report["count_moving"], report["count_standing"]) == ("1", "0", "1")
     assert (report["last_kind"], report["last_obstacle"]) == ("standing", "moving[0] (walker)")
     assert "struck 1 time(s) while standing" in seen["collisions"][-1].message
+    pump(lambda: seen["client"].struck_standing == 1)
+    assert seen["client"].collisions == 0
 
 
 def test_the_unknown_world_key_is_logged_with_a_suggestion(stepper):
