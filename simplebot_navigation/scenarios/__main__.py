@@ -84,6 +84,8 @@ def _check(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Scenari
         parse_goals(args.goals, world)
     except (ValueError, FileNotFoundError) as err:
         parser.error(str(err))
+    for warning in world.warnings:
+        print(f"scenario: warning: {warning}", file=sys.stderr)
     return ScenarioOptions(world=args.world, robot=args.robot, radius=args.radius, goals=args.goals, rtf=args.rtf,
                            repeat=args.repeat, seed=args.seed, range_noise=args.range_noise,
                            time_budget=args.time_budget, processes=args.processes, tight=args.tight,

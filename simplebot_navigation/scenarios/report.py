@@ -23,6 +23,7 @@ COLUMNS = [  # header, width, cell
     ("ratio", 5, lambda r: f"{r.path_length / r.straight_line:.2f}" if r.straight_line > 1e-6 else "-"),
     ("t/(L/v)", 7, lambda r: f"{r.time_ratio:.2f}" if math.isfinite(r.time_ratio) else "-"),
     ("coll", 4, lambda r: f"{r.collisions}"),
+    ("struck", 6, lambda r: f"{r.struck_standing}"),
     ("clear m", 7, lambda r: f"{r.min_clearance:.2f}"),
     ("replans", 7, lambda r: "-" if r.replans is None else f"{r.replans}"),
     ("recov", 5, lambda r: "-" if r.recoveries is None else f"{r.recoveries}"),
@@ -40,6 +41,7 @@ def summary(results: list[GoalResult]) -> dict:
         "mean_time_s": float(np.mean([r.time_s for r in ok])) if ok else math.nan,
         "mean_time_ratio": float(np.mean([r.time_ratio for r in ok])) if ok else math.nan,
         "collisions": sum(r.collisions for r in results),
+        "struck_standing": sum(r.struck_standing for r in results),
         "min_clearance": min((r.min_clearance for r in results), default=math.nan),
         "recoveries": sum(r.recoveries or 0 for r in results),
     }
@@ -55,7 +57,7 @@ def table(results: list[GoalResult]) -> str:
     s = summary(results)
     lines.append(f"success {s['succeeded']}/{s['goals']} ({100 * s['success_rate']:.0f} %), "
                  f"mean time to goal {s['mean_time_s']:.1f} s sim ({s['mean_time_ratio']:.2f} x path / max_vel_x), "
-                 f"collisions {s['collisions']}, "
+                 f"collisions while moving {s['collisions']}, struck while standing {s['struck_standing']}, "
                  f"min clearance {s['min_clearance']:.2f} m, recoveries {s['recoveries']}")
     return "\n".join(lines)
 

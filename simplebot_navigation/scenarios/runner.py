@@ -43,7 +43,7 @@ class GoalResult:
     budget_s: float
     path_length: float           # driven, from ground truth
     straight_line: float
-    collisions: int
+    collisions: int              # while the robot moved (drove into something): a failure
     min_clearance: float         # metres between the body and the nearest obstacle
     replans: int | None          # None: move_base ran in another process
     recoveries: int | None
@@ -55,6 +55,7 @@ class GoalResult:
     wall_s: float                # wall-clock seconds the goal took to simulate
     max_vel_x: float             # the local planner's top speed during the goal
     trajectory: list[tuple[float, float, float, float]] = field(repr=False)
+    struck_standing: int = 0     # a moving obstacle ran into the standing robot: reported, not a failure
 
     @property
     def time_ratio(self) -> float:
@@ -197,7 +198,7 @@ def run_goal(session: NavigationSession | RemoteSession, goal: Pose2D, budget_s:
              wall_timeout_s: float | None = None) -> GoalResult:
     """Send one goal, advance until its result or its budget (then cancel), and measure it."""
     start = session.pose()
-    collisions0, stats0 = session.client.collisions, session.stats()
+    collisions0, struck0, stats0 = session.client.collisions, session.client.struck_standing, session.stats()
     wall_start = time.monotonic()
     run = session.send_goal(goal)
     hung, timed_out, arrived = "", False, False
@@ -225,6 +226,7 @@ def run_goal(session: NavigationSession | RemoteSession, goal: Pose2D, budget_s:
     xy_tol = session.controller_param("xy_goal_tolerance", 0.2)
     yaw_tol = session.controller_param("yaw_goal_tolerance", 0.1)
     collisions = session.client.collisions - collisions0
+    struck_standing = session.client.struck_standing - struck0
     stats = session.stats()
     cycles = stats.cycles.since(stats0.cycles) if stats else None
     status = "HUNG" if hung else "TIMEOUT" if timed_out else run.status
@@ -241,7 +243,7 @@ def run_goal(session: NavigationSession | RemoteSession, goal: Pose2D, budget_s:
     if not arrived:
         failures += _pose_failures(position_error, yaw_error, success_radius, xy_tol, yaw_tol)
     if collisions:
-        failures.append(f"{collisions} collision(s)")
+        failures.append(f"{collisions} collision(s) while moving")
     return GoalResult(
         run=run_index, goal=goal.name or f"({goal.x:g}, {goal.y:g})", x=goal.x, y=goal.y, yaw=goal.yaw,
         status=status, success=not failures, failures=failures, reason=run.reason, time_s=time_s,
@@ -254,7 +256,7 @@ def run_goal(session: NavigationSession | RemoteSession, goal: Pose2D, budget_s:
         cycles_missed=cycles.missed if cycles else None,
         final=final, position_error=position_error, yaw_error=yaw_error,
         wall_s=time.monotonic() - wall_start, max_vel_x=session.controller_param("max_vel_x", 0.4),
-        trajectory=_thinned(truth))
+        trajectory=_thinned(truth), struck_standing=struck_standing)
 
 
 def _pose_failures(position_error, yaw_error, success_radius, xy_tol, yaw_tol) -> list[str]:

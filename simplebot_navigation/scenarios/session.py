@@ -87,7 +87,8 @@ class ScenarioClient(Node):
                                    result_service_qos_profile=ACTION_SERVICE_QOS,
                                    cancel_service_qos_profile=ACTION_SERVICE_QOS)
         self.truth: list[tuple[float, float, float, float]] = []  # (t, x, y, yaw) in the world frame
-        self.collisions = 0
+        self.collisions = 0              # the robot's own: it drove into something (simulator's count_moving)
+        self.struck_standing = 0         # something ran into it while it stood (count_standing)
         self.status: GoalStatusArray | None = None
         self.create_subscription(Odometry, "simplebot/ground_truth", self._on_truth, 100)
         self.create_subscription(DiagnosticStatus, "simplebot/collisions", self._on_collisions, LATCHED)
@@ -99,7 +100,8 @@ class ScenarioClient(Node):
         self.truth.append((stamp, p.x, p.y, yaw_of(q)))
 
     def _on_collisions(self, msg: DiagnosticStatus) -> None:
-        self.collisions = int(next(kv.value for kv in msg.values if kv.key == "count"))
+        values = {kv.key: kv.value for kv in msg.values}
+        self.collisions, self.struck_standing = int(values["count_moving"]), int(values["count_standing"])
 
     def _on_status(self, msg: GoalStatusArray) -> None:
         self.status = msg

@@ -2,6 +2,7 @@
 
 from simplebot_navigation.sim.diff_drive import DiffDriveParams, OdomNoise
 from simplebot_navigation.sim.lidar import LaserScanData
+from simplebot_navigation.sim.moving import MovingObstacle, MovingObstacleState, MovingTracks
 from simplebot_navigation.sim.simulator import CollisionReport, JointStates, Odometry, SimplebotSim
 from simplebot_navigation.sim.world import Box, Cylinder, Pose2D, Wall, World, world_from_dict, write_world
 from simplebot_navigation.sim.world_gen import clutter_world, door_goal_name, doors_world
@@ -14,6 +15,9 @@ __all__ = [
     "DiffDriveParams",
     "JointStates",
     "LaserScanData",
+    "MovingObstacle",
+    "MovingObstacleState",
+    "MovingTracks",
     "OdomNoise",
     "Odometry",
     "Pose2D",

@@ -29,6 +29,11 @@ from simplebot_navigation.sim.world import Pose2D
 _HULL_ABOVE_LIDARS = 0.05
 # Contacts Bullet keeps with a positive gap (up to its breaking threshold) are near misses.
 _CONTACT_DISTANCE = 1e-4
+# A collision is the robot's own ("moving") if a wheel was driven faster than this (m/s at the rim, by the
+# command or by the ramp still slowing it down) within the last DRIVING_WINDOW_S; else the robot was struck
+# while standing.
+DRIVING_SPEED = 0.05
+DRIVING_WINDOW_S = 0.5
 
 
 @dataclass(frozen=True)
@@ -48,10 +53,12 @@ class Odometry:
 
 @dataclass(frozen=True)
 class CollisionReport:
-    """Contacts of the robot with anything but the floor (obstacles and other robots).
+    """Contacts of the robot with anything but the floor (obstacles, moving obstacles and other robots).
 
-    ``count`` counts collisions (a contact with a body that was not touched the step before);
-    ``last_*`` describe the most recent step with a contact.
+    ``count`` counts collisions (a contact with a body that was not touched the step before), the sum
+    of ``count_moving`` (the robot drove itself, see DRIVING_SPEED) and ``count_standing`` (it stood and
+    was struck); ``last_*`` describe the most recent step with a contact, ``last_kind`` the most recent
+    collision ("moving" or "standing").
     """
 
     count: int
@@ -59,6 +66,9 @@ class CollisionReport:
     last_point: tuple[float, float, float] | None
     last_obstacle: str | None
     last_stamp: float | None
+    count_moving: int = 0
+    count_standing: int = 0
+    last_kind: str | None = None
 
 
 @dataclass(frozen=True)
@@ -97,7 +107,9 @@ class SimRobot:
         self._stopped = np.zeros(2)
         self._target_of: tuple | None = None  # (command, its wheel targets): computed once per command
         self._pending_scans: list[LaserScanData] = []
-        self._collision_count = 0
+        self._counts = {"moving": 0, "standing": 0}
+        self._last_kind: str | None = None
+        self._driven_at = -math.inf     # sim time the wheels were last driven faster than DRIVING_SPEED
         self._touching: set[int] = set()
         self._last_contact: tuple | None = None
         self._load(groups)
@@ -162,6 +174,10 @@ class SimRobot:
             self._wheel_cmd = target if np.array_equal(wheel_cmd, target) else wheel_cmd
             if changed:
                 self._apply_wheel_cmd()
+        rim = self.description.wheel_radius * max(abs(target[0]), abs(target[1]),
+                                                  abs(self._wheel_cmd[0]), abs(self._wheel_cmd[1]))
+        if rim > DRIVING_SPEED:
+            self._driven_at = now
 
     def after_step(self, now: float, dt: float, labels: dict[int, str], floor: int) -> None:
         """Odometry from the wheels and the contacts of this step."""
@@ -174,7 +190,10 @@ class SimRobot:
                 continue
             if body not in touching or distance < touching[body][8]:
                 touching[body] = contact
-        self._collision_count += len(touching.keys() - self._touching)
+        new = len(touching.keys() - self._touching)
+        if new:
+            self._last_kind = "moving" if now - self._driven_at <= DRIVING_WINDOW_S + 1e-9 else "standing"
+            self._counts[self._last_kind] += new
         self._touching = set(touching)
         if touching:
             deepest = min(touching.values(), key=lambda contact: contact[8])
@@ -244,7 +263,9 @@ class SimRobot:
 
     def collisions(self) -> CollisionReport:
         point, label, stamp = self._last_contact or (None, None, None)
-        return CollisionReport(self._collision_count, bool(self._touching), point, label, stamp)
+        moving, standing = self._counts["moving"], self._counts["standing"]
+        return CollisionReport(moving + standing, bool(self._touching), point, label, stamp, moving, standing,
+                               self._last_kind)
 
     def joint_states(self) -> JointStates:
         """Wheel angles and speeds (for /joint_states and the wheels' transforms)."""

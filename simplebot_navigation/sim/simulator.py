@@ -16,6 +16,12 @@ triangle mesh that only the lidar rays see (collision filter groups keep the two
 against a BVH mesh cost half of those against convex primitives, and the robot itself is not in the
 ray group, so a scan can never see its own body. Other robots are seen through their hulls, each in a
 filter group of its own that the robot's own casts leave out of their mask.
+
+Moving obstacles (world ``moving:``, sim/moving.py) are primitives of their own group, which the robots
+collide with; before every physics step each is put where its keyframes say it is at the step's end
+(kinematic: nothing pushes them, they push the robots). The lidars meet them in closed form after each
+ray batch (MovingTracks.ray_fractions: Bullet's casts against convex primitives cost ten times more).
+A robot's collision counts as "moving" or "standing" by whether it drove itself recently (sim/robot.py).
 """
 
 from __future__ import annotations
@@ -31,6 +37,7 @@ from simplebot_description import RobotDescription
 
 from simplebot_navigation.sim.diff_drive import DiffDriveParams, OdomNoise
 from simplebot_navigation.sim.lidar import LaserScanData
+from simplebot_navigation.sim.moving import MovingObstacle, MovingObstacleState, MovingTracks, obstacle_label
 from simplebot_navigation.sim.robot import CollisionGroups, CollisionReport, JointStates, Odometry, SimRobot
 from simplebot_navigation.sim.world import Box, Cylinder, Pose2D, World
 
@@ -41,9 +48,13 @@ _ROBOT = 2
 _FLOOR = 4
 _OBSTACLE = 8
 _RAY_MESH = 16
-_FIRST_HULL = 32
+_MOVING = 32
+_FIRST_HULL = 64
 #: robots in one world: each hull takes a filter group bit of Bullet's 32
 MAX_ROBOTS = 16
+#: moving obstacles further than this from touching a robot are parked at _PARKED_Z, below the floor
+_CONTACT_MARGIN = 0.5
+_PARKED_Z = -50.0
 _CYLINDER_SIDES = 64
 
 
@@ -94,7 +105,7 @@ class SimplebotSim:
         # The first robot draws its noise from the seed as a lone robot always did.
         seeds = [np.random.SeedSequence(seed)] + [np.random.SeedSequence([seed, i]) for i in range(1, len(starts))]
         self.robots = [SimRobot(self._client, description, start,
-                                CollisionGroups(_ROBOT, _FLOOR | _OBSTACLE | _ROBOT, hull), drive=drive,
+                                CollisionGroups(_ROBOT, _FLOOR | _OBSTACLE | _MOVING | _ROBOT, hull), drive=drive,
                                 range_noise_std=range_noise_std, odom_noise=odom_noise, seed=robot_seed)
                        for start, hull, robot_seed in zip(starts, hulls, seeds)]
         all_hulls = sum(hulls)
@@ -124,6 +135,22 @@ class SimplebotSim:
             mesh = pb.createCollisionShape(pb.GEOM_MESH, vertices=vertices, indices=indices, physicsClientId=c)
             self._ray_mesh = pb.createMultiBody(0, mesh, physicsClientId=c)
             pb.setCollisionFilterGroupMask(self._ray_mesh, -1, _RAY_MESH, _RAY, physicsClientId=c)
+        self._build_moving()
+
+    def _build_moving(self) -> None:
+        """One body per moving obstacle, at its place at time 0, for contacts with the robots."""
+        c = self._client
+        self._tracks = MovingTracks(self.world.moving)
+        self._moving_xy = self._tracks.states(0.0)[:, :2]
+        self._moving_bodies = []
+        self._placed = np.ones(len(self.world.moving), dtype=bool)
+        # Obstacle centres nearer to a robot's centre than this are placed for contacts.
+        self._contact_reach = self._tracks.reach + self.description.circumscribed_radius + _CONTACT_MARGIN
+        for i, (obstacle, (x, y)) in enumerate(zip(self.world.moving, self._moving_xy)):
+            body = self._create_obstacle(_moving_shape(obstacle, x, y))
+            pb.setCollisionFilterGroupMask(body, -1, _MOVING, _ROBOT, physicsClientId=c)
+            self._labels[body] = obstacle_label(i, obstacle)
+            self._moving_bodies.append((body, obstacle.height / 2))
 
     def _create_obstacle(self, shape: Box | Cylinder) -> int:
         c = self._client
@@ -156,6 +183,8 @@ class SimplebotSim:
         now = self.sim_time
         for robot in self.robots:
             robot.before_step(now, self.dt)
+        if self._moving_bodies:
+            self._move_obstacles((self._steps + 1) / self.physics_rate)
         pb.stepSimulation(physicsClientId=self._client)
         self._steps += 1
         now = self.sim_time
@@ -164,6 +193,23 @@ class SimplebotSim:
         due = [i for i, period in enumerate(self._scan_period_steps) if self._steps % period == 0]
         if due:
             self._cast(due)
+
+    def _move_obstacles(self, t: float) -> None:
+        """Put the moving obstacles near a robot where they are at sim time t, and park the others below
+        the floor (out of every contact): moving a body costs a pybullet call, and contacts happen only
+        near robots. The lidars and the ground truth take the places from the tracks, not the bodies."""
+        xy = self._tracks.states(t)[:, :2]
+        near = np.zeros(len(xy), dtype=bool)
+        for robot in self.robots:
+            rx, ry, _ = pb.getBasePositionAndOrientation(robot.body, physicsClientId=self._client)[0]
+            near |= np.hypot(xy[:, 0] - rx, xy[:, 1] - ry) < self._contact_reach
+        place = near & ((xy != self._moving_xy).any(axis=1) | ~self._placed)
+        park = ~near & self._placed
+        for i in np.flatnonzero(place | park).tolist():
+            body, z = self._moving_bodies[i]
+            pb.resetBasePositionAndOrientation(body, (*xy[i].tolist(), z if near[i] else _PARKED_Z),
+                                               (0.0, 0.0, 0.0, 1.0), physicsClientId=self._client)
+        self._moving_xy, self._placed = xy, near
 
     def step_until(self, t: float) -> None:
         """Step while the next step ends at or before sim time t."""
@@ -180,8 +226,12 @@ class SimplebotSim:
             results = pb.rayTestBatch(origins, ends, numThreads=self._ray_threads, collisionFilterMask=mask,
                                       physicsClientId=self._client)
             ids, _, fractions, _, _ = zip(*results)
-            hit = np.asarray(ids) >= 0
-            robot.add_scans(robot.lidars.scans(sensors, np.asarray(fractions), hit, self.sim_time))
+            hit, fractions = np.asarray(ids) >= 0, np.asarray(fractions)
+            if self._moving_bodies:
+                moving = self._tracks.ray_fractions(origins, ends, self._moving_xy)
+                closer = moving < np.where(hit, fractions, np.inf)
+                fractions, hit = np.where(closer, moving, fractions), hit | closer
+            robot.add_scans(robot.lidars.scans(sensors, fractions, hit, self.sim_time))
 
     # -- outputs ------------------------------------------------------------------------------
 
@@ -200,6 +250,11 @@ class SimplebotSim:
     def collisions(self, robot: int = 0) -> CollisionReport:
         return self.robots[robot].collisions()
 
+    def moving_obstacle_states(self) -> list[MovingObstacleState]:
+        """Ground truth of the moving obstacles now, in the world frame, in the order of world.moving."""
+        return [MovingObstacleState(obstacle_label(i, o), o.shape, *row, o.extent())
+                for i, (o, row) in enumerate(zip(self.world.moving, self._tracks.states(self.sim_time).tolist()))]
+
     def joint_states(self, robot: int = 0) -> JointStates:
         """Wheel angles and speeds (for /joint_states and the wheels' transforms)."""
         return self.robots[robot].joint_states()
@@ -217,6 +272,12 @@ class SimplebotSim:
 def _disconnect(client: int) -> None:
     if pb.isConnected(physicsClientId=client):
         pb.disconnect(physicsClientId=client)
+
+
+def _moving_shape(obstacle: MovingObstacle, x: float, y: float) -> Box | Cylinder:
+    if obstacle.shape == "box":
+        return Box((x, y), obstacle.size, 0.0, obstacle.height)
+    return Cylinder((x, y), obstacle.radius, obstacle.height)
 
 
 def _obstacle_mesh(world: World) -> tuple[list, list]:

@@ -1,11 +1,13 @@
 """Simulator worlds: the YAML world format, its strict loader, and geometry queries on it.
 
-World file shape (more top-level keys are allowed and kept in ``World.extra``)::
+World file shape (README, "World format", documents every key)::
 
     name: lab
     walls:     [{from: [x1, y1], to: [x2, y2], thickness: 0.1, height: 1.0}]
     boxes:     [{center: [x, y], size: [sx, sy], yaw: 0.0, height: 1.0}]
     cylinders: [{center: [x, y], radius: 0.075, height: 1.0}]
+    moving:    [{shape: cylinder, radius: 0.3, keyframes: [[t, x, y], ...], interpolation: linear,
+                 loop: false, phase: 0.0, height: 1.0}]      # or shape: box with size: [sx, sy]
     start: {x: 0.0, y: 0.0, yaw: 0.0}
     goals: [{x: 5.0, y: 2.0, yaw: 0.0, name: kitchen}]
     starts: [[x, y, yaw], ...]    # optional: where robot1, robot2, ... start when there are several
@@ -13,12 +15,15 @@ World file shape (more top-level keys are allowed and kept in ``World.extra``)::
 A wall is the box of its thickness around the segment from -> to and ends exactly at the end points,
 so the gap between two collinear walls is the clear width of the door between them. Every entry may
 carry a ``name`` (a label); any other unknown key in an entry is an error, because a misspelt
-``thicknes`` would otherwise silently fall back to the default. ``--world path/to/map.yaml`` (a
-map_server map) is accepted too, see world_loader and map_import.
+``thicknes`` would otherwise silently fall back to the default. An unknown top-level key is ignored
+with a warning in ``World.warnings`` (which the simulator node and the scenario runner print); the
+metadata generated worlds record (METADATA_KEYS) is kept in ``World.extra``. ``--world
+path/to/map.yaml`` (a map_server map) is accepted too, see world_loader and map_import.
 """
 
 from __future__ import annotations
 
+import difflib
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,8 +34,12 @@ import numpy as np
 import yaml
 
 from simplebot_navigation.geometry import inverse_transform_points, transform_points
+from simplebot_navigation.sim.moving import DEFAULT_HEIGHT, MovingObstacle
+from simplebot_navigation.sim.world_checks import WorldValidator
 
-DEFAULT_HEIGHT = 1.0
+WORLD_KEYS = ("name", "walls", "boxes", "cylinders", "moving", "start", "goals", "starts")
+#: what the generators record about a world (world_gen.py, map_import.py): kept in World.extra, no warning
+METADATA_KEYS = ("seed", "min_gap", "robot_width", "doors", "occupancy", "field", "min_passage", "cspace", "map")
 DEFAULT_THICKNESS = 0.1
 
 
@@ -91,9 +100,13 @@ class World:
     source: str = "<generated>"
     extra: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
     starts: tuple[Pose2D, ...] = ()
+    moving: tuple[MovingObstacle, ...] = ()
+    #: problems that did not stop the loading (unknown top-level keys), one line each, for the log
+    warnings: tuple[str, ...] = field(default=(), compare=False)
 
     def obstacles(self) -> Iterator[tuple[str, Box | Cylinder]]:
-        """Every solid with the entry label used in messages ("walls[3]"); walls come as boxes."""
+        """Every static solid with the entry label used in messages ("walls[3]"); walls come as boxes.
+        Moving obstacles are not among them: C-space analysis and clearance checks are of the static world."""
         for i, wall in enumerate(self.walls):
             yield f"walls[{i}]", wall.as_box()
         for i, box in enumerate(self.boxes):
@@ -150,6 +163,8 @@ class World:
                                 "height": b.height}, b) for b in self.boxes]
         data["cylinders"] = [named({"center": list(c.center), "radius": c.radius,
                                     "height": c.height}, c) for c in self.cylinders]
+        if self.moving:
+            data["moving"] = [named(_moving_dict(m), m) for m in self.moving]
         data["start"] = {"x": self.start.x, "y": self.start.y, "yaw": self.start.yaw}
         data["goals"] = [named({"x": g.x, "y": g.y, "yaw": g.yaw}, g) for g in self.goals]
         if self.starts:
@@ -178,7 +193,7 @@ def _shape_distance(shape: Box | Cylinder, pts: np.ndarray) -> np.ndarray:
 
 def world_from_dict(data: Any, source: str = "<generated>", default_name: str = "world") -> World:
     """Validate a parsed world file; ``source`` names it in error messages."""
-    v = _Validator(source)
+    v = WorldValidator(source)
     if not isinstance(data, dict):
         v.fail("top level", f"expected a mapping with walls/boxes/cylinders/start, got {type(data).__name__}")
     name = data.get("name", default_name)
@@ -200,12 +215,35 @@ def world_from_dict(data: Any, source: str = "<generated>", default_name: str = 
         Cylinder(v.vec2(e, w, "center"), v.positive(e, w, "radius"),
                  v.positive(e, w, "height", DEFAULT_HEIGHT), v.label(e, w))
         for w, e in v.entries(data, "cylinders", required=("center", "radius"), optional=("height",)))
-    start = v.pose(data["start"], "start") if "start" in data else Pose2D(0.0, 0.0, 0.0)
-    goals = tuple(v.pose(e, w) for w, e in v.entries(data, "goals", required=("x", "y"), optional=("yaw",)))
-    starts = v.start_list(data.get("starts") or [])
-    known = {"name", "walls", "boxes", "cylinders", "start", "goals", "starts"}
-    extra = MappingProxyType({k: val for k, val in data.items() if k not in known})
-    return World(name, walls, boxes, cylinders, start, goals, source, extra, starts)
+    moving = tuple(v.moving(e, w) for w, e in v.entries(
+        data, "moving", required=("shape", "keyframes"),
+        optional=("radius", "size", "height", "interpolation", "loop", "phase")))
+    start = Pose2D(*v.pose(data["start"], "start")) if "start" in data else Pose2D(0.0, 0.0, 0.0)
+    goals = tuple(Pose2D(*v.pose(e, w))
+                  for w, e in v.entries(data, "goals", required=("x", "y"), optional=("yaw",)))
+    starts = tuple(Pose2D(*pose) for pose in v.start_list(data.get("starts") or []))
+    extra = MappingProxyType({k: val for k, val in data.items() if k in METADATA_KEYS})
+    return World(name, walls, boxes, cylinders, start, goals, source, extra, starts, moving,
+                 unknown_key_warnings(data, source))
+
+
+def unknown_key_warnings(data: dict, source: str) -> tuple[str, ...]:
+    """One line per top-level key that is neither a world key nor generator metadata, with the closest
+    known key as a suggestion: a misspelt ``movng`` would otherwise drop the obstacles silently."""
+    known = WORLD_KEYS + METADATA_KEYS
+    lines = []
+    for key in data:
+        if key not in known:
+            close = difflib.get_close_matches(str(key), known, n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            lines.append(f"{source}: unknown world key {key!r}{hint}; ignored")
+    return tuple(lines)
+
+
+def _moving_dict(m: MovingObstacle) -> dict:
+    extent = {"radius": m.radius} if m.shape == "cylinder" else {"size": list(m.size)}
+    return {"shape": m.shape, **extent, "height": m.height, "interpolation": m.interpolation, "loop": m.loop,
+            "phase": m.phase, "keyframes": [list(frame) for frame in m.keyframes]}
 
 
 def check_clearance(world: World, robot_radius: float) -> None:
@@ -242,92 +280,3 @@ def write_world(world: World, path: str | Path, header: str = "") -> None:
         else:
             lines.append(dump({key: value}, False))
     Path(path).write_text("\n".join(lines) + "\n")
-
-
-class _Validator:
-    """Type and range checks that name the file and the entry in every message."""
-
-    def __init__(self, source: str):
-        self.source = source
-
-    def fail(self, where: str, problem: str):
-        raise ValueError(f"{self.source}: {where}: {problem}")
-
-    def entries(self, data: dict, key: str, required: tuple, optional: tuple):
-        items = data.get(key) or []
-        if not isinstance(items, list):
-            self.fail(key, f"expected a list, got {type(items).__name__}")
-        allowed = set(required) | set(optional) | {"name"}
-        for i, entry in enumerate(items):
-            where = f"{key}[{i}]"
-            if not isinstance(entry, dict):
-                self.fail(where, f"expected a mapping, got {type(entry).__name__} {entry!r}")
-            missing = [k for k in required if k not in entry]
-            if missing:
-                self.fail(where, f"missing key {missing[0]!r}")
-            unknown = sorted(set(entry) - allowed, key=str)
-            if unknown:
-                self.fail(where, f"unknown key {unknown[0]!r} (expected {', '.join(sorted(allowed))})")
-            yield where, entry
-
-    def number(self, entry: dict, where: str, key: str, default: float | None = None) -> float:
-        value = entry.get(key, default)
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            self.fail(f"{where}.{key}", f"expected a number, got {type(value).__name__} {value!r}")
-        if not math.isfinite(value):
-            self.fail(f"{where}.{key}", f"expected a finite number, got {value}")
-        return float(value)
-
-    def positive(self, entry: dict, where: str, key: str, default: float | None = None) -> float:
-        value = self.number(entry, where, key, default)
-        if value < 0:
-            self.fail(f"{where}.{key}", f"negative {key} {value}")
-        if value == 0:
-            self.fail(f"{where}.{key}", f"{key} must be positive, got 0")
-        return value
-
-    def vec2(self, entry: dict, where: str, key: str) -> tuple[float, float]:
-        value = entry[key]
-        if not isinstance(value, list) or len(value) != 2:
-            self.fail(f"{where}.{key}", f"expected [x, y], got {value!r}")
-        pair = {"x": value[0], "y": value[1]}
-        return self.number(pair, f"{where}.{key}", "x"), self.number(pair, f"{where}.{key}", "y")
-
-    def size2(self, entry: dict, where: str, key: str) -> tuple[float, float]:
-        sx, sy = self.vec2(entry, where, key)
-        for value in (sx, sy):
-            if value < 0:
-                self.fail(f"{where}.{key}", f"negative size {value}")
-            if value == 0:
-                self.fail(f"{where}.{key}", f"size must be positive, got {[sx, sy]}")
-        return sx, sy
-
-    def label(self, entry: dict, where: str) -> str | None:
-        name = entry.get("name")
-        if name is not None and not isinstance(name, str):
-            self.fail(f"{where}.name", f"expected a string, got {type(name).__name__} {name!r}")
-        return name
-
-    def start_list(self, items: Any) -> tuple[Pose2D, ...]:
-        """``starts: [[x, y, yaw], ...]``; yaw may be left out."""
-        if not isinstance(items, list):
-            self.fail("starts", f"expected a list of [x, y, yaw], got {type(items).__name__}")
-        poses = []
-        for i, item in enumerate(items):
-            if not isinstance(item, list) or len(item) not in (2, 3):
-                self.fail(f"starts[{i}]", f"expected [x, y, yaw], got {item!r}")
-            pose = dict(zip(("x", "y", "yaw"), item))
-            poses.append(Pose2D(*(self.number(pose, f"starts[{i}]", key, 0.0) for key in ("x", "y", "yaw"))))
-        return tuple(poses)
-
-    def pose(self, entry: Any, where: str) -> Pose2D:
-        if not isinstance(entry, dict):
-            self.fail(where, f"expected a mapping {{x, y, yaw}}, got {type(entry).__name__} {entry!r}")
-        unknown = sorted(set(entry) - {"x", "y", "yaw", "name"}, key=str)
-        if unknown:
-            self.fail(where, f"unknown key {unknown[0]!r} (expected x, y, yaw, name)")
-        for key in ("x", "y"):
-            if key not in entry:
-                self.fail(where, f"missing key {key!r}")
-        return Pose2D(self.number(entry, where, "x"), self.number(entry, where, "y"),
-                      self.number(entry, where, "yaw", 0.0), self.label(entry, where))

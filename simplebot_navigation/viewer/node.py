@@ -30,13 +30,14 @@ from rclpy.time import Time
 from scipy.spatial import ConvexHull
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import String
+from visualization_msgs.msg import Marker, MarkerArray
 
 from simplebot_navigation.ros.conversions import path_to_array, pose_to_xyyaw, transform_to_xyyaw, xyyaw_to_pose
 from simplebot_navigation.ros.move_base.move_base_stats import NAVIGATION_STATUS
 from simplebot_navigation.ros.node_main import SetUpNode, run_node
 from simplebot_navigation.ros.params import declare_checked
 from simplebot_navigation.ros.tf import Buffer, TransformException, TransformListener, strip_frame
-from simplebot_navigation.viewer.scene import Scene
+from simplebot_navigation.viewer.scene import Scene, obstacle_outlines
 from simplebot_navigation.viewer.server import ViewerServer
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -55,6 +56,7 @@ ODOM = "/simplebot_controller/odom"
 CMD_VEL = "/simplebot_controller/cmd_vel"
 GOAL = "/move_base_simple/goal"
 DIAGNOSTICS = "/diagnostics"
+MOVING_OBSTACLES = "/sim/moving_obstacles"
 
 PARAMETERS = {"host": "127.0.0.1", "port": 8765, "fixed_frame": "odom", "base_frame": "base_link",
               "rate": 20.0, "costmap_rate": 5.0, "max_costmap_side": 400, "trail_points": 5000}
@@ -181,6 +183,7 @@ class ViewerNode(SetUpNode):
         live.append(sub(Twist, CMD_VEL, lambda m: scene.set_command(m.linear.x, m.angular.z), 10))
         live.append(sub(Log, "/rosout", self._on_log, ROSOUT))
         live.append(sub(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, 10))
+        live.append(sub(MarkerArray, MOVING_OBSTACLES, self._on_moving_obstacles, 1))
 
     def _unsubscribe(self) -> None:
         self.listener.unregister()
@@ -190,6 +193,13 @@ class ViewerNode(SetUpNode):
         self._live.clear()
 
     # -- callbacks --------------------------------------------------------------------------------
+    def _on_moving_obstacles(self, msg: MarkerArray) -> None:
+        bodies = [m for m in msg.markers if m.ns == "moving_obstacles"]
+        if bodies:
+            shapes = [(m.type == Marker.CYLINDER, *pose_to_xyyaw(m.pose), m.scale.x, m.scale.y) for m in bodies]
+            self.scene.set_poses("moving_obstacles", strip_frame(bodies[0].header.frame_id),
+                                 _stamp_ns(bodies[0].header.stamp), obstacle_outlines(shapes))
+
     def _on_grid(self, name: str, msg: OccupancyGrid) -> None:
         info = msg.info
         cells = np.asarray(msg.data, dtype=np.int8)

@@ -79,6 +79,20 @@ def downsample_grid(cells: np.ndarray, max_side: int) -> tuple[np.ndarray, int]:
     return out, factor
 
 
+def obstacle_outlines(shapes: list[tuple[bool, float, float, float, float, float]], sides: int = 24) -> np.ndarray:
+    """Closed outlines of (is_cylinder, x, y, yaw, size_x, size_y) shapes as (N, 2) points, one NaN row after
+    each outline, for the page's polyline to lift the pen: the moving obstacles' markers."""
+    rows = []
+    for cylinder, x, y, yaw, sx, sy in shapes:
+        if cylinder:
+            angles = np.linspace(0.0, 2 * math.pi, sides + 1)
+            local = np.column_stack((np.cos(angles) * sx / 2, np.sin(angles) * sy / 2))
+        else:
+            local = np.array([(1, 1), (-1, 1), (-1, -1), (1, -1), (1, 1)]) * (sx / 2, sy / 2)
+        rows += [transform_points((x, y, yaw), local), np.full((1, 2), np.nan)]
+    return np.concatenate(rows) if rows else np.zeros((0, 2))
+
+
 def to_frame(pose: Pose2D, points: np.ndarray) -> np.ndarray:
     """(N, 2) points or (N, 3) poses given in a frame whose pose in the fixed frame is pose, as float32."""
     return transform_points(pose, points, dtype=np.float32)

@@ -18,7 +18,8 @@ from simplebot_navigation.scenarios.campaign.plot import hardest_runs, success_b
 from simplebot_navigation.scenarios.campaign.results import read_results
 from simplebot_navigation.scenarios.campaign.spec import (SpecError, expand_worlds, plan, robot_body, spec_from_dict,
                                                           split_parameter_set)
-from simplebot_navigation.scenarios.campaign.stats import compare, fisher_p, summarize, welch_p, wilson_interval
+from simplebot_navigation.scenarios.campaign.stats import (
+    compare, fisher_p, summarize, summary_table, welch_p, wilson_interval)
 from simplebot_navigation.sim.world_loader import load_world
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -237,6 +238,9 @@ def test_summary_and_comparison_of_two_parameter_sets():
     assert group.failures == {"timeout": 8}
     (c,) = compare(a, b)
     assert c.group == ("lab", "box", "default -> max_vel_x=0.6")
+    struck = [{**r, "collisions": 1, "struck_standing": 2} for r in b]
+    header, _, row = summary_table(summarize(struck)).splitlines()
+    assert header.split()[8:10] == ["coll", "struck"] and row.split()[8:10] == ["10", "20"]
     assert c.rate_difference == pytest.approx(0.6) and c.rate_p == pytest.approx(0.02301, abs=1e-4)
     assert c.mean_a == 20.5 and c.time_p < 0.05
 

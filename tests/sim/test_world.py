@@ -142,16 +142,19 @@ def test_unknown_world_name_lists_builtins():
         load_world("attic")
 
 
-def test_extra_top_level_keys_and_labels_are_kept(tmp_path):
+def test_unknown_top_level_keys_warn_and_labels_are_kept(tmp_path):
     path = write(tmp_path, """\
         name: office
         author: me
+        movng: []
         boxes: [{center: [3, 0], size: [1, 1], name: desk}]
         goals: [{x: 5, y: 0, name: window}]
         """)
     world = load_world(path)
     assert world.name == "office" and world.source == "bad.yaml"
-    assert world.extra == {"author": "me"}
+    assert world.extra == {}
+    assert world.warnings == ("bad.yaml: unknown world key 'author'; ignored",
+                              "bad.yaml: unknown world key 'movng' (did you mean 'moving'?); ignored")
     assert world.boxes[0].name == "desk"
     assert world.goal("window").x == 5.0
     with pytest.raises(ValueError, match="bad.yaml: no goal named 'door'; goals: window"):

@@ -30,6 +30,7 @@ ORIGIN = (-5.0, -5.0)
 LETHAL_BLOCK = (-2.0, -3.0, -1.5, -2.5)      # x0, y0, x1, y1: lethal cells
 INSCRIBED_BLOCK = (-2.0, 2.0, -1.5, 2.5)
 UNKNOWN_BLOCK = (3.0, 3.0, 4.0, 4.0)
+CART_SIZE, CART_Y = (0.4, 0.6), -7.0
 PLAN = np.array([[0.0, 0.0, 0.0], [0.5, -0.5, -0.785], [1.0, -1.0, -0.785], [1.5, -1.5, -0.785]])
 
 
@@ -119,7 +120,10 @@ def corridor(tmp_path_factory) -> str:
         "name: corridor\n"
         f"walls: [{{from: [{front}, -3.0], to: [{front}, 3.0], thickness: 0.1, height: 1.0}},\n"
         f"        {{from: [{back}, -3.0], to: [{back}, 3.0], thickness: 0.1, height: 1.0}}]\n"
-        "boxes: []\ncylinders: []\nstart: {x: 0.0, y: 0.0, yaw: 0.0}\n")
+        "boxes: []\ncylinders: []\nstart: {x: 0.0, y: 0.0, yaw: 0.0}\n"
+        # a cart creeping along out of the lidars' reach (5.6 m), for the moving obstacles' layer
+        f"moving: [{{shape: box, size: [{CART_SIZE[0]}, {CART_SIZE[1]}], "
+        f"keyframes: [[0, -1.0, {CART_Y}], [1000, 1.0, {CART_Y}]]}}]\n")
     return str(path)
 
 

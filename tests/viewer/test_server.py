@@ -17,7 +17,7 @@ from simplebot_navigation.ros.move_base.move_base_stats import navigation_status
 from simplebot_navigation.viewer.node import ViewerNode, body_outlines
 from simplebot_navigation.viewer.scene import UNKNOWN_CELL, Scene, downsample_grid
 from simplebot_description import robot_description
-from tests.viewer.conftest import LETHAL_BLOCK, ORIGIN, RESOLUTION, cells
+from tests.viewer.conftest import CART_SIZE, CART_Y, LETHAL_BLOCK, ORIGIN, RESOLUTION, cells
 
 
 def decode(frame: bytes):
@@ -106,6 +106,26 @@ def test_frames_carry_the_costmap_once_and_the_scans_in_odom(scenario):
     again, _ = decode(get(url + f"frame?after={header['version']}&global_costmap={grid['version']}"))
     assert "buffer" not in again["costmaps"]["global_costmap"]
     assert again["version"] > header["version"]
+
+
+def test_moving_obstacles_are_drawn_as_outlines_in_odom(scenario):
+    url = scenario.viewer.url
+    get(url + "frame?after=-1")
+    frames = []
+
+    def drawable():
+        frames.append(decode(get(url + "frame?after=-1")))
+        return "moving_obstacles" in frames[-1][0]["layers"]
+
+    scenario.wait_for(drawable, what="the moving obstacles in a frame")
+    header, arrays = frames[-1]
+    layer = header["layers"]["moving_obstacles"]
+    outline = arrays[layer["buffer"]].reshape(-1, 2)
+    assert layer["stride"] == 2 and outline.shape == (6, 2) and np.isnan(outline[-1]).all()
+    xs, ys = outline[:-1, 0], outline[:-1, 1]
+    assert xs.max() - xs.min() == pytest.approx(CART_SIZE[0], abs=1e-5)
+    assert ys.min() == pytest.approx(CART_Y - CART_SIZE[1] / 2, abs=1e-5)
+    assert -1.2 <= xs.min() <= 1.0
 
 
 def test_static_page_and_unknown_paths(scenario):

@@ -31,6 +31,7 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 from simplebot_description import robot_description
 from simplebot_navigation.ros.node_main import SetUpNode, run_node
 from simplebot_navigation.ros.params import declare_checked, refuse_unknown_parameters
+from simplebot_navigation.ros.simulator.moving_markers import MovingObstacleMarkers
 from simplebot_navigation.ros.simulator.simulator_faults import SimulatorFaults
 from simplebot_navigation.ros.simulator.simulator_robot import SimulatedRobotIO, set_stamp
 from simplebot_navigation.ros.tf import StaticTransformBroadcaster, TransformBroadcaster
@@ -42,6 +43,8 @@ from simplebot_navigation.sim.world_loader import load_world
 # as a physics step, so at high real-time factors each tick steps several times.
 MIN_WALL_TICK_S = 0.005
 MAX_LAG_S = 0.5
+#: how often /sim/moving_obstacles goes out, as the lidars' scans do
+MARKER_RATE_HZ = 10.0
 # Launch files and `-p name:=2` give whole numbers as integers; the numeric parameters take both.
 # ``namespaces``: one robot per space-separated name ("robot1 robot2"); empty: one robot, no namespace.
 # ``starts``: "x,y,yaw;x,y,yaw;..." for them; empty: the world's starts (one robot: its start).
@@ -70,6 +73,8 @@ class SimulatorNode(SetUpNode):
             self.world = load_world(p["world"], robot_radius=self.description.inscribed_radius)
         except (ValueError, FileNotFoundError) as err:
             raise ValueError(f"parameter 'world': {err}") from err
+        for warning in self.world.warnings:
+            self.get_logger().warn(warning)
         namespaces = p["namespaces"].split() or [""]
         try:
             starts = robot_starts(self.world, [ns or "simplebot" for ns in namespaces], p["starts"],
@@ -80,11 +85,13 @@ class SimulatorNode(SetUpNode):
                                 range_noise_std=p["range_noise_std"], starts=starts)
         self.rtf = p["real_time_factor"]
         self._odom_every = max(1, round(p["physics_rate"] / p["odom_rate"]))
+        self._markers_every = max(1, round(p["physics_rate"] / MARKER_RATE_HZ))
 
         self.clock_pub = self.create_publisher(ClockMsg, "/clock", 10)
         wheel_joints = self._wheel_geometry()
         self.robots = [SimulatedRobotIO(self, self.sim, i, ns, wheel_joints) for i, ns in enumerate(namespaces)]
         self.faults = SimulatorFaults(self, self.description.scans)
+        self.moving_markers = MovingObstacleMarkers(self, self.sim, namespaces != [""], starts[0])
         refuse_unknown_parameters(self)
         self.add_on_set_parameters_callback(self._refuse_restart_only)
         self.tf_broadcaster = TransformBroadcaster(self)
@@ -172,6 +179,8 @@ class SimulatorNode(SetUpNode):
                 transforms += robot.publish_odometry(self._clock_msg.clock, self.faults.odometry_dropout)
             robot.publish_scans(self.faults.drops_scan)
             robot.publish_collisions_if_new()
+        if self._steps % self._markers_every == 0:
+            self.moving_markers.publish()
         if odometry_due:
             due = self.faults.transforms_due(self.sim.sim_time, transforms)
             if due:

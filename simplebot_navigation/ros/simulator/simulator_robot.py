@@ -154,9 +154,11 @@ class SimulatedRobotIO:
         status = DiagnosticStatus(name=self.topic("simplebot/collisions").lstrip("/"),
                                   hardware_id=self.namespace or "simplebot",
                                   level=DiagnosticStatus.WARN if report.count else DiagnosticStatus.OK,
-                                  message=f"{report.count} collision(s)")
-        values = {"count": report.count, "in_contact": report.in_contact, "last_obstacle": report.last_obstacle,
-                  "last_stamp": report.last_stamp}
+                                  message=f"{report.count} collision(s): {report.count_moving} while moving, "
+                                          f"struck {report.count_standing} time(s) while standing")
+        values = {"count": report.count, "count_moving": report.count_moving, "count_standing": report.count_standing,
+                  "in_contact": report.in_contact, "last_obstacle": report.last_obstacle,
+                  "last_kind": report.last_kind, "last_stamp": report.last_stamp}
         if report.last_point is not None:
             values.update(zip(("last_x", "last_y", "last_z"), report.last_point))
         status.values = [KeyValue(key=k, value="" if v is None else str(v)) for k, v in values.items()]

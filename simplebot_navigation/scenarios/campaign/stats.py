@@ -54,7 +54,8 @@ class GroupSummary:
     runs: int
     successes: int
     errors: int
-    collisions: int
+    collisions: int          # while the robot moved
+    struck_standing: int     # moving obstacles that ran into the standing robot
     mean_time_s: float       # of the successful runs
     p95_time_s: float
     time_ratio: float        # mean of time / (path length / max speed) over successful runs
@@ -86,6 +87,7 @@ def summarize(records: list[dict]) -> list[GroupSummary]:
         summaries.append(GroupSummary(
             family, robot, params, len(members), sum(r["success"] for r in members),
             sum(bool(r["error"]) for r in members), sum(r.get("collisions") or 0 for r in members),
+            sum(r.get("struck_standing") or 0 for r in members),
             float(np.mean(times)) if times else math.nan, float(np.percentile(times, 95)) if times else math.nan,
             float(np.mean(ratios)) if ratios else math.nan,
             Counter(failure_kind(f) for r in members for f in r.get("failures") or [])))
@@ -94,13 +96,13 @@ def summarize(records: list[dict]) -> list[GroupSummary]:
 
 def summary_table(summaries: list[GroupSummary]) -> str:
     header = (f"{'family':<12} {'robot':<10} {'params':<34} {'runs':>5} {'success':>8} {'Wilson 95 %':>13} "
-              f"{'coll':>5} {'mean s':>7} {'p95 s':>7} {'t/(L/v)':>7}  failures")
+              f"{'coll':>5} {'struck':>6} {'mean s':>7} {'p95 s':>7} {'t/(L/v)':>7}  failures")
     lines = [header, "-" * len(header)]
     for s in summaries:
         low, high = s.interval
         reasons = ", ".join(f"{kind} x{n}" for kind, n in s.failures.most_common()) or "-"
         lines.append(f"{s.family[:12]:<12} {s.robot[:10]:<10} {s.params[:34]:<34} {s.runs:>5} {100 * s.rate:>7.0f}% "
-                     f"{100 * low:>5.0f}-{100 * high:>3.0f} % {s.collisions:>5} {s.mean_time_s:>7.1f} "
+                     f"{100 * low:>5.0f}-{100 * high:>3.0f} % {s.collisions:>5} {s.struck_standing:>6} {s.mean_time_s:>7.1f} "
                      f"{s.p95_time_s:>7.1f} {s.time_ratio:>7.2f}  {reasons}")
     return "\n".join(lines)
 

@@ -18,6 +18,7 @@ window.SimplebotFrames = (() => {
     ["global_plan", "global plan (GlobalPlanner/plan)", "#00a000"],
     ["local_plan", "local plan (TEB local_plan)", "#0050ff"],
     ["teb_poses", "teb poses", "#b8860b"],
+    ["moving_obstacles", "moving obstacles (ground truth)", "#ff8c00"],
     ["front_scan", "front scan", "#e00000"],
     ["back_scan", "back scan", "#f07000"],
     ["footprint", "footprint", "#222"],

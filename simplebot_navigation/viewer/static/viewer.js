@@ -131,7 +131,9 @@
     if (!data || data.length < 2 * stride) return;
     ctx.beginPath();
     ctx.moveTo(data[0], data[1]);
-    for (let i = stride; i < data.length; i += stride) ctx.lineTo(data[i], data[i + 1]);
+    for (let i = stride; i < data.length; i += stride) {  // a NaN point lifts the pen (several outlines)
+      if (Number.isNaN(data[i - stride])) ctx.moveTo(data[i], data[i + 1]); else ctx.lineTo(data[i], data[i + 1]);
+    }
     ctx.strokeStyle = colour;
     ctx.lineWidth = px(width);
     ctx.stroke();
@@ -173,6 +175,9 @@
     if (state.visible.trail && L.trail) polyline(L.trail.data, 2, COLOURS.trail, 1.5);
     if (state.visible.global_plan && L.global_plan) polyline(L.global_plan.data, 3, COLOURS.global_plan, 2.5);
     if (state.visible.local_plan && L.local_plan) polyline(L.local_plan.data, 3, COLOURS.local_plan, 2.5);
+    if (state.visible.moving_obstacles && L.moving_obstacles) {
+      polyline(L.moving_obstacles.data, 2, COLOURS.moving_obstacles, 2);
+    }
     if (state.visible.teb_poses && L.teb_poses) {
       const d = L.teb_poses.data;
       for (let i = 0; i + 2 < d.length; i += 3) arrow(d[i], d[i + 1], d[i + 2], px(14), COLOURS.teb_poses, 1.5);
