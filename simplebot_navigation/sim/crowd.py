@@ -13,16 +13,14 @@ A people world is the lab with the robot at one end of its corridor and the goal
 and 3-8 people of PERSON_RADIUS walking back and forth: head-on along the corridor, and across
 it from a room on one side to a room on the other through their doors.
 
-Both carry ``time_budget`` and ``success_radius`` in ``World.extra``, which the scenario runner
-uses instead of its defaults: success is reaching within success_radius of the goal without a
+Both carry the world keys ``time_budget`` and ``success_radius``, which the scenario runner uses
+instead of its defaults: success is reaching within success_radius of the goal without a
 collision while moving, within time_budget seconds.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import replace
-from types import MappingProxyType
 
 import numpy as np
 import yaml
@@ -86,11 +84,11 @@ def crowd_world(seed: int) -> World:
              {"from": [xmin, half], "to": [xmax, half], "thickness": 0.2}]
     moving = [_crowd_obstacle(rng, speeds, i) for i in range(int(rng.integers(n_lo, n_hi + 1)))]
     data = {"name": f"crowd_{seed}", "walls": walls, "moving": moving,
-            "start": {"x": 0.0, "y": 0.0, "yaw": 0.0}, "goals": [{"x": ARENA_LENGTH, "y": 0.0, "yaw": 0.0,
-                                                                 "name": "goal"}]}
-    world = world_from_dict(data, source=f"crowd:{seed}")
-    return _with_extra(world, {"level": level, "time_budget": CROWD_TIME_BUDGET_S,
-                               "success_radius": SUCCESS_RADIUS, "reference_path": ARENA_LENGTH})
+            "start": {"x": 0.0, "y": 0.0, "yaw": 0.0},
+            "goals": [{"x": ARENA_LENGTH, "y": 0.0, "yaw": 0.0, "name": "goal"}],
+            "time_budget": CROWD_TIME_BUDGET_S, "success_radius": SUCCESS_RADIUS, "level": level,
+            "reference_path": ARENA_LENGTH}
+    return world_from_dict(data, source=f"crowd:{seed}")
 
 
 def _crowd_obstacle(rng, speeds, index: int) -> dict:
@@ -164,12 +162,11 @@ def people_world(seed: int) -> World:
     people += [_crossing_walker(rng, i) for i in range(head_on, count)]
     data = {**lab.to_dict(), "name": f"people_{seed}", "moving": people,
             "start": {"x": PEOPLE_START[0], "y": PEOPLE_START[1], "yaw": 0.0},
-            "goals": [{"x": PEOPLE_GOAL[0], "y": PEOPLE_GOAL[1], "yaw": 0.0, "name": "goal"}]}
+            "goals": [{"x": PEOPLE_GOAL[0], "y": PEOPLE_GOAL[1], "yaw": 0.0, "name": "goal"}],
+            "time_budget": PEOPLE_TIME_BUDGET_S, "success_radius": SUCCESS_RADIUS, "people": count,
+            "head_on": head_on, "reference_path": PEOPLE_GOAL[0] - PEOPLE_START[0]}
     data.pop("starts", None)
-    world = world_from_dict(data, source=f"people:{seed}")
-    return _with_extra(world, {"people": count, "head_on": head_on, "time_budget": PEOPLE_TIME_BUDGET_S,
-                               "success_radius": SUCCESS_RADIUS,
-                               "reference_path": PEOPLE_GOAL[0] - PEOPLE_START[0]})
+    return world_from_dict(data, source=f"people:{seed}")
 
 
 def _lab_data() -> dict:
@@ -204,7 +201,3 @@ def _crossing_walker(rng, index: int) -> dict:
     if rng.uniform() < 0.5:
         points.reverse()
     return _person(rng, points, index, "crossing walker")
-
-
-def _with_extra(world: World, extra: dict) -> World:
-    return replace(world, extra=MappingProxyType({**dict(world.extra), **extra}))

@@ -39,7 +39,11 @@ from simplebot_navigation.sim.world_checks import WorldValidator
 
 WORLD_KEYS = ("name", "walls", "boxes", "cylinders", "moving", "start", "goals", "starts")
 #: what the generators record about a world (world_gen.py, map_import.py): kept in World.extra, no warning
-METADATA_KEYS = ("seed", "min_gap", "robot_width", "doors", "occupancy", "field", "min_passage", "cspace", "map")
+METADATA_KEYS = ("seed", "min_gap", "robot_width", "doors", "occupancy", "field", "min_passage", "cspace", "map",
+                 "level", "people", "head_on", "reference_path")
+#: what a world may ask of the scenario runner (seconds per goal, metres from the goal that count as
+#: arrival): positive numbers, kept in World.extra
+RUN_KEYS = ("time_budget", "success_radius")
 DEFAULT_THICKNESS = 0.1
 
 
@@ -222,7 +226,8 @@ def world_from_dict(data: Any, source: str = "<generated>", default_name: str = 
     goals = tuple(Pose2D(*v.pose(e, w))
                   for w, e in v.entries(data, "goals", required=("x", "y"), optional=("yaw",)))
     starts = tuple(Pose2D(*pose) for pose in v.start_list(data.get("starts") or []))
-    extra = MappingProxyType({k: val for k, val in data.items() if k in METADATA_KEYS})
+    run = {k: v.positive(data, "top level", k) for k in RUN_KEYS if k in data}
+    extra = MappingProxyType({**{k: val for k, val in data.items() if k in METADATA_KEYS}, **run})
     return World(name, walls, boxes, cylinders, start, goals, source, extra, starts, moving,
                  unknown_key_warnings(data, source))
 
@@ -230,7 +235,7 @@ def world_from_dict(data: Any, source: str = "<generated>", default_name: str = 
 def unknown_key_warnings(data: dict, source: str) -> tuple[str, ...]:
     """One line per top-level key that is neither a world key nor generator metadata, with the closest
     known key as a suggestion: a misspelt ``movng`` would otherwise drop the obstacles silently."""
-    known = WORLD_KEYS + METADATA_KEYS
+    known = WORLD_KEYS + RUN_KEYS + METADATA_KEYS
     lines = []
     for key in data:
         if key not in known:
