@@ -58,6 +58,16 @@ def associate_obstacles(model, poses: np.ndarray, obstacles: np.ndarray, min_obs
                                        GAP_FREE_FRACTION)
 
 
+def planned_motion(obstacles: np.ndarray, predict: bool) -> np.ndarray:
+    """The moving obstacles as the planner predicts them: with include_dynamic_obstacles false
+    (predict) they stand where they are, as static circles, so every use below sees one rule."""
+    if predict:
+        return obstacles
+    still = obstacles.copy()
+    still[:, 2:4] = 0.0
+    return still
+
+
 def predicted_centres(obstacles: np.ndarray, times: np.ndarray) -> np.ndarray:
     """(K, T, 2): each dynamic obstacle's centre at each time, at constant velocity."""
     return obstacles[:, None, :2] + times[None, :, None] * obstacles[:, None, 2:4]

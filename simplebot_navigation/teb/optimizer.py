@@ -78,7 +78,8 @@ class TebOptimizer:
         weights growing by weight_adapt_factor. skip_outer leaves out the first outer iterations
         (a warm-started band then goes straight to the larger obstacle weights and its cost is
         taken at the same final weight as a full run). dynamic_obstacles: (K, 5) rows x, y, vx,
-        vy, radius. Returns the selection cost of the final graph (inf unless compute_cost)."""
+        vy, radius, predicted at constant velocity (planned_motion zeroes the velocities of those
+        not to be predicted). Returns the selection cost of the final graph (inf unless compute_cost)."""
         cfg = self.cfg
         self.start_velocity = (float(start_velocity[0]), float(start_velocity[1]))
         self.free_goal_vel = free_goal_vel
@@ -129,11 +130,9 @@ class TebOptimizer:
                 vp, vpts = np.minimum(nearest[nearest > 0], n - 2), vpts[nearest > 0]
         edges = EdgeSet(pi, obst_point, gap, vp, vpts, obstacle_weight, n=n - 1, dynamic_weight=dynamic_weight)
         if dynamic_obstacles is not None and len(dynamic_obstacles) and cfg.weight_dynamic_obstacle > 0:
-            # with include_dynamic_obstacles false they stand where they are (velocity ignored)
-            times = band.time_stamps if cfg.include_dynamic_obstacles else np.zeros(n)
             reach = max(cfg.min_obstacle_dist * cfg.obstacle_association_cutoff_factor,
                         cfg.min_obstacle_dist + cfg.penalty_epsilon, cfg.dynamic_obstacle_inflation_dist)
-            edges.dyn_pose, edges.dyn_obstacle = dynamic_obstacle_edges(self.model, band.poses, times,
+            edges.dyn_pose, edges.dyn_obstacle = dynamic_obstacle_edges(self.model, band.poses, band.time_stamps,
                                                                         dynamic_obstacles, reach)
         return edges
 
