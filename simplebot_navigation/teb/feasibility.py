@@ -2,7 +2,7 @@
 
 Each checked pose gets base_local_planner's footprint cost (costmap/footprint.py footprint_costs);
 only -1 (a lethal cell met first on the outline) makes a band infeasible. Moving obstacles are
-checked at the same poses, each where it is predicted at the pose's time.
+checked at the same poses, each where it is predicted at the pose's time (docs/reference.md §4.8).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Homotopy classes of bands, simple version (docs/reference.md §4.7): the signature of a band
+"""Homotopy classes of bands, simple version (docs/reference.md §4.7, §4.8): the signature of a band
 around the static obstacle clusters and around the moving obstacles, and where to seed bands
 of other classes.
 

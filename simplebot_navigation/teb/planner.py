@@ -123,8 +123,8 @@ class TebLocalPlanner:
     def set_dynamic_obstacles(self, obstacles: np.ndarray) -> None:
         """Moving obstacles for the next cycles, until replaced: (K, 5) rows x, y, vx, vy, radius
         in the planning frame (the local costmap's), positions at the time of the coming control
-        cycle, velocities in m/s; (0, 5) for none. Rows with a non-finite value or a negative
-        radius are dropped, which is reported once."""
+        cycle, velocities in m/s; (0, 5) for none (docs/reference.md §4.8). Rows with a non-finite
+        value or a negative radius are dropped, which is reported once."""
         rows = np.asarray(obstacles, dtype=float)
         if rows.size == 0:
             rows = rows.reshape(0, 5)
