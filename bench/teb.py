@@ -1,6 +1,6 @@
 """TEB control-cycle time for the lab robot, homotopy class planning off and on, side by side.
 
-    python bench/teb.py [--cycles N] [--scene corridor|barrier|door|all] [--profile]
+    python bench/teb.py [--cycles N] [--scene corridor|barrier|door|crowd|all] [--profile]
 
 The lab robot (0.9 x 0.6 m box, padding 0.03, diff-drive) with the lab's teb_local_planner.yaml
 (two_circles model, offsets and radii 0.2) and TEB defaults otherwise. The local costmap is the
@@ -17,6 +17,11 @@ Scenes:
             behind it to (-2.5, 3.0, yaw 0), as the global planner routes the lab's meeting_north
             goal. The walls run on beyond the local costmap, so the part far behind the robot is
             not in the optimiser's obstacle container.
+  crowd     an open 17 x 12 m field with 24 people, circles of radius 0.5 m walking straight at
+            1 to 1.9 m/s in random directions (bouncing off the field's edges), all of them given
+            to the planner every cycle at their current position and velocity; the round robot
+            (circular model and costmap footprint, radius 0.25 m) at max_vel_x 1 m/s with
+            include_dynamic_obstacles true crosses the field along an 11 m plan.
 
 Two robots run in lock step, one per planner configuration, each integrating its own (v, omega)
 with a unicycle model at the lab's 20 Hz controller period, so both are timed in the same run under
@@ -24,7 +29,9 @@ the same machine load. A cycle is one compute_velocity_commands call (plan pruni
 obstacle extraction, optimisation of every band, feasibility check, command): wall clock, and
 the calling thread's CPU time ("cpu"), which other processes on the machine disturb less.
 "bands" is the mean number of bands optimised per cycle, "failed" the cycles without a valid
-command, "clearance" the smallest distance from the unpadded robot box to a lethal cell centre.
+command, "clearance" the smallest distance from the unpadded robot outline to a lethal cell centre
+or a person's circle (negative: contact; the crowd's people do not avoid the robot, and a robot
+stopped by an infeasible cycle may still be walked into).
 The compiled kernels are loaded (warm_up) before the first cycle, as the node does.
 
 After each scene, "compiled vs reference evaluation" times one evaluation with Jacobian and
@@ -39,6 +46,7 @@ import argparse
 import math
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -67,6 +75,47 @@ LAB_PARAMS = {
 }
 PERIOD = 0.05
 SAMPLE_EVERY = 10
+ROUND_RADIUS = 0.25
+ROUND_PARAMS = {"odom_topic": "/odom", "map_frame": "/odom", "include_dynamic_obstacles": True,
+                "max_vel_x": 1.0, "max_vel_theta": 1.5, "acc_lim_x": 1.0, "acc_lim_theta": 1.5,
+                "footprint_model": {"type": "circular", "radius": ROUND_RADIUS}}
+_ANGLES = np.linspace(0.0, 2 * math.pi, 16, endpoint=False)
+ROUND_FOOTPRINT = ROUND_RADIUS * np.column_stack([np.cos(_ANGLES), np.sin(_ANGLES)])
+#: the crowd's field, (x_min, y_min, x_max, y_max)
+FIELD = (-3.0, -5.0, 14.0, 7.0)
+
+
+@dataclass
+class Scene:
+    world: np.ndarray
+    plan: np.ndarray
+    params: dict
+    footprint: np.ndarray
+    robot_radius: float | None = None                  # None: the lab box
+    crowd: "Crowd | None" = None
+
+
+class Crowd:
+    """People walking straight at constant speed, bouncing off the field's edges."""
+
+    def __init__(self, count: int = 24, radius: float = 0.5, seed: int = 7):
+        rng = np.random.default_rng(seed)
+        x0, y0, x1, y1 = FIELD
+        pos = []
+        while len(pos) < count:                         # none starts within 2 m of the robot
+            p = rng.uniform((x0 + radius, y0 + radius), (x1 - radius, y1 - radius))
+            if math.hypot(*p) > 2.0:
+                pos.append(p)
+        heading, speed = rng.uniform(-math.pi, math.pi, count), rng.uniform(1.0, 1.9, count)
+        self.state = np.column_stack([np.array(pos), speed * np.cos(heading), speed * np.sin(heading),
+                                      np.full(count, radius)])
+
+    def step(self, dt: float) -> None:
+        s = self.state
+        s[:, :2] += dt * s[:, 2:4]
+        for axis, (lo, hi) in enumerate(((FIELD[0], FIELD[2]), (FIELD[1], FIELD[3]))):
+            out = ((s[:, axis] < lo + s[:, 4]) & (s[:, 2 + axis] < 0)) | ((s[:, axis] > hi - s[:, 4]) & (s[:, 2 + axis] > 0))
+            s[out, 2 + axis] *= -1.0
 
 
 def world_grid(walls, boxes) -> np.ndarray:
@@ -92,12 +141,14 @@ def corridor():
     ramp = np.clip(xs / 1.5, 0.0, 1.0) * np.clip((10.0 - xs) / 1.5, 0.0, 1.0)
     ys = -0.55 * ramp * np.cos(np.pi * (xs - 2.0) / 2.0)
     yaw = np.arctan2(np.gradient(ys), np.gradient(xs))
-    return world_grid([(-1.6, -np.inf, np.inf), (1.6, -np.inf, np.inf)], boxes), np.column_stack([xs, ys, yaw])
+    return lab_scene(world_grid([(-1.6, -np.inf, np.inf), (1.6, -np.inf, np.inf)], boxes),
+                     np.column_stack([xs, ys, yaw]))
 
 
 def barrier():
     xs = np.arange(0.0, 3.5 + 1e-9, RES)
-    return world_grid((), [(1.5, 0.0, 0.05, 1.0)]), np.column_stack([xs, np.zeros_like(xs), np.zeros_like(xs)])
+    return lab_scene(world_grid((), [(1.5, 0.0, 0.05, 1.0)]),
+                     np.column_stack([xs, np.zeros_like(xs), np.zeros_like(xs)]))
 
 
 def door():
@@ -114,10 +165,21 @@ def door():
     xs, ys = np.interp(t, s, pts[:, 0]), np.interp(t, s, pts[:, 1])
     yaw = np.arctan2(np.gradient(ys), np.gradient(xs))
     yaw[-1] = 0.0                                       # the goal's own orientation
-    return world_grid(walls, []), np.column_stack([xs, ys, yaw])
+    return lab_scene(world_grid(walls, []), np.column_stack([xs, ys, yaw]))
 
 
-SCENES = {"corridor": corridor, "barrier": barrier, "door": door}
+def crowd():
+    xs = np.arange(0.0, 11.0 + 1e-9, RES)
+    plan = np.column_stack([xs, np.zeros_like(xs), np.zeros_like(xs)])
+    return Scene(world_grid((), []), plan, ROUND_PARAMS, ROUND_FOOTPRINT * (1.0 + PADDING / ROUND_RADIUS),
+                 robot_radius=ROUND_RADIUS, crowd=Crowd())
+
+
+def lab_scene(world: np.ndarray, plan: np.ndarray) -> Scene:
+    return Scene(world, plan, LAB_PARAMS, LAB_FOOTPRINT + np.sign(LAB_FOOTPRINT) * PADDING)
+
+
+SCENES = {"corridor": corridor, "barrier": barrier, "door": door, "crowd": crowd}
 
 
 def local_costmap(world: np.ndarray, x: float, y: float) -> Costmap2D:
@@ -130,20 +192,20 @@ def local_costmap(world: np.ndarray, x: float, y: float) -> Costmap2D:
     return cm
 
 
-def make_planner(homotopy: bool, plan: np.ndarray) -> TebLocalPlanner:
-    cfg = TebConfig.from_params({**LAB_PARAMS, "enable_homotopy_class_planning": homotopy})
-    footprint = LAB_FOOTPRINT + np.sign(LAB_FOOTPRINT) * PADDING
-    planner = TebLocalPlanner(cfg, footprint, PERIOD)
-    planner.set_plan(plan)
+def make_planner(homotopy: bool, scene: Scene) -> TebLocalPlanner:
+    cfg = TebConfig.from_params({**scene.params, "enable_homotopy_class_planning": homotopy})
+    planner = TebLocalPlanner(cfg, scene.footprint, PERIOD)
+    planner.set_plan(scene.plan)
     return planner
 
 
-def run(scene: str, cycles: int, profile: bool) -> None:
-    world, plan = SCENES[scene]()
+def run(name: str, cycles: int, profile: bool) -> None:
+    scene = SCENES[name]()
+    world = scene.world
     obstacles = np.column_stack(np.nonzero(world.T == LETHAL_OBSTACLE)) * RES + np.array(WORLD_ORIGIN) + RES / 2
-    runs = {name: {"planner": make_planner(hcp, plan), "pose": np.zeros(3), "vel": (0.0, 0.0), "times": [], "cpu": [],
-                   "bands": [], "done": None, "failures": 0, "clearance": math.inf}
-            for name, hcp in (("homotopy off", False), ("homotopy on", True))}
+    runs = {mode: {"planner": make_planner(hcp, scene), "pose": np.zeros(3), "vel": (0.0, 0.0), "times": [],
+                   "cpu": [], "bands": [], "done": None, "failures": 0, "clearance": math.inf, "contacts": 0}
+            for mode, hcp in (("homotopy off", False), ("homotopy on", True))}
     samples = []
     profiler = None
     if profile:
@@ -151,50 +213,66 @@ def run(scene: str, cycles: int, profile: bool) -> None:
         profiler = Profiler()
         profiler.start()
     for k in range(cycles):
+        movers = scene.crowd.state.copy() if scene.crowd else np.zeros((0, 5))
         for r in runs.values():
-            if r["done"] is not None:
-                continue
-            pose, planner = r["pose"], r["planner"]
-            costmap = local_costmap(world, pose[0], pose[1])
-            t0, c0 = time.perf_counter(), time.thread_time()
-            cmd = planner.compute_velocity_commands(pose, r["vel"], costmap)
-            r["times"].append(time.perf_counter() - t0)
-            r["cpu"].append(time.thread_time() - c0)
-            r["bands"].append(planner.planner.bands_optimized)
-            if planner.planner.enabled and k % SAMPLE_EVERY == 0:
-                samples += [(c.band.copy(), planner.obstacles.copy(), r["vel"]) for c in planner.planner.candidates]
-            if cmd.goal_reached:
-                r["done"] = k * PERIOD
-                continue
-            r["failures"] += not cmd.ok
-            v, w = cmd.v, cmd.omega
-            pose += (v * math.cos(pose[2]) * PERIOD, v * math.sin(pose[2]) * PERIOD, w * PERIOD)
-            r["vel"] = (v, w)
-            r["clearance"] = min(r["clearance"], box_clearance(pose, obstacles))
+            if r["done"] is None:
+                step(r, scene, obstacles, movers, k, samples)
+        if scene.crowd:
+            scene.crowd.step(PERIOD)
         if all(r["done"] is not None for r in runs.values()):
             break
     if profiler:
         profiler.stop()
         print(profiler.output_text(unicode=False, color=False, show_all=False))
-    for name, r in runs.items():
+    for mode, r in runs.items():
         t, c = np.array(r["times"]) * 1000.0, np.array(r["cpu"]) * 1000.0
         arrived = f"{r['done']:.1f}" if r["done"] is not None else "no"
-        print(f"{scene:9s} {name:13s} {len(t):6d} {np.median(t):10.1f} {np.percentile(t, 95):8.1f} {t.max():8.1f} "
+        print(f"{name:9s} {mode:13s} {len(t):6d} {np.median(t):10.1f} {np.percentile(t, 95):8.1f} {t.max():8.1f} "
               f"{np.median(c):8.1f} {np.percentile(c, 95):8.1f} "
               f"{np.mean(r['bands']):6.2f} {r['failures']:6d} {arrived:>9s} {r['clearance']:11.3f}")
+        if scene.crowd:
+            print(f"{name:9s} {mode:13s} cycles in contact with a person: {r['contacts']}")
     off, on = (np.median(np.array(runs[n]["times"])) for n in runs)
-    print(f"{scene:9s} median ratio on/off: {on / off:.2f}")
-    compare_evaluations(scene, runs["homotopy on"]["planner"], samples)
+    print(f"{name:9s} median ratio on/off: {on / off:.2f}")
+    compare_evaluations(name, runs["homotopy on"]["planner"], samples)
+
+
+def step(r: dict, scene: Scene, obstacles: np.ndarray, movers: np.ndarray, k: int, samples: list) -> None:
+    """One timed control cycle of one robot, then its unicycle step."""
+    pose, planner = r["pose"], r["planner"]
+    costmap = local_costmap(scene.world, pose[0], pose[1])
+    t0, c0 = time.perf_counter(), time.thread_time()
+    if scene.crowd:
+        planner.set_dynamic_obstacles(movers)
+    cmd = planner.compute_velocity_commands(pose, r["vel"], costmap)
+    r["times"].append(time.perf_counter() - t0)
+    r["cpu"].append(time.thread_time() - c0)
+    r["bands"].append(planner.planner.bands_optimized)
+    if planner.planner.enabled and k % SAMPLE_EVERY == 0:
+        samples += [(c.band.copy(), planner.obstacles.copy(), r["vel"], planner.planner.moving.copy())
+                    for c in planner.planner.candidates]
+    if cmd.goal_reached:
+        r["done"] = k * PERIOD
+        return
+    r["failures"] += not cmd.ok
+    v, w = cmd.v, cmd.omega
+    pose += (v * math.cos(pose[2]) * PERIOD, v * math.sin(pose[2]) * PERIOD, w * PERIOD)
+    r["vel"] = (v, w)
+    gap = min(clearance(pose, obstacles, np.zeros(len(obstacles)), scene.robot_radius),
+              clearance(pose, movers[:, :2] + PERIOD * movers[:, 2:4], movers[:, 4], scene.robot_radius))
+    r["clearance"] = min(r["clearance"], gap)
+    r["contacts"] += gap < 0
 
 
 def compare_evaluations(scene: str, planner: TebLocalPlanner, samples, repeats: int = 20) -> None:
     """Time the compiled and the reference evaluation (with Jacobian and normal equations) of the
     same bands at the final obstacle weight, median over repeats per band."""
     cfg, optimizer = planner.cfg, planner.planner.optimizer
-    weight = cfg.weight_obstacle * cfg.weight_adapt_factor ** (cfg.no_outer_iterations - 1)
+    multiplier = cfg.weight_adapt_factor ** (cfg.no_outer_iterations - 1)
     compiled, reference = [], []
-    for band, obstacles, vel in samples:
-        edges = optimizer.build_edges(band, obstacles, None, weight)
+    for band, obstacles, vel, movers in samples:
+        edges = optimizer.build_edges(band, obstacles, None, cfg.weight_obstacle * multiplier, movers,
+                                      cfg.weight_dynamic_obstacle * multiplier)
         if edges.n < 1:
             continue
         optimizer.start_velocity, optimizer.free_goal_vel = vel, cfg.free_goal_vel
@@ -220,11 +298,16 @@ def compare_evaluations(scene: str, planner: TebLocalPlanner, samples, repeats: 
           f"ratio median {np.median(reference / compiled):.1f}x (min {np.min(reference / compiled):.1f}x)")
 
 
-def box_clearance(pose, obstacles) -> float:
-    """Distance from the robot's (unpadded) rectangle to the nearest lethal cell centre."""
-    local = inverse_transform_points(pose, obstacles)
-    out = np.maximum(np.abs(local) - (0.45, 0.3), 0.0)
-    return float(np.min(np.hypot(out[:, 0], out[:, 1])))
+def clearance(pose, centres: np.ndarray, radii: np.ndarray, robot_radius: float | None) -> float:
+    """Distance from the robot's (unpadded) outline, the lab box or a circle, to the nearest of
+    the circles (radius 0: a lethal cell centre)."""
+    if len(centres) == 0:
+        return math.inf
+    local = inverse_transform_points(pose, centres)
+    if robot_radius is None:
+        out = np.maximum(np.abs(local) - (0.45, 0.3), 0.0)
+        return float(np.min(np.hypot(out[:, 0], out[:, 1]) - radii))
+    return float(np.min(np.hypot(local[:, 0], local[:, 1]) - robot_radius - radii))
 
 
 def main() -> None:

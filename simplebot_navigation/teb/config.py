@@ -19,10 +19,10 @@ MAX_DRIVE_SPEED = 2.0
 MAX_DRIVE_TURN_RATE = 6.0
 _HOLONOMIC = "holonomic motion (vy) is not modelled"
 _CAR_LIKE = "car-like kinematics are not modelled (diff-drive edges are used)"
-_DYNAMIC = "dynamic obstacles are not modelled"
 _HCP = "the simplified homotopy planner seeds bands left and right of obstacle clusters (teb/homotopy.py)"
 _PROXIMITY = "the speed is not scaled down near obstacles"
-_CONVERTER = "costmap cells are used as point obstacles"
+_CONVERTER = ("costmap cells are used as point obstacles; moving obstacles come from move_base's obstacle "
+              "tracker on the obstacles topic")
 _LEGACY = "the left/right closest obstacle association is used"
 
 
@@ -87,11 +87,9 @@ class TebConfig:
     # -- obstacles --------------------------------------------------------------
     min_obstacle_dist: float = param(0.5, "m", "minimum distance between footprint model and obstacles", ge=0)
     inflation_dist: float = param(0.6, "m", "buffer zone around obstacles with a small penalty", ge=0)
-    dynamic_obstacle_inflation_dist: float = param(0.6, "m", "buffer zone around dynamic obstacles", ge=0,
-                                                   not_implemented=_DYNAMIC)
+    dynamic_obstacle_inflation_dist: float = param(0.6, "m", "buffer zone around dynamic obstacles", ge=0)
     include_costmap_obstacles: bool = param(True, "", "take obstacles from the local costmap")
-    include_dynamic_obstacles: bool = param(False, "", "predict moving obstacles at constant velocity",
-                                            not_implemented=_DYNAMIC)
+    include_dynamic_obstacles: bool = param(False, "", "predict moving obstacles at constant velocity")
     costmap_obstacles_behind_robot_dist: float = param(1.5, "m", "costmap obstacles kept behind the robot",
                                                        ge=0)
     obstacle_poses_affected: int = param(30, "", "band poses near each obstacle (legacy association)", ge=0,
@@ -135,10 +133,8 @@ class TebConfig:
                                         not_implemented="the shortest-path edge is not added")
     weight_obstacle: float = param(50.0, "", "weight of min_obstacle_dist", ge=0)
     weight_inflation: float = param(0.1, "", "weight of inflation_dist", ge=0)
-    weight_dynamic_obstacle: float = param(50.0, "", "weight of dynamic obstacle distance", ge=0,
-                                           not_implemented=_DYNAMIC)
-    weight_dynamic_obstacle_inflation: float = param(0.1, "", "weight of dynamic obstacle inflation", ge=0,
-                                                     not_implemented=_DYNAMIC)
+    weight_dynamic_obstacle: float = param(50.0, "", "weight of dynamic obstacle distance", ge=0)
+    weight_dynamic_obstacle_inflation: float = param(0.1, "", "weight of dynamic obstacle inflation", ge=0)
     weight_velocity_obstacle_ratio: float = param(0.0, "", "weight of the speed limit near obstacles", ge=0,
                                                   not_implemented=_PROXIMITY)
     weight_viapoint: float = param(1.0, "", "weight of the distance to via-points", ge=0)

@@ -19,7 +19,8 @@ widest edge (an acceleration over two segments) spans BANDWIDTH columns, so J^T 
 LAPACK-style lower bands, h[i - j, j] = H[i, j].
 
 The edge set of one outer iteration is the tuple (obstacle pose indices, obstacle points, gap
-clearances, via pose indices, via points); footprint models are described in footprint_kernels.
+clearances, via pose indices, via points, dynamic obstacle pose indices, dynamic obstacles (x, y,
+radius) predicted at their pose's time); footprint models are described in footprint_kernels.
 """
 
 from __future__ import annotations
@@ -35,8 +36,10 @@ from simplebot_navigation.teb.footprint_kernels import footprint_distance_trig
 BANDWIDTH = 10
 MIN_TIME_DIFF = 1e-3
 #: Edge families, in the order of the residual vector and of the per-family chi2.
-FAMILIES = ("vel", "acc", "acc_start", "acc_goal", "kin", "time", "obstacle", "via", "prefer_rotdir")
-F_VEL, F_ACC, F_ACC_START, F_ACC_GOAL, F_KIN, F_TIME, F_OBSTACLE, F_VIA, F_PREFER_ROTDIR = range(9)
+#: The dynamic obstacles come last, so a band without them sums the same chi2 terms in the same order.
+FAMILIES = ("vel", "acc", "acc_start", "acc_goal", "kin", "time", "obstacle", "via", "prefer_rotdir",
+            "dynamic_obstacle")
+F_VEL, F_ACC, F_ACC_START, F_ACC_GOAL, F_KIN, F_TIME, F_OBSTACLE, F_VIA, F_PREFER_ROTDIR, F_DYNAMIC = range(10)
 N_FAMILIES = len(FAMILIES)
 #: Rotations at the start of the band a preferred turning direction applies to (AddEdgesPreferRotDir).
 PREFER_ROTDIR_ROTATIONS = 3
@@ -45,16 +48,17 @@ PREFER_ROTDIR_ROTATIONS = 3
 (P_EPS, P_VEL_W_X, P_VEL_W_TH, P_VEL_LO_X, P_VEL_LO_TH, P_VEL_HI_X, P_VEL_HI_TH, P_ACC_W_X, P_ACC_W_TH,
  P_ACC_LIM_X, P_ACC_LIM_TH, P_START_V, P_START_OMEGA, P_FREE_GOAL, P_W_NH, P_W_FD, P_W_TIME, P_W_OBSTACLE,
  P_MIN_OBSTACLE, P_EXPONENT, P_INFLATION, P_W_INFLATION, P_INFLATION_DIST, P_W_VIA, P_ROTDIR, P_W_ROTDIR,
- N_PARAMS) = range(27)
+ P_W_DYNAMIC, P_DYNAMIC_INFLATION, P_W_DYNAMIC_INFLATION, P_DYNAMIC_INFLATION_DIST, N_PARAMS) = range(31)
 
 _TWO_PI = 2.0 * math.pi
 
 
 def edge_parameters(cfg, obstacle_weight: float, start_velocity, free_goal_vel: bool,
-                    with_inflation: bool, rotdir: int = 0) -> np.ndarray:
+                    with_inflation: bool, rotdir: int = 0, dynamic_weight: float = 0.0) -> np.ndarray:
     """The scalars every edge family needs, square roots of the weights included (a residual is
     sqrt(weight) * error, so chi2 carries the weight). rotdir: the preferred turning direction,
-    +1 left, -1 right, 0 none; without one the prefer_rotdir weight is 0 and the family is skipped."""
+    +1 left, -1 right, 0 none; without one the prefer_rotdir weight is 0 and the family is skipped.
+    dynamic_weight: weight_dynamic_obstacle times the outer loop's multiplier."""
     p = np.zeros(N_PARAMS)
     p[P_EPS] = cfg.penalty_epsilon
     p[P_VEL_W_X], p[P_VEL_W_TH] = math.sqrt(cfg.weight_max_vel_x), math.sqrt(cfg.weight_max_vel_theta)
@@ -73,14 +77,24 @@ def edge_parameters(cfg, obstacle_weight: float, start_velocity, free_goal_vel: 
     p[P_W_VIA] = math.sqrt(cfg.weight_viapoint)
     p[P_ROTDIR] = float(rotdir)
     p[P_W_ROTDIR] = math.sqrt(cfg.weight_prefer_rotdir) if rotdir else 0.0
+    p[P_W_DYNAMIC] = math.sqrt(dynamic_weight)
+    p[P_DYNAMIC_INFLATION] = float(with_dynamic_inflation(cfg))
+    p[P_W_DYNAMIC_INFLATION] = math.sqrt(cfg.weight_dynamic_obstacle_inflation)
+    p[P_DYNAMIC_INFLATION_DIST] = cfg.dynamic_obstacle_inflation_dist
     return p
 
 
-def residual_count(n: int, n_obstacle: int, n_via: int, params: np.ndarray) -> int:
+def with_dynamic_inflation(cfg) -> bool:
+    """The second error of a dynamic obstacle edge counts only beyond min_obstacle_dist."""
+    return cfg.dynamic_obstacle_inflation_dist > cfg.min_obstacle_dist and cfg.weight_dynamic_obstacle_inflation > 0
+
+
+def residual_count(n: int, n_obstacle: int, n_via: int, n_dynamic: int, params: np.ndarray) -> int:
     """Length of the residual vector of a band with n time differences."""
     return (2 * n + (2 * (n - 1) if n >= 2 else 0) + 2 + (0 if params[P_FREE_GOAL] else 2) + 3 * n
             + n_obstacle * (2 if params[P_INFLATION] else 1) + 2 * n_via
-            + (min(n, PREFER_ROTDIR_ROTATIONS) if params[P_W_ROTDIR] else 0))
+            + (min(n, PREFER_ROTDIR_ROTATIONS) if params[P_W_ROTDIR] else 0)
+            + n_dynamic * (2 if params[P_DYNAMIC_INFLATION] else 1))
 
 
 # -- edges -----------------------------------------------------------------------------------------
@@ -130,6 +144,14 @@ def _set_pose_cols(cols, k, n):
 
 
 @njit(cache=True, nogil=True)
+def _accumulate_pose(h, g, cols, jac, k, n, scale, gx, gy, gth, res):
+    """Add a residual that depends on pose k alone, with Jacobian scale * (gx, gy, gth)."""
+    _set_pose_cols(cols, k, n)
+    jac[0], jac[1], jac[2] = scale * gx, scale * gy, scale * gth
+    _accumulate(h, g, cols[:3], jac[:3], res)
+
+
+@njit(cache=True, nogil=True)
 def _set_segment_cols(cols, i, n):
     """Columns of pose i and pose i+1 at cols[0:6]."""
     _set_pose_cols(cols, i, n)
@@ -145,7 +167,7 @@ def evaluate(poses, dts, params, edges, model, jacobian, r, chi2, h, g, work):
     (v, omega) and their Jacobians over (pose i, pose i+1, dT_i); trig (2, n+1), the cosine and
     sine of every heading; cols and jac (16,), one residual's Jacobian row."""
     vw, jvw, trig, cols, jac = work
-    obst_pose, obst_point, obst_gap, via_pose, via_point = edges
+    obst_pose, obst_point, obst_gap, via_pose, via_point, dyn_pose, dyn_obstacle = edges
     n = dts.shape[0]
     eps = params[P_EPS]
     chi2[:] = 0.0
@@ -290,17 +312,13 @@ def evaluate(poses, dts, params, edges, model, jacobian, r, chi2, h, g, work):
         r[row + k] = w_o * e
         chi2[F_OBSTACLE] += r[row + k] * r[row + k]
         if jacobian and e > 0.0:
-            _set_pose_cols(cols, pose, n)
-            jac[0], jac[1], jac[2] = w_o * de * gx, w_o * de * gy, w_o * de * gth
-            _accumulate(h, g, cols[:3], jac[:3], r[row + k])
+            _accumulate_pose(h, g, cols, jac, pose, n, w_o * de, gx, gy, gth, r[row + k])
         if inflation:
             e = max(min(params[P_INFLATION_DIST], obst_gap[k]) - d, 0.0)
             r[row + m + k] = w_i * e
             chi2[F_OBSTACLE] += r[row + m + k] * r[row + m + k]
             if jacobian and e > 0.0:
-                _set_pose_cols(cols, pose, n)
-                jac[0], jac[1], jac[2] = -w_i * gx, -w_i * gy, -w_i * gth
-                _accumulate(h, g, cols[:3], jac[:3], r[row + m + k])
+                _accumulate_pose(h, g, cols, jac, pose, n, -w_i, gx, gy, gth, r[row + m + k])
     row += 2 * m if inflation else m
 
     # via-points
@@ -331,6 +349,29 @@ def evaluate(poses, dts, params, edges, model, jacobian, r, chi2, h, g, work):
                 jac[2], jac[5] = w * s, -w * s
                 _accumulate(h, g, cols[:6], jac[:6], r[row])
             row += 1
+
+    # dynamic obstacles (EdgeDynamicObstacle): the footprint distance to the obstacle's centre
+    # predicted at the pose's time (fixed when the edges are built), less its radius, kept above
+    # min_obstacle_dist and, more softly, above dynamic_obstacle_inflation_dist
+    m = dyn_pose.shape[0]
+    w_o, w_i = params[P_W_DYNAMIC], params[P_W_DYNAMIC_INFLATION]
+    inflation = params[P_DYNAMIC_INFLATION] != 0.0
+    for k in range(m):
+        pose = dyn_pose[k]
+        d, gx, gy, gth = footprint_distance_trig(poses[pose, 0], poses[pose, 1], trig[0, pose], trig[1, pose],
+                                                 dyn_obstacle[k, 0], dyn_obstacle[k, 1], model)
+        d -= dyn_obstacle[k, 2]
+        e = max(params[P_MIN_OBSTACLE] + eps - d, 0.0)
+        r[row + k] = w_o * e
+        chi2[F_DYNAMIC] += r[row + k] * r[row + k]
+        if jacobian and e > 0.0:
+            _accumulate_pose(h, g, cols, jac, pose, n, -w_o, gx, gy, gth, r[row + k])
+        if inflation:
+            e = max(params[P_DYNAMIC_INFLATION_DIST] - d, 0.0)
+            r[row + m + k] = w_i * e
+            chi2[F_DYNAMIC] += r[row + m + k] * r[row + m + k]
+            if jacobian and e > 0.0:
+                _accumulate_pose(h, g, cols, jac, pose, n, -w_i, gx, gy, gth, r[row + m + k])
     return chi2.sum()
 
 

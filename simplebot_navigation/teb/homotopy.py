@@ -1,12 +1,11 @@
 """Homotopy class planning, simple version: several bands through distinct gaps, the cheapest wins.
 
 TEB's full HCP samples a roadmap and compares H-signatures against every point obstacle, which
-is what makes it slow with costmap cells (docs/reference.md §4.7). Here lethal cells are first grouped
-into clusters (cells closer than the robot can pass between), each cluster is represented by one
-key point, and a band's class is the vector of angles it sweeps around those key points: two
-bands with the same start and goal are in the same class when every swept angle agrees to within
-pi. New candidates are seeded by offset initial paths passing left and right of the clusters
-closest to the start-goal line, at most max_number_classes bands in total. To bound the work
+is what makes it slow with costmap cells (docs/reference.md §4.7). Here a band's class is the
+angles it sweeps around clusters of lethal cells and around the moving obstacles
+(teb/homotopy_classes.py). New candidates are seeded by offset initial paths passing left and
+right of the clusters closest to the start-goal line and of the points where the robot would meet
+the moving obstacles, at most max_number_classes bands in total. To bound the work
 of a control cycle, at most one new class is seeded per cycle, it gets one outer iteration in
 that cycle and competes from the next one, and a seed that merges into another class or is
 dropped as a detour is not tried again near the same detour point for REJECTED_SEED_CYCLES
@@ -22,13 +21,15 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
 
 from simplebot_navigation.geometry import normalize_theta
 from simplebot_navigation.teb.band import TimedElasticBand
+from simplebot_navigation.teb.homotopy_classes import (EMPTY_SIGNATURE, Signature, cluster_keypoint,
+                                                       homotopy_signature, moving_detours, moving_signature,
+                                                       obstacle_clusters, path_times, same_class)
 from simplebot_navigation.teb.optimizer import RotType, TebOptimizer
 
 
@@ -37,7 +38,7 @@ class Candidate:
     band: TimedElasticBand
     from_initial_plan: bool = False
     cost: float = math.inf
-    signature: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    signature: Signature = EMPTY_SIGNATURE
     fresh_seed: bool = False
     seed_point: np.ndarray | None = None      # the detour point a seed was built through
 
@@ -49,42 +50,6 @@ REJECTED_SEED_CYCLES = 20
 REJECTED_SEED_RADIUS = 0.5
 
 
-def obstacle_clusters(obstacles: np.ndarray, gap: float) -> list[np.ndarray]:
-    """Group point obstacles on a coarse grid of cell size ``gap`` (8-connected): points less than
-    ``gap`` apart always share a cluster, points farther than 2*sqrt(2)*gap never do directly."""
-    if len(obstacles) == 0:
-        return []
-    lo = obstacles.min(axis=0)
-    ij = np.floor((obstacles - lo) / gap).astype(np.int64)
-    grid = np.zeros(ij.max(axis=0) + 1, dtype=bool)
-    grid[ij[:, 0], ij[:, 1]] = True
-    labels, count = ndimage.label(grid, structure=np.ones((3, 3), dtype=bool))
-    point_label = labels[ij[:, 0], ij[:, 1]] - 1
-    order = np.argsort(point_label, kind="stable")
-    splits = np.searchsorted(point_label[order], np.arange(1, count))
-    return [obstacles[idx] for idx in np.split(order, splits)]
-
-
-def cluster_keypoint(points: np.ndarray) -> np.ndarray:
-    """The member closest to the centroid: a point that lies on the obstacle itself."""
-    c = points.mean(axis=0)
-    return points[np.argmin(((points - c) ** 2).sum(axis=1))]
-
-
-def homotopy_signature(path_xy: np.ndarray, keypoints: np.ndarray) -> np.ndarray:
-    """Angle swept around each key point while travelling along the path (winding, not wrapped)."""
-    if len(keypoints) == 0:
-        return np.zeros(0)
-    ang = np.arctan2(path_xy[:, None, 1] - keypoints[None, :, 1], path_xy[:, None, 0] - keypoints[None, :, 0])
-    return normalize_theta(np.diff(ang, axis=0)).sum(axis=0)
-
-
-def same_class(sig_a: np.ndarray, sig_b: np.ndarray) -> bool:
-    if len(sig_a) != len(sig_b):
-        return False
-    return bool(np.all(np.abs(sig_a - sig_b) < math.pi))
-
-
 class HomotopyClassPlanner:
     def __init__(self, cfg, model):
         self.cfg = cfg
@@ -93,6 +58,8 @@ class HomotopyClassPlanner:
         self.candidates: list[Candidate] = []
         self.best: Candidate | None = None
         self.keypoints = np.zeros((0, 2))
+        #: moving obstacles of the cycle (K, 5: x, y, vx, vy, radius)
+        self.moving = np.zeros((0, 5))
         #: bands optimised in the last cycle (candidates before duplicates and detours are dropped)
         self.bands_optimized = 0
         #: bands left out of the last cycle because its deadline had passed
@@ -121,7 +88,7 @@ class HomotopyClassPlanner:
     # -- one planning cycle -----------------------------------------------------------------
     def plan(self, initial_plan: np.ndarray, obstacles: np.ndarray, via_points, start_velocity,
              free_goal_vel: bool, bounds=None, class_obstacles: np.ndarray | None = None,
-             deadline: float | None = None) -> bool:
+             deadline: float | None = None, dynamic_obstacles: np.ndarray | None = None) -> bool:
         """initial_plan (K,3): robot pose first, local goal last. bounds: (xmin, ymin, xmax, ymax)
         of the local costmap, where seeds may place their detour points. class_obstacles: every
         lethal cell of the local costmap (default: ``obstacles``). The optimiser's container skips
@@ -133,9 +100,13 @@ class HomotopyClassPlanner:
         optimised this cycle (counted in ``postponed``). The followed band goes first and is always
         optimised. The work per cycle is bounded by the configuration alone (max_number_classes
         bands, one new seed, fixed iteration counts), so on a machine fast enough the deadline is
-        never reached and lock-step runs stay reproducible; it is only a safety net."""
+        never reached and lock-step runs stay reproducible; it is only a safety net.
+
+        dynamic_obstacles: (K, 5) rows x, y, vx, vy, radius, for the optimiser, the classes and the
+        seeds (velocities zeroed when they are not to be predicted)."""
         cfg = self.cfg
         start, goal = initial_plan[0], initial_plan[-1]
+        self.moving = np.zeros((0, 5)) if dynamic_obstacles is None else dynamic_obstacles
         self._update_candidates(start, goal)
         if self.enabled:
             gap = max(2.0 * self.model.inscribed_radius, 0.1)
@@ -145,7 +116,7 @@ class HomotopyClassPlanner:
             self.keypoints = (np.array([cluster_keypoint(c) for c in clusters]) if clusters
                               else np.zeros((0, 2)))
             for cand in self.candidates:
-                cand.signature = homotopy_signature(cand.band.poses[:, :2], self.keypoints)
+                cand.signature = self._band_signature(cand.band)
             self._drop_duplicates()
             self._ensure_initial_plan_candidate(initial_plan)
             self._explore(start, goal, clusters, class_obstacles, bounds)
@@ -154,6 +125,25 @@ class HomotopyClassPlanner:
         if not cfg.optimization_activate:
             self.best = self.candidates[0] if self.candidates else None
             return self.best is not None
+        self._optimize_candidates(obstacles, via_points, start_velocity, free_goal_vel, deadline)
+        if self.enabled:
+            seeds = {id(c): c.seed_point for c in self.candidates if c.fresh_seed}
+            for cand in self.candidates:
+                cand.signature = self._band_signature(cand.band)
+                cand.fresh_seed = False
+            self._drop_duplicates()
+            self._delete_detours()
+            kept = {id(c) for c in self.candidates}
+            self.rejected = [(sig, ttl - 1) for sig, ttl in self.rejected if ttl > 1]
+            self.rejected += [(via, REJECTED_SEED_CYCLES) for key, via in seeds.items() if key not in kept]
+            self._select_best()
+        else:
+            self.best = self.candidates[0]
+        return self.best is not None
+
+    def _optimize_candidates(self, obstacles, via_points, start_velocity, free_goal_vel, deadline) -> None:
+        """The followed band first, with the full outer loop, then the others until the deadline."""
+        cfg = self.cfg
         self.bands_optimized = self.postponed = 0
         followed = self._followed()
         late_seeds = []
@@ -170,29 +160,15 @@ class HomotopyClassPlanner:
             if cand.fresh_seed:
                 # A new class gets one outer iteration now and competes from the next cycle on.
                 self.optimizer.optimize(cand.band, obstacles, via_points, start_velocity, free_goal_vel,
-                                        compute_cost=False,
-                                        outer_iterations=1)
+                                        compute_cost=False, outer_iterations=1, dynamic_obstacles=self.moving)
                 cand.cost = math.inf
             else:
                 # Alternatives to the band being followed run the later half of the outer loop.
                 skip = cfg.no_outer_iterations // 2 if cand is not self.best and self.best is not None else 0
                 cand.cost = self.optimizer.optimize(cand.band, obstacles, via_points, start_velocity,
-                                                    free_goal_vel, compute_cost=self.enabled, skip_outer=skip)
+                                                    free_goal_vel, compute_cost=self.enabled, skip_outer=skip,
+                                                    dynamic_obstacles=self.moving)
         self.candidates = [c for c in self.candidates if c not in late_seeds]
-        if self.enabled:
-            seeds = {id(c): c.seed_point for c in self.candidates if c.fresh_seed}
-            for cand in self.candidates:
-                cand.signature = homotopy_signature(cand.band.poses[:, :2], self.keypoints)
-                cand.fresh_seed = False
-            self._drop_duplicates()
-            self._delete_detours()
-            kept = {id(c) for c in self.candidates}
-            self.rejected = [(sig, ttl - 1) for sig, ttl in self.rejected if ttl > 1]
-            self.rejected += [(via, REJECTED_SEED_CYCLES) for key, via in seeds.items() if key not in kept]
-            self._select_best()
-        else:
-            self.best = self.candidates[0]
-        return self.best is not None
 
     def _followed(self) -> Candidate | None:
         """The band the robot follows: the selected one, else the global plan's (a new start)."""
@@ -221,8 +197,13 @@ class HomotopyClassPlanner:
         band.init_from_path(path, self.cfg.max_vel_x, self.cfg.max_vel_theta,
                             self.cfg.global_plan_overwrite_orientation, self.cfg.min_samples,
                             self.cfg.allow_init_with_backwards_motion)
-        return Candidate(band, from_initial_plan,
-                         signature=homotopy_signature(band.poses[:, :2], self.keypoints))
+        return Candidate(band, from_initial_plan, signature=self._band_signature(band))
+
+    def _signature(self, path_xy: np.ndarray, times: np.ndarray) -> Signature:
+        return Signature(homotopy_signature(path_xy, self.keypoints), moving_signature(path_xy, times, self.moving))
+
+    def _band_signature(self, band: TimedElasticBand) -> Signature:
+        return self._signature(band.poses[:, :2], band.time_stamps)
 
     def _has_class(self, signature) -> Candidate | None:
         for cand in self.candidates:
@@ -242,7 +223,7 @@ class HomotopyClassPlanner:
         self.candidates = kept
 
     def _ensure_initial_plan_candidate(self, initial_plan) -> None:
-        sig = homotopy_signature(initial_plan[:, :2], self.keypoints)
+        sig = self._signature(initial_plan[:, :2], path_times(initial_plan[:, :2], self.cfg.max_vel_x))
         for cand in self.candidates:
             cand.from_initial_plan = False
         twin = self._has_class(sig)
@@ -258,29 +239,18 @@ class HomotopyClassPlanner:
             self.candidates.append(self._new_candidate(initial_plan, True))
 
     def _explore(self, start, goal, clusters, obstacles, bounds) -> None:
-        """Seed bands left and right of the clusters nearest to the start-goal line."""
+        """Seed bands left and right of the clusters nearest to the start-goal line, and of the
+        points where the robot would meet a moving obstacle, nearest to the line first."""
         cfg = self.cfg
         axis = goal[:2] - start[:2]
         length = float(np.hypot(*axis))
-        if length < 2 * cfg.min_obstacle_dist or not clusters:
+        if length < 2 * cfg.min_obstacle_dist or not (clusters or len(self.moving)):
             return
         axis /= length
         normal = np.array([-axis[1], axis[0]])
         half_width = 0.5 * cfg.roadmap_graph_area_width
-        clearance = self.model.inscribed_radius + cfg.min_obstacle_dist
-        ranked = []
-        for pts in clusters:
-            rel = pts - start[:2]
-            t, lat = rel @ axis, rel @ normal
-            inside = (t > 0) & (t < length) & (np.abs(lat) < half_width)
-            if inside.any():
-                ranked.append((float(np.min(np.abs(lat[inside]))), t[inside], lat[inside]))
-        ranked.sort(key=lambda r: r[0])
-        for _, t, lat in ranked:
-            if len(self.candidates) >= cfg.max_number_classes:
-                return
-            t_w = float(np.clip(np.mean(t), 0.25 * length, 0.75 * length))
-            for offset in (float(lat.max()) + clearance, float(lat.min()) - clearance):
+        for t_w, offsets in self._detours(start, axis, normal, length, clusters):
+            for offset in offsets:
                 if len(self.candidates) >= cfg.max_number_classes:
                     return
                 via = start[:2] + t_w * axis + offset * normal
@@ -293,7 +263,7 @@ class HomotopyClassPlanner:
                 heading = np.diff(path, axis=0)
                 seed = np.column_stack([path, np.append(np.arctan2(heading[:, 1], heading[:, 0]), 0.0)])
                 seed[0], seed[-1] = start, goal
-                sig = homotopy_signature(seed[:, :2], self.keypoints)
+                sig = self._signature(seed[:, :2], path_times(seed[:, :2], cfg.max_vel_x))
                 if self._has_class(sig) is None and not any(
                         np.hypot(*(via - r)) < REJECTED_SEED_RADIUS for r, _ in self.rejected):
                     cand = self._new_candidate(seed, False)
@@ -302,6 +272,29 @@ class HomotopyClassPlanner:
                     cand.seed_point = via
                     self.candidates.append(cand)
                     return  # one new class per cycle bounds the cycle time
+
+    def _detours(self, start, axis, normal, length: float, clusters) -> list[tuple[float, tuple[float, float]]]:
+        """(distance along the start-goal line, (left, right) lateral offsets) of the detour points
+        around each cluster and each moving obstacle's meeting point within roadmap_graph_area_width,
+        nearest to the line first."""
+        cfg = self.cfg
+        half_width = 0.5 * cfg.roadmap_graph_area_width
+        clearance = self.model.inscribed_radius + cfg.min_obstacle_dist
+        ranked = []
+        for pts in clusters:
+            rel = pts - start[:2]
+            t, lat = rel @ axis, rel @ normal
+            inside = (t > 0) & (t < length) & (np.abs(lat) < half_width)
+            if inside.any():
+                t_w = float(np.clip(np.mean(t[inside]), 0.25 * length, 0.75 * length))
+                ranked.append((float(np.min(np.abs(lat[inside]))), t_w,
+                               (float(lat[inside].max()) + clearance, float(lat[inside].min()) - clearance)))
+        for t, lat, radius in moving_detours(start, axis, length, self.moving, cfg.max_vel_x):
+            if 0 < t < length and abs(lat) - radius < half_width:
+                t_w = float(np.clip(t, 0.25 * length, 0.75 * length))
+                ranked.append((max(abs(lat) - radius, 0.0), t_w, (lat + radius + clearance, lat - radius - clearance)))
+        ranked.sort(key=lambda r: r[0])
+        return [(t_w, offsets) for _, t_w, offsets in ranked]
 
     def _delete_detours(self) -> None:
         """Drop bands with a pose heading against the start-goal direction (dot < -0.1, with

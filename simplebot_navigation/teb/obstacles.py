@@ -56,3 +56,34 @@ def associate_obstacles(model, poses: np.ndarray, obstacles: np.ndarray, min_obs
                                        min_obstacle_dist, force_inclusion_factor, cutoff_factor,
                                        model.bounding_radius, model.inscribed_radius, FORCE_INCLUSION_SECTORS,
                                        GAP_FREE_FRACTION)
+
+
+def planned_motion(obstacles: np.ndarray, predict: bool) -> np.ndarray:
+    """The moving obstacles as the planner predicts them: with include_dynamic_obstacles false
+    (predict) they stand where they are, as static circles, so every use below sees one rule."""
+    if predict:
+        return obstacles
+    still = obstacles.copy()
+    still[:, 2:4] = 0.0
+    return still
+
+
+def predicted_centres(obstacles: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """(K, T, 2): each dynamic obstacle's centre at each time, at constant velocity."""
+    return obstacles[:, None, :2] + times[None, :, None] * obstacles[:, None, 2:4]
+
+
+def dynamic_obstacle_edges(model, poses: np.ndarray, times: np.ndarray, obstacles: np.ndarray, reach: float):
+    """AddEdgesDynamicObstacles: one edge per interior pose and dynamic obstacle (rows x, y, vx, vy,
+    radius), the obstacle taken where it is predicted at the pose's time; returns (pose indices,
+    (m, 3) predicted x, y and radius), obstacle after obstacle. **Here** a pair whose predicted
+    centre lies farther than reach from every point of the model (its centre distance less the
+    bounding radius and the obstacle's radius) gets no edge: its errors are zero and stay so unless
+    the pose moves by about reach within one outer iteration, and a crowd would otherwise put
+    hundreds of idle edges into every evaluation."""
+    inner = np.arange(1, len(poses) - 1)
+    centres = predicted_centres(obstacles, times[inner])                              # K, n-1, 2
+    gap = (np.hypot(*(centres - poses[None, inner, :2]).transpose(2, 0, 1))
+           - model.bounding_radius - obstacles[:, None, 4])
+    k, i = np.nonzero(gap <= reach)
+    return inner[i], np.column_stack([centres[k, i], obstacles[k, 4]])

@@ -10,21 +10,23 @@ the numpy oracle of the same evaluation.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import IntEnum
 
 import numpy as np
 
 from simplebot_navigation.teb import edge_kernels, solver_kernels
 from simplebot_navigation.teb.band import TimedElasticBand
-from simplebot_navigation.teb.obstacles import associate_obstacles
+from simplebot_navigation.teb.obstacles import associate_obstacles, dynamic_obstacle_edges
 
 
 @dataclass
 class EdgeSet:
     """Edges fixed for one outer iteration: obstacle and via-point edges (pose index and point),
     the clearance of the gap each obstacle edge's pose passes (inf: none) and the obstacle
-    weight reached by this outer iteration; n is the band's number of time differences."""
+    weight reached by this outer iteration; n is the band's number of time differences.
+    Dynamic obstacle edges: pose index and the obstacle (x, y, radius) where it is predicted at
+    that pose's time, with weight_dynamic_obstacle times the same multiplier."""
     obst_pose: np.ndarray
     obst_point: np.ndarray
     obst_gap: np.ndarray
@@ -32,6 +34,9 @@ class EdgeSet:
     via_point: np.ndarray
     obstacle_weight: float
     n: int = 0
+    dyn_pose: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    dyn_obstacle: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    dynamic_weight: float = 0.0
 
     @property
     def arrays(self) -> tuple:
@@ -40,7 +45,9 @@ class EdgeSet:
                 np.ascontiguousarray(self.obst_point, dtype=float).reshape(-1, 2),
                 np.ascontiguousarray(self.obst_gap, dtype=float),
                 np.ascontiguousarray(self.via_pose, dtype=np.int64),
-                np.ascontiguousarray(self.via_point, dtype=float).reshape(-1, 2))
+                np.ascontiguousarray(self.via_point, dtype=float).reshape(-1, 2),
+                np.ascontiguousarray(self.dyn_pose, dtype=np.int64),
+                np.ascontiguousarray(self.dyn_obstacle, dtype=float).reshape(-1, 3))
 
 
 class RotType(IntEnum):
@@ -65,12 +72,14 @@ class TebOptimizer:
     # -- outer loop -------------------------------------------------------------------------
     def optimize(self, band: TimedElasticBand, obstacles: np.ndarray, via_points: np.ndarray | None,
                  start_velocity, free_goal_vel: bool, compute_cost: bool = True,
-                 outer_iterations: int | None = None, skip_outer: int = 0) -> float:
+                 outer_iterations: int | None = None, skip_outer: int = 0,
+                 dynamic_obstacles: np.ndarray | None = None) -> float:
         """optimizeTEB: outer iterations of autoResize + association + inner LM, the obstacle
-        weight growing by weight_adapt_factor. skip_outer leaves out the first outer iterations
+        weights growing by weight_adapt_factor. skip_outer leaves out the first outer iterations
         (a warm-started band then goes straight to the larger obstacle weights and its cost is
-        taken at the same final weight as a full run). Returns the selection cost of the final
-        graph (inf unless compute_cost)."""
+        taken at the same final weight as a full run). dynamic_obstacles: (K, 5) rows x, y, vx,
+        vy, radius, predicted at constant velocity (planned_motion zeroes the velocities of those
+        not to be predicted). Returns the selection cost of the final graph (inf unless compute_cost)."""
         cfg = self.cfg
         self.start_velocity = (float(start_velocity[0]), float(start_velocity[1]))
         self.free_goal_vel = free_goal_vel
@@ -82,14 +91,16 @@ class TebOptimizer:
             if cfg.teb_autosize:
                 band.auto_resize(cfg.dt_ref, cfg.dt_hysteresis, cfg.min_samples, cfg.max_samples,
                                  fast_mode=not cfg.include_dynamic_obstacles)
-            edges = self.build_edges(band, obstacles, via_points, cfg.weight_obstacle * multiplier)
+            edges = self.build_edges(band, obstacles, via_points, cfg.weight_obstacle * multiplier,
+                                     dynamic_obstacles, cfg.weight_dynamic_obstacle * multiplier)
             self.levenberg_marquardt(band, edges, cfg.no_inner_iterations)
             if compute_cost and outer == outer_iterations - 1:
                 cost = self.selection_cost(band, edges)
             multiplier *= cfg.weight_adapt_factor
         return cost
 
-    def build_edges(self, band, obstacles, via_points, obstacle_weight) -> EdgeSet:
+    def build_edges(self, band, obstacles, via_points, obstacle_weight, dynamic_obstacles=None,
+                    dynamic_weight: float = 0.0) -> EdgeSet:
         cfg = self.cfg
         empty = np.zeros(0, dtype=np.int64)
         if obstacles is not None and len(obstacles) and cfg.weight_obstacle > 0:
@@ -117,7 +128,13 @@ class TebOptimizer:
                 # round); one nearest to the goal goes to the pose before it.
                 nearest = np.argmin(((band.poses[None, :, :2] - vpts[:, None, :]) ** 2).sum(axis=2), axis=1)
                 vp, vpts = np.minimum(nearest[nearest > 0], n - 2), vpts[nearest > 0]
-        return EdgeSet(pi, obst_point, gap, vp, vpts, obstacle_weight, n=n - 1)
+        edges = EdgeSet(pi, obst_point, gap, vp, vpts, obstacle_weight, n=n - 1, dynamic_weight=dynamic_weight)
+        if dynamic_obstacles is not None and len(dynamic_obstacles) and cfg.weight_dynamic_obstacle > 0:
+            reach = max(cfg.min_obstacle_dist * cfg.obstacle_association_cutoff_factor,
+                        cfg.min_obstacle_dist + cfg.penalty_epsilon, cfg.dynamic_obstacle_inflation_dist)
+            edges.dyn_pose, edges.dyn_obstacle = dynamic_obstacle_edges(self.model, band.poses, band.time_stamps,
+                                                                        dynamic_obstacles, reach)
+        return edges
 
     @property
     def with_inflation(self) -> bool:
@@ -125,10 +142,11 @@ class TebOptimizer:
 
     def parameters(self, edges: EdgeSet) -> np.ndarray:
         return edge_kernels.edge_parameters(self.cfg, edges.obstacle_weight, self.start_velocity, self.free_goal_vel,
-                                            self.with_inflation, int(self.prefer_rotdir))
+                                            self.with_inflation, int(self.prefer_rotdir), edges.dynamic_weight)
 
     def residual_count(self, edges: EdgeSet, params: np.ndarray) -> int:
-        return edge_kernels.residual_count(edges.n, len(edges.obst_pose), len(edges.via_pose), params)
+        return edge_kernels.residual_count(edges.n, len(edges.obst_pose), len(edges.via_pose), len(edges.dyn_pose),
+                                           params)
 
     def levenberg_marquardt(self, band: TimedElasticBand, edges: EdgeSet, iterations: int) -> None:
         if edges.n < 1:
@@ -141,13 +159,14 @@ class TebOptimizer:
         band.poses, band.time_diffs = poses, dts
 
     def selection_cost(self, band: TimedElasticBand, edges: EdgeSet) -> float:
-        """computeCurrentCost: chi2 of all edges, obstacle and via-point edges rescaled for the
-        homotopy selection; the total time replaces the time-optimal edges if asked."""
+        """computeCurrentCost: chi2 of all edges, obstacle (static and dynamic) and via-point edges
+        rescaled for the homotopy selection; the total time replaces the time-optimal edges if asked."""
         cfg = self.cfg
         params = self.parameters(edges)
         chi2 = edge_kernels.family_chi2(band.poses, band.time_diffs, params, edges.arrays, self.model.kernel_model,
                                    self.residual_count(edges, params))
         chi2[edge_kernels.F_OBSTACLE] *= cfg.selection_obst_cost_scale
+        chi2[edge_kernels.F_DYNAMIC] *= cfg.selection_obst_cost_scale
         chi2[edge_kernels.F_VIA] *= cfg.selection_viapoint_cost_scale
         if cfg.selection_alternative_time_cost:
             chi2[edge_kernels.F_TIME] = band.sum_of_time_diffs
@@ -162,4 +181,5 @@ def warm_up() -> None:
 
     band = TimedElasticBand(np.column_stack([np.linspace(0.0, 1.5, 4), np.zeros(4), np.zeros(4)]), np.full(3, 0.3))
     TebOptimizer(TebConfig(), FootprintModel.point()).optimize(band, np.array([[0.7, 0.4]]), np.array([[1.0, 0.1]]),
-                                                              (0.0, 0.0), False)
+                                                              (0.0, 0.0), False,
+                                                              dynamic_obstacles=np.array([[1.0, -0.5, 0.0, 1.0, 0.2]]))

@@ -14,12 +14,13 @@ import numpy as np
 from simplebot_navigation.costmap.footprint import footprint_radii
 from simplebot_navigation.geometry import normalize_theta
 from simplebot_navigation.parameters import fields_of
+from simplebot_navigation.teb.command import saturate, velocity_from_band
 from simplebot_navigation.teb.config import TebConfig
 from simplebot_navigation.teb.failure_detector import FailureDetector, buffer_length
-from simplebot_navigation.teb.feasibility import is_trajectory_feasible
+from simplebot_navigation.teb.feasibility import collision_model, is_trajectory_feasible
 from simplebot_navigation.teb.footprint import FootprintModel
 from simplebot_navigation.teb.homotopy import HomotopyClassPlanner
-from simplebot_navigation.teb.obstacles import behind_robot_filter, costmap_point_obstacles
+from simplebot_navigation.teb.obstacles import behind_robot_filter, costmap_point_obstacles, planned_motion
 from simplebot_navigation.teb.optimizer import RotType
 
 GOAL_ORIENTATION_AVERAGE = 3
@@ -39,8 +40,9 @@ class VelocityCommandResult:
 
 class TebLocalPlanner:
     """One instance per move_base. Per control cycle: compute_velocity_commands(pose, (v, omega),
-    local Costmap2D). Between cycles the ROS shell reads band_poses / band_time_stamps (local_plan,
-    teb_poses), transformed_plan (global_plan), obstacles and footprint_outlines() (teb_markers)."""
+    local Costmap2D), after set_dynamic_obstacles with the moving obstacles of that cycle. Between
+    cycles the ROS shell reads band_poses / band_time_stamps (local_plan, teb_poses), transformed_plan
+    (global_plan), obstacles, dynamic_obstacles and footprint_outlines() (teb_markers)."""
 
     def __init__(self, config: TebConfig, costmap_footprint, controller_period: float):
         """costmap_footprint: the (padded) footprint polygon the local costmap uses, (K,2) in the
@@ -52,6 +54,7 @@ class TebLocalPlanner:
         self.warnings = list(config.warnings) + self.model.warnings
         self.costmap_footprint = np.asarray(costmap_footprint, dtype=float).reshape(-1, 2)
         self.costmap_inscribed_radius = footprint_radii(self.costmap_footprint)[0]
+        self.collision_model = collision_model(self.costmap_footprint, self.costmap_inscribed_radius)
         if self.model.inscribed_radius + config.min_obstacle_dist < self.costmap_inscribed_radius:
             self.warnings.append(
                 f"footprint model inscribed radius ({self.model.inscribed_radius:.3f}) + min_obstacle_dist "
@@ -63,6 +66,10 @@ class TebLocalPlanner:
         self.transformed_plan = np.zeros((0, 3))
         self.via_points = np.zeros((0, 2))
         self.obstacles = np.zeros((0, 2))
+        #: moving obstacles (K, 5: x, y, vx, vy, radius): the last ones set, and those the last cycle used
+        self._next_dynamic_obstacles = np.zeros((0, 5))
+        self.dynamic_obstacles = np.zeros((0, 5))
+        self._dropped_dynamic_reported = False
         self.goal_reached = False
         #: infeasible cycles in a row, and control periods' worth of seconds since the last one
         #: (the shell hands in no clock; move_base calls once per controller period)
@@ -103,6 +110,7 @@ class TebLocalPlanner:
         """The local costmap's padded footprint changed: the feasibility check uses the new one."""
         self.costmap_footprint = np.asarray(costmap_footprint, dtype=float).reshape(-1, 2)
         self.costmap_inscribed_radius = footprint_radii(self.costmap_footprint)[0]
+        self.collision_model = collision_model(self.costmap_footprint, self.costmap_inscribed_radius)
 
     # -- inputs -------------------------------------------------------------------------------
     def set_plan(self, global_plan_xyyaw) -> None:
@@ -111,6 +119,24 @@ class TebLocalPlanner:
             raise ValueError(f"global plan must be a non-empty (N, 3) array of x, y, yaw; got shape {plan.shape}")
         self.global_plan = plan.copy()
         self.goal_reached = False
+
+    def set_dynamic_obstacles(self, obstacles: np.ndarray) -> None:
+        """Moving obstacles for the next cycles, until replaced: (K, 5) rows x, y, vx, vy, radius
+        in the planning frame (the local costmap's), positions at the time of the coming control
+        cycle, velocities in m/s; (0, 5) for none (docs/reference.md §4.8). Rows with a non-finite
+        value or a negative radius are dropped, which is reported once."""
+        rows = np.asarray(obstacles, dtype=float)
+        if rows.size == 0:
+            rows = rows.reshape(0, 5)
+        if rows.ndim != 2 or rows.shape[1] != 5:
+            raise ValueError(f"dynamic obstacles must be a (K, 5) array of x, y, vx, vy, radius; got shape {rows.shape}")
+        valid = np.isfinite(rows).all(axis=1) & (rows[:, 4] >= 0)
+        if not valid.all() and not self._dropped_dynamic_reported:
+            self._dropped_dynamic_reported = True
+            self._notices.append(("warn", f"TEB: dropped {np.count_nonzero(~valid)} of {len(rows)} dynamic "
+                                  "obstacles with a non-finite value or a negative radius. Reported once; later "
+                                  "occurrences are not logged."))
+        self._next_dynamic_obstacles = rows[valid].copy()
 
     def reset(self) -> None:
         """Drop every band (recovery behaviours and new goals start from the plan again), and the
@@ -161,11 +187,13 @@ class TebLocalPlanner:
         lethal = (costmap_point_obstacles(costmap, pose, math.inf)
                   if cfg.include_costmap_obstacles else np.zeros((0, 2)))
         self.obstacles = lethal[behind_robot_filter(lethal, pose, cfg.costmap_obstacles_behind_robot_dist)]
+        self.dynamic_obstacles = self._next_dynamic_obstacles
+        moving = planned_motion(self.dynamic_obstacles, cfg.include_dynamic_obstacles)
         bounds = (costmap.origin_x, costmap.origin_y,
                   costmap.origin_x + costmap.size_x * costmap.resolution,
                   costmap.origin_y + costmap.size_y * costmap.resolution)
         planned = self.planner.plan(transformed, self.obstacles, self.via_points, vel, cfg.free_goal_vel, bounds,
-                                    class_obstacles=lethal, deadline=deadline)
+                                    class_obstacles=lethal, deadline=deadline, dynamic_obstacles=moving)
         if self.planner.postponed and not self._budget_reported:
             self._budget_reported = True
             self._notices.append(("warn",
@@ -180,15 +208,16 @@ class TebLocalPlanner:
             return is_trajectory_feasible(costmap, self.costmap_footprint, self.costmap_inscribed_radius,
                                           band.poses, cfg.feasibility_check_no_poses,
                                           cfg.feasibility_check_lookahead_distance,
-                                          cfg.min_resolution_collision_check_angular)
+                                          cfg.min_resolution_collision_check_angular, band.time_stamps, moving,
+                                          self.collision_model)
 
         if not self.planner.remove_infeasible_best(feasible):
             return self._infeasible("trajectory is not feasible. Resetting planner...")
         self._infeasible_in_a_row = 0
-        command = self._velocity_from_band(self.planner.best_band())
+        command = velocity_from_band(self.planner.best_band(), cfg)
         if command is None:
             return self._infeasible("velocity command invalid. Resetting planner...")
-        v, omega = self._saturate(*command, vel)
+        v, omega = saturate(*command, vel, cfg, self.controller_period)
         self._last_command = (v, omega)
         return VelocityCommandResult(v, omega, True, "")
 
@@ -333,48 +362,3 @@ class TebLocalPlanner:
         d = np.diff(pts, axis=0)
         ang = np.arctan2(d[:, 1], d[:, 0])
         return float(math.atan2(np.sin(ang).mean(), np.cos(ang).mean()))
-
-    # -- command ------------------------------------------------------------------------------
-    def _velocity_from_band(self, band):
-        """Velocity between pose 0 and pose control_look_ahead_poses (fewer if their time exceeds
-        dt_ref per pose), with the sign of the motion along the start heading."""
-        cfg = self.cfg
-        if band is None or len(band.poses) < 2:
-            return None
-        look = max(1, min(cfg.control_look_ahead_poses,
-                          len(band.poses) - 1 - cfg.prevent_look_ahead_poses_near_goal))
-        dt = 0.0
-        for k in range(look):
-            dt += band.time_diffs[k]
-            if dt >= cfg.dt_ref * look:
-                look = k + 1
-                break
-        if not dt > 0:
-            return None
-        p0, p1 = band.poses[0], band.poses[look]
-        d = p1[:2] - p0[:2]
-        direction = d[0] * math.cos(p0[2]) + d[1] * math.sin(p0[2])
-        v = math.copysign(1.0, direction) * math.hypot(*d) / dt if direction != 0 else 0.0
-        omega = float(normalize_theta(p1[2] - p0[2])) / dt
-        if not (math.isfinite(v) and math.isfinite(omega)):
-            return None
-        return v, omega
-
-    def _saturate(self, v, omega, current):
-        """Acceleration window over one control period around the odometry velocity, then the
-        velocity limits (they win if both cannot hold)."""
-        cfg = self.cfg
-        dv = cfg.acc_lim_x * self.controller_period
-        dw = cfg.acc_lim_theta * self.controller_period
-        v = min(max(v, current[0] - dv), current[0] + dv)
-        omega = min(max(omega, current[1] - dw), current[1] + dw)
-        backwards = cfg.max_vel_x_backwards if cfg.max_vel_x_backwards > 0 else cfg.max_vel_x
-        ratio_v = 1.0
-        if v > cfg.max_vel_x:
-            ratio_v = cfg.max_vel_x / v
-        elif v < -backwards:
-            ratio_v = -backwards / v
-        ratio_w = abs(cfg.max_vel_theta / omega) if abs(omega) > cfg.max_vel_theta else 1.0
-        if cfg.use_proportional_saturation:
-            ratio_v = ratio_w = min(ratio_v, ratio_w)
-        return v * ratio_v, omega * ratio_w

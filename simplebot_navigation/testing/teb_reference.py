@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 from simplebot_navigation.geometry import normalize_theta
-from simplebot_navigation.teb.edge_kernels import MIN_TIME_DIFF, PREFER_ROTDIR_ROTATIONS
+from simplebot_navigation.teb.edge_kernels import MIN_TIME_DIFF, PREFER_ROTDIR_ROTATIONS, with_dynamic_inflation
 
 
 def bound_to_interval(value, lower, upper, eps):
@@ -35,7 +35,8 @@ class Layout:
     """Columns of each family's local Jacobian: pose k -> 4k-3..4k-1, dT_i -> 4i, fixed poses -> -1;
     plus the scatter indices of every (i, j) product into banded J^T J."""
 
-    def __init__(self, edges, free_goal_vel: bool, with_inflation: bool, prefer_rotdir: bool = False):
+    def __init__(self, edges, free_goal_vel: bool, with_inflation: bool, prefer_rotdir: bool = False,
+                 dynamic_inflation: bool = False):
         n = edges.n
         self.n_vars = 4 * n - 3
         pc = np.full((n + 1, 3), -1, dtype=np.int64)
@@ -60,6 +61,9 @@ class Layout:
             cols["via"] = np.vstack([pc[edges.via_pose, 0:1], pc[edges.via_pose, 1:2]])
         if prefer_rotdir:
             cols["prefer_rotdir"] = seg[:PREFER_ROTDIR_ROTATIONS, :6]
+        if len(edges.dyn_pose):
+            dyn = pc[edges.dyn_pose]
+            cols["dynamic_obstacle"] = np.vstack([dyn, dyn]) if dynamic_inflation else dyn
         self.cols = cols
         self.bandwidth = max(_row_span(c) for c in cols.values())
         h, g = zip(*(_scatter_indices(c, self.n_vars, self.bandwidth) for c in cols.values()))
@@ -97,6 +101,7 @@ class ReferenceEvaluation:
         self.start_velocity = (float(start_velocity[0]), float(start_velocity[1]))
         self.free_goal_vel = free_goal_vel
         self.with_inflation = cfg.inflation_dist > cfg.min_obstacle_dist and cfg.weight_inflation > 0
+        self.dynamic_inflation = with_dynamic_inflation(cfg)
         # (v, omega) column constants of the stacked velocity and acceleration families
         self._vel_weight = np.sqrt([[cfg.weight_max_vel_x], [cfg.weight_max_vel_theta]])
         self._vel_lower = np.array([[-cfg.max_vel_x_backwards], [-cfg.max_vel_theta]])
@@ -105,7 +110,7 @@ class ReferenceEvaluation:
         self._acc_limit = np.array([[cfg.acc_lim_x], [cfg.acc_lim_theta]])
 
     def layout(self, edges) -> Layout:
-        return Layout(edges, self.free_goal_vel, self.with_inflation, self.prefer_rotdir)
+        return Layout(edges, self.free_goal_vel, self.with_inflation, self.prefer_rotdir, self.dynamic_inflation)
 
     def evaluate(self, poses: np.ndarray, dts: np.ndarray, edges, with_jacobian: bool) -> dict:
         """Weighted residuals per edge family, name -> (r, J_local or None), in the order of
@@ -210,31 +215,20 @@ class ReferenceEvaluation:
         return vw, jvw, dproj, (proj, dx, dy, c0, s0, c1, s1)
 
     def _placement_families(self, out: dict, poses: np.ndarray, edges, n: int, with_jacobian: bool) -> None:
-        """The families that depend on where the poses are: obstacles, via-points, the preferred turn."""
+        """The families that depend on where the poses are: obstacles, via-points, the preferred turn,
+        dynamic obstacles."""
         cfg = self.cfg
         eps = cfg.penalty_epsilon
-        # obstacles (+ inflation), both from the same footprint-model distance
+        # obstacles (+ inflation), both from the same footprint-model distance; in a gap narrower than
+        # the distances ask for, the limits fall to the centre line (associate_obstacles), so passing
+        # through costs nothing more than the centring
         if len(edges.obst_pose):
-            if with_jacobian:
-                d, grad = self.model.distance_and_gradient(poses[edges.obst_pose], edges.obst_point)
-            else:
-                d, grad = self.model.pair_distances(poses[edges.obst_pose], edges.obst_point), None
-            # In a gap narrower than the distances ask for, the limits fall to the centre line
-            # (associate_obstacles), so passing through costs nothing more than the centring.
-            w = math.sqrt(edges.obstacle_weight)
-            e, de = bound_from_below(d, np.minimum(cfg.min_obstacle_dist, edges.obst_gap - eps), eps)
-            p = cfg.obstacle_cost_exponent
-            if p != 1.0:
-                de = de * p * np.power(e, p - 1.0)
-                e = np.power(e, p)
-            res, dres = [w * e], [w * de]
-            if self.with_inflation:
-                w = math.sqrt(cfg.weight_inflation)
-                e, de = bound_from_below(d, np.minimum(cfg.inflation_dist, edges.obst_gap), 0.0)
-                res.append(w * e)
-                dres.append(w * de)
-            out["obstacle"] = (np.concatenate(res),
-                               np.concatenate(dres)[:, None] * np.vstack([grad] * len(res)) if with_jacobian else None)
+            d, grad = self._distances(poses[edges.obst_pose], edges.obst_point, with_jacobian)
+            inflation = ((cfg.weight_inflation, np.minimum(cfg.inflation_dist, edges.obst_gap))
+                         if self.with_inflation else None)
+            out["obstacle"] = _distance_family(d, grad, edges.obstacle_weight,
+                                               np.minimum(cfg.min_obstacle_dist, edges.obst_gap - eps), eps,
+                                               cfg.obstacle_cost_exponent, inflation)
 
         if len(edges.via_pose):
             w = math.sqrt(self.cfg.weight_viapoint)
@@ -251,6 +245,20 @@ class ReferenceEvaluation:
                 jac = np.zeros((k, 6))
                 jac[:, 2], jac[:, 5] = -w * de * self.rotdir, w * de * self.rotdir
             out["prefer_rotdir"] = (w * e, jac)
+
+        # dynamic obstacles at their predicted centres, less their radius
+        if len(edges.dyn_pose):
+            d, grad = self._distances(poses[edges.dyn_pose], edges.dyn_obstacle[:, :2], with_jacobian)
+            inflation = ((cfg.weight_dynamic_obstacle_inflation, cfg.dynamic_obstacle_inflation_dist)
+                         if self.dynamic_inflation else None)
+            out["dynamic_obstacle"] = _distance_family(d - edges.dyn_obstacle[:, 2], grad, edges.dynamic_weight,
+                                                       cfg.min_obstacle_dist, eps, 1.0, inflation)
+
+    def _distances(self, poses: np.ndarray, points: np.ndarray, with_jacobian: bool):
+        """Footprint-model distance of each pose to its point, and its pose gradient when asked."""
+        if with_jacobian:
+            return self.model.distance_and_gradient(poses, points)
+        return self.model.pair_distances(poses, points), None
 
     @staticmethod
     def chi2(families: dict) -> float:
@@ -280,6 +288,23 @@ class ReferenceEvaluation:
             new_poses[1:n] += grouped[:, :3]
             new_poses[1:n, 2] = normalize_theta(new_poses[1:n, 2])
         return new_poses, new_dts
+
+
+def _distance_family(d, grad, weight, lower, eps, exponent, inflation):
+    """(residuals, Jacobian or None) of distances kept above lower (+eps), the error raised to
+    exponent, and with inflation = (weight, distance) a second, softer bound stacked below."""
+    w = math.sqrt(weight)
+    e, de = bound_from_below(d, lower, eps)
+    if exponent != 1.0:
+        de = de * exponent * np.power(e, exponent - 1.0)
+        e = np.power(e, exponent)
+    res, dres = [w * e], [w * de]
+    if inflation is not None:
+        w = math.sqrt(inflation[0])
+        e, de = bound_from_below(d, inflation[1], 0.0)
+        res.append(w * e)
+        dres.append(w * de)
+    return np.concatenate(res), np.concatenate(dres)[:, None] * np.vstack([grad] * len(res)) if grad is not None else None
 
 
 def associate_obstacles(model, poses: np.ndarray, obstacles: np.ndarray, min_obstacle_dist: float,

@@ -34,7 +34,7 @@ def test_the_known_parameters_without_effect_are_declared():
             "weight_shortest_path", "exact_arc_length", "max_vel_y",
             "min_turning_radius", "costmap_converter_plugin", "divergence_detection_enable"} <= names
     teb = [name for cls, name in NOT_IMPLEMENTED if cls.__name__ == "TebConfig"]
-    assert len(teb) >= 43
+    assert len(teb) >= 39          # the four dynamic obstacle parameters take effect
 
 
 @pytest.mark.parametrize("cls, name", NOT_IMPLEMENTED, ids=[f"{c.__name__}.{n}" for c, n in NOT_IMPLEMENTED])

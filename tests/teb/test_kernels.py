@@ -41,7 +41,13 @@ def random_edges(rng, poses, n, weight):
     n_via = int(rng.integers(0, 4)) if n > 1 else 0
     via_pose = rng.integers(1, n, n_via)
     via_point = poses[via_pose, :2] + rng.uniform(-0.5, 0.5, (n_via, 2))
-    return EdgeSet(obst_pose, obst_point, gap, via_pose, via_point, weight, n=n)
+    # moving obstacles predicted near their poses, some overlapping the footprint
+    m_dyn = int(rng.integers(0, 10)) if n > 1 else 0
+    dyn_pose = rng.integers(1, n, m_dyn) if n > 1 else np.zeros(0, np.int64)
+    dyn_obstacle = np.column_stack([poses[dyn_pose, :2] + rng.uniform(-1.2, 1.2, (m_dyn, 2)),
+                                    rng.uniform(0.0, 0.5, m_dyn)])
+    return EdgeSet(obst_pose, obst_point, gap, via_pose, via_point, weight, n=n, dyn_pose=dyn_pose,
+                   dyn_obstacle=dyn_obstacle, dynamic_weight=weight * rng.uniform(0.2, 2.0))
 
 
 def dense_lower(banded, n_vars):
@@ -61,6 +67,7 @@ def test_compiled_evaluation_and_normal_equations_match_the_reference(model, fre
     for trial in range(12):
         cfg = TebConfig.from_params({"obstacle_cost_exponent": [1.0, 1.7, 2.0][trial % 3],
                                      "inflation_dist": 0.8 if inflation else 0.4,
+                                     "dynamic_obstacle_inflation_dist": [0.9, 0.3][(trial + inflation) % 2],
                                      "weight_viapoint": 3.0, "max_vel_x_backwards": 0.15,
                                      "weight_prefer_rotdir": [50.0, 7.0, 0.0][trial % 3]})
         n = int(rng.integers(1, 30))

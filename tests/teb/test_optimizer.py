@@ -121,11 +121,12 @@ def test_a_preferred_turning_direction_stops_the_band_from_starting_the_other_wa
 
 @pytest.mark.parametrize("rotdir", list(RotType), ids=[r.name for r in RotType])
 @pytest.mark.parametrize("free_goal_vel", [False, True])
-@pytest.mark.parametrize("model", [FootprintModel.from_params(LAB_TWO_CIRCLES),
+@pytest.mark.parametrize("model", [FootprintModel.point(), FootprintModel.circular(0.3),
+                                   FootprintModel.from_params(LAB_TWO_CIRCLES),
                                    FootprintModel.polygon([[0.45, 0.3], [0.45, -0.3], [-0.45, -0.3], [-0.45, 0.3]]),
                                    FootprintModel.line([-0.3, 0.0], [0.3, 0.0])], ids=lambda m: m.kind)
 def test_analytic_jacobian_and_normal_equations_match_finite_differences(model, free_goal_vel, rotdir):
-    cfg = TebConfig.from_params({"obstacle_cost_exponent": 1.5})
+    cfg = TebConfig.from_params({"obstacle_cost_exponent": 1.5, "dynamic_obstacle_inflation_dist": 0.9})
     ref = ReferenceEvaluation(cfg, model, (0.1, 0.05), free_goal_vel, rotdir)
     rng = np.random.default_rng(0)
     n = 8
@@ -134,11 +135,16 @@ def test_analytic_jacobian_and_normal_equations_match_finite_differences(model, 
     dts = 0.2 + 0.1 * rng.random(n)
     obstacles = np.array([[1.0, 0.5], [0.6, -0.4], [1.5, 0.3]])
     # two of the edges stand in gaps narrower than min_obstacle_dist (lowered limits)
+    # moving obstacles (x, y, radius where predicted): within both distances, one only within the
+    # inflation distance, one inside the polygon
+    dynamic = np.array([[0.9, 0.6, 0.2], [1.2, -0.9, 0.1], [1.75, 0.05, 0.05]])
     edges = EdgeSet(np.array([2, 3, 4, 5, 3]), obstacles[[0, 0, 1, 2, 1]],
                     np.array([np.inf, 0.3, np.inf, 0.45, np.inf]), np.array([3, 7]),
-                    np.array([[1.0, 0.2], [2.0, 0.0]]), 50.0, n=n)
+                    np.array([[1.0, 0.2], [2.0, 0.0]]), 50.0, n=n, dyn_pose=np.array([4, 5, 7]),
+                    dyn_obstacle=dynamic, dynamic_weight=80.0)
     layout = ref.layout(edges)
     families = ref.evaluate(poses, dts, edges, True)
+    assert np.count_nonzero(families["dynamic_obstacle"][0]) >= 3
     n_vars = 4 * n - 3
     jac, res = [], []
     for name, (r, j) in families.items():
