@@ -18,7 +18,10 @@ class ClearingTrail:
         self._moving_until: dict[int, float] = {}                               # id -> last stamp it moved
 
     def add(self, stamp: float, ids: np.ndarray, rows: np.ndarray, moving_ids) -> None:
-        """Positions (x, y, radius) of the tracks `ids` at `stamp`, and which of them move now."""
+        """Positions (x, y, radius) of the tracks `ids` at `stamp`, and which of them move now; a second update at
+        the same stamp (the other lidar) replaces the first."""
+        if self._entries and self._entries[-1][0] == stamp:
+            self._entries.pop()
         self._entries.append((float(stamp), np.asarray(ids, dtype=np.int64), np.asarray(rows, dtype=float)))
         for track_id in moving_ids:
             self._moving_until[int(track_id)] = float(stamp)
