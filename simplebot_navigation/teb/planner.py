@@ -63,6 +63,8 @@ class TebLocalPlanner:
         self.transformed_plan = np.zeros((0, 3))
         self.via_points = np.zeros((0, 2))
         self.obstacles = np.zeros((0, 2))
+        #: moving obstacles of this cycle, rows [x, y, vx, vy, radius] in the local costmap's frame
+        self.dynamic_obstacles = np.zeros((0, 5))
         self.goal_reached = False
         #: infeasible cycles in a row, and control periods' worth of seconds since the last one
         #: (the shell hands in no clock; move_base calls once per controller period)
@@ -111,6 +113,11 @@ class TebLocalPlanner:
             raise ValueError(f"global plan must be a non-empty (N, 3) array of x, y, yaw; got shape {plan.shape}")
         self.global_plan = plan.copy()
         self.goal_reached = False
+
+    def set_dynamic_obstacles(self, obstacles: np.ndarray) -> None:
+        """Moving obstacles for the next cycle: rows [x, y, vx, vy, radius] in the local costmap's frame, positions
+        already extrapolated to the cycle's time."""
+        self.dynamic_obstacles = np.asarray(obstacles, dtype=float).reshape(-1, 5)
 
     def reset(self) -> None:
         """Drop every band (recovery behaviours and new goals start from the plan again), and the
