@@ -221,11 +221,11 @@ class ObstacleTracker:
 def _visible(scan: Scan, centres: np.ndarray, radius: np.ndarray) -> np.ndarray:
     """Whether a scan should have seen each object: within its field of view and range, with the beam towards
     its centre reaching it (not stopped by something nearer, nor lost)."""
-    if len(scan.angles) < 2 or not len(centres):
+    step = scan.angles[1] - scan.angles[0] if len(scan.angles) > 1 else 0.0
+    if not step or not len(centres):
         return np.zeros(len(centres), dtype=bool)
     offset = centres - scan.origin
     distance = np.hypot(offset[:, 0], offset[:, 1])
-    step = scan.angles[1] - scan.angles[0]
     bearing = np.arctan2(offset[:, 1], offset[:, 0])
     span = ((bearing - scan.angles[0]) * np.sign(step)) % (2 * np.pi)
     index = np.round(span / abs(step)).astype(np.int64)
