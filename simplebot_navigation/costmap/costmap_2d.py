@@ -169,6 +169,23 @@ class Costmap2D:
         fy = low[col] + np.arange(int(counts.sum())) - first[col]
         return col + x_lo, fy
 
+    def cells_within_circles(self, wx, wy, radius) -> tuple[np.ndarray, np.ndarray]:
+        """(mx, my) of every grid cell whose centre lies within one of the circles (world x, y, radius);
+        a cell in several circles comes several times."""
+        wx, wy, radius = (np.asarray(v, dtype=float).reshape(-1) for v in (wx, wy, radius))
+        if not len(radius) or not self.size_x or not self.size_y:
+            return np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64)
+        res = self.resolution
+        reach = int(math.ceil(radius.max() / res))
+        span = np.arange(-reach, reach + 1)
+        cx = np.floor((wx - self.origin_x) / res).astype(np.int64)[:, None, None] + span[None, None, :]
+        cy = np.floor((wy - self.origin_y) / res).astype(np.int64)[:, None, None] + span[None, :, None]
+        dx = self.origin_x + (cx + 0.5) * res - wx[:, None, None]
+        dy = self.origin_y + (cy + 0.5) * res - wy[:, None, None]
+        inside = (dx * dx + dy * dy <= (radius ** 2)[:, None, None]) & (cx >= 0) & (cx < self.size_x) & \
+            (cy >= 0) & (cy < self.size_y)
+        return np.broadcast_to(cx, inside.shape)[inside], np.broadcast_to(cy, inside.shape)[inside]
+
     def set_convex_polygon_cost(self, polygon_world, cost_value: int) -> bool:
         """Fill a convex polygon given in world coordinates.
 

@@ -24,7 +24,7 @@ from simplebot_navigation.parameters import fields_of
 from simplebot_navigation.costmap.footprint import pad_footprint, transform_footprint
 from simplebot_navigation.costmap.layer import CostmapLayer, MapLayer, SensorLayer
 from simplebot_navigation.costmap.layered_costmap import LayeredCostmap
-from simplebot_navigation.costmap.obstacle_layer import (Observation, ObservationBuffer, ObservationSource,
+from simplebot_navigation.costmap.obstacle_layer import (Observation, ObservationBuffer, ObservationSource, ObstacleLayer,
                                                          laser_scan_to_observation, point_cloud_to_observation)
 from simplebot_navigation.costmap.params import CostmapConfig, live_layer_params, resolve_costmap_params
 from simplebot_navigation.costmap.plugins import LAYERS
@@ -111,6 +111,13 @@ class CostmapCore(LayeredCostmap):
         layer, src = self._find_source(source)
         layer.add_observation(src.name, point_cloud_to_observation(points_xyz, sensor_origin, stamp,
                                                                    src.obstacle_range, src.raytrace_range))
+
+    def set_clearing_circles(self, circles) -> None:
+        """Where moving obstacles are and just were ((K, 3) x, y, radius in the global frame): every obstacle
+        layer clears its marks there from the next update on, until the next call (docs/reference.md §6.3)."""
+        for layer in self.plugins:
+            if isinstance(layer, ObstacleLayer):
+                layer.set_clearing_circles(circles)
 
     # -- updates ------------------------------------------------------------------
     def forget_history(self) -> None:

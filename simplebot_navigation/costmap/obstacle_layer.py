@@ -228,6 +228,7 @@ class ObstacleLayer(CostmapLayer):
         self.buffers: dict[str, ObservationBuffer] = {}
         self.transformed_footprint = np.empty((0, 2))
         self.stale_sources: list[str] = []
+        self.clearing_circles = np.empty((0, 3))
 
     def reconfigure(self, sources: dict[str, dict] | None = None, **params) -> None:
         """A run-time change: the layer's own flags (max_obstacle_height, combination_method,
@@ -290,6 +291,7 @@ class ObstacleLayer(CostmapLayer):
             self._raytrace_freespace(observation, bounds)
         for observation in marking:
             self._mark(observation, bounds)
+        self._clear_circles(bounds)
         if self.footprint_clearing_enabled:
             self.transformed_footprint = transform_footprint(self.footprint, robot_x, robot_y, robot_yaw)
             bounds.touch_points(self.transformed_footprint[:, 0], self.transformed_footprint[:, 1])
@@ -305,6 +307,26 @@ class ObstacleLayer(CostmapLayer):
         mx, my, inside = self.world_to_map_array(p[:, 0], p[:, 1])
         self.costmap[my[inside], mx[inside]] = LETHAL_OBSTACLE
         bounds.touch_points(p[inside, 0], p[inside, 1])
+
+    def set_clearing_circles(self, circles) -> None:
+        """Circles (K, 3: x, y, radius in the global frame) where moving obstacles are or just were: every update
+        from now on clears the marks within them, widened by one cell, after marking (docs/reference.md §6.3).
+        Rows that are not finite or have a negative radius are dropped."""
+        c = np.asarray(circles, dtype=float).reshape(-1, 3)
+        self.clearing_circles = c[np.isfinite(c).all(axis=1) & (c[:, 2] >= 0)]
+
+    def _clear_circles(self, bounds: Bounds) -> None:
+        """LETHAL cells whose centre lies within a clearing circle (plus one cell) become FREE; unknown and free
+        cells stay as they are."""
+        c = self.clearing_circles
+        if not len(c):
+            return
+        radius = c[:, 2] + self.resolution
+        xs, ys = self.cells_within_circles(c[:, 0], c[:, 1], radius)
+        marked = self.costmap[ys, xs] == LETHAL_OBSTACLE
+        self.costmap[ys[marked], xs[marked]] = FREE_SPACE
+        bounds.touch_points(np.concatenate([c[:, 0] - radius, c[:, 0] + radius]),
+                            np.concatenate([c[:, 1] - radius, c[:, 1] + radius]))
 
     def _raytrace_freespace(self, observation: Observation, bounds: Bounds) -> None:
         ox, oy = float(observation.origin[0]), float(observation.origin[1])
@@ -364,6 +386,7 @@ class ObstacleLayer(CostmapLayer):
         self.reset_maps()
         self.current = True
         self.stale_sources = []
+        self.clearing_circles = np.empty((0, 3))
         now = self.layered_costmap.clock()
         for buffer in self.buffers.values():
             buffer.reset_last_updated(now)

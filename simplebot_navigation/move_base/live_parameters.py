@@ -7,7 +7,7 @@ and nothing changes. An accepted change (``prepare``, then ``commit`` once the R
 updates the tree and builds every configuration again from it; the node takes them at its next control
 cycle (``take``), and each running object copies what may change from its own: MoveBaseConfig
 (update_move_base_config), CostmapCore.reconfigure, TebLocalPlanner.reconfigure, a new GlobalPlanner, the
-recoveries' configure, and the node's timers.
+recoveries' configure, ObstacleTracker.reconfigure, and the node's timers.
 """
 
 from __future__ import annotations
@@ -22,8 +22,9 @@ import numpy as np
 from simplebot_navigation.parameters import ParameterError, fields_of
 from simplebot_navigation.parameters.overrides import ParameterTable, lookup, set_in_tree
 from simplebot_navigation.move_base.config import MoveBaseConfig
-from simplebot_navigation.move_base.parameter_tree import (COSTMAPS, NodeConfigs, apply_move_base_overrides,
-                                                           build_configs, live_parameter_table)
+from simplebot_navigation.move_base.parameter_tree import (COSTMAPS, OBSTACLE_TRACKING, NodeConfigs,
+                                                           apply_move_base_overrides, build_configs,
+                                                           live_parameter_table)
 from simplebot_navigation.move_base.plugins import plugin_namespace
 
 #: the parts of a node a change can reach, besides each costmap (by name) and each recovery (by name)
@@ -119,14 +120,18 @@ class LiveParameters:
             (_leaf(without, parent) if parent else without).pop(leaf, None)
         else:
             set_in_tree(without, name, old)
-        if _same(build_configs(without), configs):
+        try:
+            unchanged = _same(build_configs(without), configs)
+        except ParameterError:          # the rest of the change needs this value (static_speed < moving_speed)
+            return
+        if unchanged:
             raise ParameterError(f"{name}: not set to {value!r}, since it has no effect here: another parameter "
                                  "takes precedence (a footprint over robot_radius, a costmap-level key over its "
                                  "layer's, a nearer namespace over a farther one)")
 
     def _part(self, name: str) -> str:
         first = name.split(".")[0]
-        if first in COSTMAPS or first in self.configs.recoveries:
+        if first in COSTMAPS or first in self.configs.recoveries or first == OBSTACLE_TRACKING:
             return first
         cfg = self.configs.move_base
         if first == plugin_namespace(cfg.base_global_planner):

@@ -15,11 +15,14 @@ from dataclasses import dataclass, field
 from simplebot_navigation.costmap.params import CostmapConfig, SearchedParams, parameter_specs, resolve_costmap_params
 from simplebot_navigation.parameters import PLUGIN_TYPE_KEY, Param, build, fields_of
 from simplebot_navigation.parameters.overrides import ParameterTable, apply_overrides
+from simplebot_navigation.perception import TrackerParams
 from simplebot_navigation.teb.footprint import FootprintModelParams
 from simplebot_navigation.move_base.config import MoveBaseConfig
 from simplebot_navigation.move_base.plugins import GLOBAL_PLANNERS, LOCAL_PLANNERS, RECOVERY_BEHAVIORS, plugin_namespace
 
 COSTMAPS = ("global_costmap", "local_costmap")
+#: move_base's namespace of the moving-obstacle tracker (docs/reference.md §6)
+OBSTACLE_TRACKING = "obstacle_tracking"
 
 
 def _prefixed(prefix: str, cls) -> ParameterTable:
@@ -28,7 +31,7 @@ def _prefixed(prefix: str, cls) -> ParameterTable:
 
 def parameter_table(tree: dict) -> ParameterTable:
     """Every parameter the move_base node with this ROS 1 tree reads, by ROS 2 name."""
-    table = {**fields_of(MoveBaseConfig), **fields_of(SearchedParams)}
+    table = {**fields_of(MoveBaseConfig), **fields_of(SearchedParams), **_prefixed(f"{OBSTACLE_TRACKING}.", TrackerParams)}
     cfg = MoveBaseConfig.from_params(tree)
     for registry, plugin_type in ((GLOBAL_PLANNERS, cfg.base_global_planner), (LOCAL_PLANNERS, cfg.base_local_planner)):
         params = registry.spec(plugin_type).params
@@ -72,6 +75,7 @@ class NodeConfigs:
     local_planner: object | None
     recoveries: dict[str, dict] = field(default_factory=dict)   # behaviour name -> its (checked) namespace
     warnings: list[str] = field(default_factory=list)
+    obstacle_tracking: TrackerParams = field(default_factory=TrackerParams)
 
 
 def build_configs(tree: dict) -> NodeConfigs:
@@ -96,7 +100,8 @@ def build_configs(tree: dict) -> NodeConfigs:
         if params is not None:
             warnings += build(params, given, f"move_base/{behavior['name']}", also_known=[PLUGIN_TYPE_KEY])[1]
         recoveries[behavior["name"]] = dict(given) if isinstance(given, dict) else {}
-    return NodeConfigs(cfg, costmaps, *planners, recoveries, warnings)
+    tracking = TrackerParams.from_params(tree.get(OBSTACLE_TRACKING, {}), f"move_base/{OBSTACLE_TRACKING}")
+    return NodeConfigs(cfg, costmaps, *planners, recoveries, warnings + tracking.warnings, tracking)
 
 
 def check_tree(tree: dict) -> list[str]:

@@ -59,3 +59,20 @@ def test_values_are_normalized_to_what_the_parameter_holds(live):
     assert live.normalized("local_costmap.obstacles.combination_method", 0.0) == 0
     assert live.normalized("TebLocalPlannerROS.max_vel_x", "fast") == "fast"       # change() says why
     assert live.normalized("use_sim_time", True) is True
+
+
+def test_obstacle_tracking_parameters_change_live_with_their_relations_checked(live):
+    live.change([("obstacle_tracking.moving_speed", 0.4), ("obstacle_tracking.enabled", False)])
+    change = live.take()
+    assert change.parts == {"obstacle_tracking"}
+    assert change.configs.obstacle_tracking.moving_speed == 0.4 and not change.configs.obstacle_tracking.enabled
+    with pytest.raises(ParameterError, match="static_speed"):
+        live.change([("obstacle_tracking.static_speed", 0.5)])
+    with pytest.raises(ParameterError, match="association_gate"):
+        live.change([("obstacle_tracking.association_gate", 0.0)])
+    assert live.take() is None
+
+
+def test_a_change_whose_parts_need_each_other_is_accepted_together(live):
+    live.change([("obstacle_tracking.static_speed", 0.3), ("obstacle_tracking.moving_speed", 0.4)])
+    assert live.take().configs.obstacle_tracking.static_speed == 0.3

@@ -30,3 +30,12 @@ def test_map_msgs_and_move_base_msgs_fields():
     assert MoveBase.Goal.get_fields_and_field_types() == {"target_pose": "geometry_msgs/PoseStamped"}
     assert MoveBase.Feedback.get_fields_and_field_types() == {"base_position": "geometry_msgs/PoseStamped"}
     assert MoveBase.Result.get_fields_and_field_types() == {}
+
+
+def test_costmap_converter_msgs_fields():
+    from costmap_converter_msgs.msg import ObstacleArrayMsg, ObstacleMsg
+    assert ObstacleMsg.get_fields_and_field_types() == {
+        "header": "std_msgs/Header", "polygon": "geometry_msgs/Polygon", "radius": "double", "id": "int64",
+        "orientation": "geometry_msgs/Quaternion", "velocities": "geometry_msgs/TwistWithCovariance"}
+    assert ObstacleArrayMsg.get_fields_and_field_types() == {
+        "header": "std_msgs/Header", "obstacles": "sequence<costmap_converter_msgs/ObstacleMsg>"}

@@ -267,6 +267,8 @@ def _running_value(node, name: str):
         return getattr(node.controller.planner.cfg, rest[0])
     if first == "GlobalPlanner":
         return getattr(node.planner.planner.config, rest[0])
+    if first == "obstacle_tracking":
+        return getattr(node.obstacle_tracking.tracker.params, rest[0])
     if first in node.recovery_instances:
         return getattr(node.recovery_instances[first], {"invert_area_to_clear": "invert_area"}.get(rest[0], rest[0]))
     costmap = getattr(node, first)

@@ -85,6 +85,8 @@ class Costmap2DROS:
                                                            self._on_footprint, 1,
                                                            callback_group=callback_group)
         self.input = CostmapInput(self)
+        #: returns the circles (K, 3: x, y, radius in global_frame) whose marks the next update clears
+        self.clearing_source = None
         self._tf_wait_timer = node.create_timer(TF_WAIT_POLL_S, self._wait_for_tf, callback_group=callback_group,
                                                 clock=Clock(clock_type=ClockType.STEADY_TIME))
         self._update_timer = None
@@ -281,8 +283,11 @@ class Costmap2DROS:
         pose = self.get_robot_pose()
         if pose is None:
             return False
+        circles = self.clearing_source() if self.clearing_source is not None else None
         with speaking_for(self), self.lock:
             self._update_static_transforms()
+            if circles is not None:
+                self.cm.set_clearing_circles(circles)
             self.cm.update_map(pose.x, pose.y, pose.yaw)
             window = self.cm.update_window
             if window is not None:

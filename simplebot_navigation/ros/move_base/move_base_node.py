@@ -26,7 +26,7 @@ from move_base_msgs.action import MoveBase
 from simplebot_navigation.move_base.config import MoveBaseConfig
 from simplebot_navigation.move_base.cycle_stats import ControlLoopStats
 from simplebot_navigation.move_base.events import MoveBaseEvents
-from simplebot_navigation.move_base.plugins import GLOBAL_PLANNERS, LOCAL_PLANNERS, RECOVERY_BEHAVIORS
+from simplebot_navigation.move_base.plugins import GLOBAL_PLANNERS, LOCAL_PLANNERS, RECOVERY_BEHAVIORS, plugin_namespace
 from simplebot_navigation.move_base.recovery import PoseTrail
 from simplebot_navigation.move_base.state_machine import MoveBaseCore
 from simplebot_navigation.parameters import fields_of
@@ -37,6 +37,7 @@ from simplebot_navigation.ros.move_base.move_base_parameters import MoveBaseLive
 from simplebot_navigation.ros.move_base.move_base_recoveries import MoveBaseRecoveryContext
 from simplebot_navigation.ros.move_base.move_base_stats import OUTCOMES, control_loop_status, navigation_status
 from simplebot_navigation.ros.move_base.move_base_supervision import MoveBaseSupervisor
+from simplebot_navigation.ros.move_base.obstacle_tracking import ObstacleTracking
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
 from simplebot_navigation.ros.publishers import create_publisher, drop_event_handlers_of_best_effort_subscriptions
 from simplebot_navigation.ros.tf import Buffer, TransformListener
@@ -68,11 +69,15 @@ class MoveBaseNode(Node):
         self.tf_listener = TransformListener(self.tf, self)
         self.global_costmap = Costmap2DROS(self, "global_costmap", self.tf)
         self.local_costmap = Costmap2DROS(self, "local_costmap", self.tf)
+        self.obstacle_tracking = ObstacleTracking(self, self.local_costmap, self.global_costmap, self.tf,
+                                                  f"~/{plugin_namespace(self.cfg.base_local_planner)}/obstacles")
         self.planner = GLOBAL_PLANNERS.spec(self.cfg.base_global_planner).load()(
             self, self.cfg.base_global_planner, self.global_costmap)
         self.controller = LOCAL_PLANNERS.spec(self.cfg.base_local_planner).load()(
             self, self.cfg.base_local_planner, self.local_costmap, self.tf, self.cfg.controller_frequency,
             self.global_costmap.global_frame)
+        if hasattr(self.controller, "use_obstacle_tracking"):     # a local planner that takes moving obstacles
+            self.controller.use_obstacle_tracking(self.obstacle_tracking)
         self.trail = PoseTrail()
         self.core = MoveBaseCore(self.cfg, self._build_recoveries(), self._plan_to, self.controller,
                                  self.planner.blocked_poses, self.trail)

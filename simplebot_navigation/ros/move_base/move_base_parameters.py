@@ -19,6 +19,7 @@ from rclpy.parameter import Parameter
 
 from simplebot_navigation.move_base.live_parameters import (GLOBAL_PLANNER, LOCAL_PLANNER, MOVE_BASE,
                                                             LiveParameters, update_move_base_config)
+from simplebot_navigation.move_base.parameter_tree import OBSTACLE_TRACKING
 from simplebot_navigation.parameters import ParameterError
 from simplebot_navigation.ros.params import (NODE_LEVEL, describe_declared, given_parameter_tree,
                                              refuse_unknown_parameters)
@@ -45,6 +46,7 @@ class LiveParameterHost(Protocol):
     planner: object             # GlobalPlannerPlugin
     controller: object          # LocalPlannerPlugin
     recovery_instances: dict    # behaviour name -> Recovery
+    obstacle_tracking: object   # ObstacleTracking (ros/move_base/obstacle_tracking.py)
 
     def set_controller_frequency(self, hz: float) -> None:
         """The control timer and its statistics follow the new rate (the controller is told here)."""
@@ -145,6 +147,8 @@ class MoveBaseLiveParameters:
             node.planner.reconfigure(configs.global_planner)
         if LOCAL_PLANNER in parts:
             node.controller.reconfigure(configs.local_planner)
+        if OBSTACLE_TRACKING in parts:
+            node.obstacle_tracking.reconfigure(configs.obstacle_tracking)
         for name, recovery in node.recovery_instances.items():
             if name in parts:
                 for warning in recovery.configure(configs.recoveries[name]):

@@ -137,6 +137,7 @@ class MoveBaseSupervisor:
         back = -jump.delta.nanoseconds * 1e-9
         for costmap in (node.global_costmap, node.local_costmap):
             costmap.forget_history()
+        node.obstacle_tracking.reset()
         node.controller.reset()
         self._waiting_since = None
         node.get_logger().warn(f"time jumped back by {back:.2f} s (simulator restarted?): costmaps cleared")

@@ -1,0 +1,8 @@
+"""Moving obstacles from planar lidar scans: segmentation, a Kalman tracker per obstacle, and where the costmaps
+should clear after them (docs/reference.md §6). No rclpy."""
+
+from simplebot_navigation.perception.params import TrackerParams
+from simplebot_navigation.perception.segmentation import Clusters, Scan, segment
+from simplebot_navigation.perception.tracker import ObstacleTracker, Track
+
+__all__ = ["Clusters", "ObstacleTracker", "Scan", "Track", "TrackerParams", "segment"]

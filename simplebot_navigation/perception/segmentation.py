@@ -1,0 +1,133 @@
+"""One planar scan cut into clusters, each a candidate obstacle with a centre and a radius (docs/reference.md §6).
+
+Neighbouring returns belong to one cluster unless they lie farther apart than the adaptive breakpoint
+distance, which grows with range and beam spacing: r sin(dphi) / sin(lambda - dphi) + 3 sigma (Borges and
+Aldon's rule: a surface seen flatter than lambda breaks up), and always across more than one beam
+without a return. A cluster end is *occluded* when the beam next to
+it hit something nearer, when it is the first or last beam of the scan, or when it lies near range_max: its
+outline is cut there, so its centre moves with the occluder, not with itself.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: a cluster end within this of range_max is cut by the range limit
+#: beams without a return a cluster may span (more: a gap beyond the range limit lies between)
+MAX_MISSING_BEAMS = 1
+RANGE_LIMIT_MARGIN = 0.3
+
+
+@dataclass
+class Scan:
+    """One planar scan in the tracking frame: the sensor position and, in beam order, each beam's bearing
+    (in the tracking frame) and range. A range outside [range_min, range_max), or not finite, is no return."""
+    origin: np.ndarray
+    angles: np.ndarray
+    ranges: np.ndarray
+    range_min: float
+    range_max: float
+
+    @classmethod
+    def from_laser(cls, ranges, angle_min: float, angle_increment: float, range_min: float, range_max: float,
+                   x: float, y: float, yaw: float) -> Scan:
+        """A LaserScan taken by a sensor at (x, y, yaw) in the tracking frame."""
+        r = np.asarray(ranges, dtype=float).reshape(-1)
+        angles = yaw + angle_min + angle_increment * np.arange(len(r))
+        return cls(np.array([x, y], dtype=float), angles, r, float(range_min), float(range_max))
+
+    def valid(self) -> np.ndarray:
+        with np.errstate(invalid="ignore"):
+            return np.isfinite(self.ranges) & (self.ranges >= max(self.range_min, 0.0)) & \
+                (self.ranges < self.range_max)
+
+
+@dataclass
+class Clusters:
+    """K clusters: centre (K, 2), radius (K,), width (K,), count (K,), occluded (K,)."""
+    centre: np.ndarray
+    radius: np.ndarray
+    width: np.ndarray
+    count: np.ndarray
+    occluded: np.ndarray
+
+    @classmethod
+    def empty(cls) -> Clusters:
+        return cls(np.empty((0, 2)), np.empty(0), np.empty(0), np.empty(0, dtype=int), np.empty(0, dtype=bool))
+
+    @classmethod
+    def concatenate(cls, parts: list[Clusters]) -> Clusters:
+        if not parts:
+            return cls.empty()
+        return cls(*(np.concatenate([getattr(p, name) for p in parts])
+                     for name in ("centre", "radius", "width", "count", "occluded")))
+
+    def __len__(self) -> int:
+        return len(self.radius)
+
+    def select(self, mask: np.ndarray) -> Clusters:
+        return Clusters(self.centre[mask], self.radius[mask], self.width[mask], self.count[mask],
+                        self.occluded[mask])
+
+
+def segment(scan: Scan, breakpoint_angle: float, breakpoint_distance: float, range_noise: float,
+            min_points: int) -> Clusters:
+    """The clusters of one scan with at least min_points returns."""
+    beams = np.flatnonzero(scan.valid())
+    if len(beams) < max(min_points, 1):
+        return Clusters.empty()
+    r = scan.ranges[beams]
+    a = scan.angles[beams]
+    step = np.abs(np.diff(a))
+    cos_a, sin_a = np.cos(a), np.sin(a)
+    gap = np.hypot(np.diff(r * cos_a), np.diff(r * sin_a))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        limit = np.minimum(r[:-1], r[1:]) * np.sin(step) / np.sin(np.maximum(breakpoint_angle - step, 1e-6))
+    limit = np.maximum(limit + 3.0 * range_noise, breakpoint_distance)
+    broken = (gap > limit) | (np.diff(beams) > MAX_MISSING_BEAMS + 1)
+    starts = np.concatenate([[0], np.flatnonzero(broken) + 1])
+    ends = np.concatenate([starts[1:], [len(beams)]]) - 1           # inclusive
+    counts = ends - starts + 1
+    beam_step = abs(float(scan.angles[1] - scan.angles[0])) if len(scan.angles) > 1 else 0.0
+    centre, radius = _circles(scan.origin, r, a, starts, ends, counts, beam_step)
+    keep = counts >= min_points
+    occluded = _occluded_ends(scan, beams, r, starts[keep], ends[keep])
+    return Clusters(centre[keep], radius[keep], 2.0 * radius[keep], counts[keep], occluded)
+
+
+def _circles(origin, r, a, starts, ends, counts, beam_step: float) -> tuple[np.ndarray, np.ndarray]:
+    """Centre and radius of the circle each cluster (returns starts[k]..ends[k]) is the near side of.
+
+    A circle of radius R at distance d fills the bearings between its two tangents, half-angle beta with
+    sin(beta) = R / d, and the tangent points lie at L = d cos(beta): so R = L tan(beta). The true tangents lie
+    up to one beam beyond the outer returns, hence half a beam more on each side. The outer returns lie a little
+    inside the tangents, so d comes from every return instead: one at range r, phi off the centre's bearing,
+    lies on the circle when d = r cos(phi) + sqrt(R^2 - r^2 sin^2(phi)); d is their mean."""
+    half_angle = np.minimum(0.5 * (np.abs(a[ends] - a[starts]) + beam_step), 1.4)
+    radius = 0.5 * (r[starts] + r[ends]) * np.tan(half_angle)
+    bearing = 0.5 * (a[starts] + a[ends])
+    phi = a - np.repeat(bearing, counts)
+    across = r * np.sin(phi)
+    depth = r * np.cos(phi) + np.sqrt(np.maximum(np.repeat(radius, counts) ** 2 - across ** 2, 0.0))
+    distance = np.add.reduceat(depth, starts) / counts
+    centre = origin + distance[:, None] * np.stack([np.cos(bearing), np.sin(bearing)], axis=1)
+    return centre, radius
+
+
+def _occluded_ends(scan: Scan, beams: np.ndarray, r: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """Clusters whose outline is cut at either end: by a nearer neighbour, the scan's edge or the range limit."""
+    last = len(scan.ranges) - 1
+    cut = (beams[starts] == 0) | (beams[ends] == last)
+    near_limit = scan.range_max - RANGE_LIMIT_MARGIN
+    cut |= (r[starts] > near_limit) | (r[ends] > near_limit)
+    before = starts - 1
+    has_before = before >= 0
+    cut[has_before] |= (r[before[has_before]] < r[starts[has_before]]) & \
+        (beams[starts[has_before]] - beams[before[has_before]] <= 2)
+    after = ends + 1
+    has_after = after < len(beams)
+    cut[has_after] |= (r[after[has_after]] < r[ends[has_after]]) & \
+        (beams[after[has_after]] - beams[ends[has_after]] <= 2)
+    return cut

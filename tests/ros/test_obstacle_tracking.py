@@ -1,0 +1,152 @@
+"""move_base's obstacle tracking over real topics: a fake robot publishes TF and both lidars' scans of a person
+walking past (10 Hz, wall clock); move_base publishes the person on TebLocalPlannerROS/obstacles with one id and
+its velocity, clears its marks from the local costmap, and takes other nodes' obstacles, dropping bad ones."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pytest
+import rclpy
+from costmap_converter_msgs.msg import ObstacleArrayMsg, ObstacleMsg
+from geometry_msgs.msg import Point32, TransformStamped
+from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import qos_profile_sensor_data
+from sensor_msgs.msg import LaserScan
+
+from simplebot_navigation.costmap.cost_values import LETHAL_OBSTACLE
+from simplebot_navigation.launch.loader import load_launch
+from simplebot_navigation.ros.move_base.move_base_node import MoveBaseNode
+from simplebot_navigation.ros.tf import StaticTransformBroadcaster, TransformBroadcaster
+from simplebot_navigation.testing.lidar_scenes import Cylinder, lidars, scans_at, truth_at
+
+pytestmark = pytest.mark.timeout(120)
+OBSTACLES = "/move_base/TebLocalPlannerROS/obstacles"
+PERSON = Cylinder(0.25, (1.8, -2.2), (0.0, 1.0))
+WALL = [(2.6, -3.0, 2.6, 3.0)]
+FRAMES = ("front_laser_link", "back_laser_link")
+
+
+def transform(parent, child, stamp, x, y, yaw, z=0.0) -> TransformStamped:
+    tf = TransformStamped()
+    tf.header.frame_id, tf.header.stamp, tf.child_frame_id = parent, stamp, child
+    tf.transform.translation.x, tf.transform.translation.y, tf.transform.translation.z = x, y, z
+    tf.transform.rotation.z, tf.transform.rotation.w = math.sin(yaw / 2), math.cos(yaw / 2)
+    return tf
+
+
+class FakeRobot(Node):
+    """A robot standing at the odom origin, its two lidars seeing PERSON walk past a wall."""
+
+    def __init__(self, context):
+        super().__init__("fake_robot", context=context)
+        StaticTransformBroadcaster(self).send_transform(
+            [transform("base_link", frame, self.get_clock().now().to_msg(), mount[0], mount[1], mount[2], 0.15)
+             for frame, (mount, _) in zip(FRAMES, lidars())])
+        self.tf_pub = TransformBroadcaster(self)
+        self.scan_pubs = [self.create_publisher(LaserScan, f"/{frame.split('_link')[0]}/{frame.split('_')[0]}_scan",
+                                                qos_profile_sensor_data) for frame in FRAMES]
+        self.started = time.monotonic()
+        self.rng = np.random.default_rng(5)
+        self.create_timer(0.1, self.tick)
+
+    def elapsed(self) -> float:
+        return time.monotonic() - self.started
+
+    def tick(self) -> None:
+        stamp = self.get_clock().now().to_msg()
+        self.tf_pub.send_transform(transform("odom", "base_link", stamp, 0.0, 0.0, 0.0))
+        scans = scans_at((0.0, 0.0, 0.0), self.elapsed(), [PERSON], WALL, rng=self.rng)
+        for pub, frame, scan, (_, params) in zip(self.scan_pubs, FRAMES, scans, lidars()):
+            msg = LaserScan()
+            msg.header.frame_id, msg.header.stamp = frame, stamp
+            msg.angle_min, msg.angle_max = params.angle_min, params.angle_max
+            msg.angle_increment = (params.angle_max - params.angle_min) / (params.samples - 1)
+            msg.range_min, msg.range_max = params.range_min, params.range_max
+            msg.ranges = scan.ranges.astype(np.float32).tolist()
+            pub.publish(msg)
+
+
+def obstacle(points, radius=0.0, vx=0.0, vy=0.0, ident=7) -> ObstacleMsg:
+    msg = ObstacleMsg(radius=radius, id=ident)
+    msg.polygon.points = [Point32(x=float(x), y=float(y)) for x, y in points]
+    msg.velocities.twist.linear.x, msg.velocities.twist.linear.y = vx, vy
+    return msg
+
+
+@pytest.fixture
+def lab():
+    context = Context()
+    rclpy.init(context=context)
+    spec = next(n for n in load_launch("navigation").nodes if n.name == "move_base")
+    overrides = [Parameter(name, value=value) for name, value in dict(spec.parameters, use_sim_time=False).items()]
+    move_base = MoveBaseNode(context=context, parameter_overrides=overrides)
+    robot = FakeRobot(context)
+    listener = Node("listener", context=context)
+    received: list[ObstacleArrayMsg] = []
+    listener.create_subscription(ObstacleArrayMsg, OBSTACLES, received.append, 10)
+    executor = SingleThreadedExecutor(context=context)
+    for node in (move_base, robot, listener):
+        executor.add_node(node)
+    yield move_base, robot, listener, received, executor
+    executor.shutdown()
+    for node in (move_base, robot, listener):
+        node.destroy_node()
+    rclpy.shutdown(context=context)
+
+
+def spin_until(executor, done, timeout: float) -> None:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end and not done():
+        executor.spin_once(timeout_sec=0.02)
+
+
+def test_a_person_walking_past_is_published_with_one_id_and_its_marks_cleared(lab):
+    move_base, robot, _listener, received, executor = lab
+    spin_until(executor, lambda: robot.elapsed() > 4.0, 30.0)
+    moving = [(msg, o) for msg in received for o in msg.obstacles]
+    assert moving, f"no moving obstacle in {len(received)} messages on {OBSTACLES}"
+    assert {o.id for _, o in moving} == {moving[0][1].id}
+    msg, last = moving[-1]
+    assert msg.header.frame_id == "odom"
+    assert abs(last.velocities.twist.linear.y - 1.0) < 0.2 and abs(last.velocities.twist.linear.x) < 0.2
+    assert len(last.polygon.points) == 1 and last.radius > 0.1
+    rows = move_base.controller._dynamic_obstacles()
+    true = truth_at(robot.elapsed(), [PERSON])[0][0]
+    assert len(rows) == 1 and np.hypot(*(rows[0, :2] - true)) < 0.3
+    costmap = move_base.local_costmap
+    with costmap.lock:
+        grid = costmap.costmap
+        xs, ys = np.meshgrid(np.arange(grid.size_x), np.arange(grid.size_y))
+        wx, wy = grid.origin_x + (xs + 0.5) * grid.resolution, grid.origin_y + (ys + 0.5) * grid.resolution
+        passed = (np.abs(wx - PERSON.start[0]) < 0.45) & (wy < true[1] - 1.5)
+        assert not (grid.costmap[passed] == LETHAL_OBSTACLE).any(), "marks left on the person's path"
+
+
+def test_other_nodes_obstacles_are_used_and_bad_ones_dropped(lab):
+    move_base, robot, listener, _received, executor = lab
+    publisher = listener.create_publisher(ObstacleArrayMsg, OBSTACLES, 10)
+    spin_until(executor, lambda: robot.elapsed() > 0.5, 10.0)
+    msg = ObstacleArrayMsg()
+    msg.header.frame_id = "base_link"
+    msg.header.stamp = listener.get_clock().now().to_msg()
+    msg.obstacles = [obstacle([(1.0, 1.0), (1.2, 1.0), (1.1, 1.2)], 0.1, 0.5, 0.0),
+                     obstacle([(math.nan, 0.0)]), obstacle([]), obstacle([(0.0, 0.0)], radius=-1.0),
+                     obstacle([(0.0, 0.0)], vx=math.inf)]
+    publisher.publish(msg)
+    unknown = ObstacleArrayMsg(obstacles=[obstacle([(3.0, 3.0)])])
+    unknown.header.frame_id = "nowhere"
+    spin_until(executor, lambda: len(move_base.controller.external_obstacles.current(
+        move_base.controller._now(), 1.0)) > 0, 5.0)
+    publisher.publish(unknown)
+    spin_until(executor, lambda: False, 0.2)
+    rows = move_base.controller.external_obstacles.current(move_base.controller._now(), 1.0)
+    assert len(rows) == 1
+    x, y, vx, vy, radius = rows[0]
+    assert abs(x - 1.1) < 0.2 and abs(y - 1.0667) < 0.05 and (vx, vy) == (0.5, 0.0) and 0.2 < radius < 0.25
+    assert move_base.controller.external_obstacles.current(move_base.controller._now() + 2.0, 0.5).size == 0
