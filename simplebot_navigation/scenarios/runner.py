@@ -14,6 +14,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from simplebot_description import RobotDescription
+from simplebot_navigation.sim.moving import MovingTracks
 from simplebot_navigation.sim.world import Pose2D, World, write_world
 from simplebot_navigation.sim.world_gen import clutter_world
 from simplebot_navigation.scenarios.process_session import ProcessSession, RemoteSession
@@ -180,17 +181,32 @@ def body_outline(description: RobotDescription) -> np.ndarray | None:
     return np.concatenate(points)
 
 
-def min_clearance(world: World, description: RobotDescription, poses: np.ndarray) -> float:
-    """Smallest distance between the robot body and any obstacle over (N, 3) world poses (0: touching)."""
-    if len(poses) == 0:
+def min_clearance(world: World, description: RobotDescription, truth: np.ndarray) -> float:
+    """Smallest distance between the robot body and any obstacle over (N, 4) ground-truth samples
+    (t, x, y, yaw) in the world frame (0: touching); moving obstacles are taken where they were at each
+    sample's time, as circles of their bounding radius (a box's clearance is underestimated)."""
+    if len(truth) == 0:
         return math.nan
     outline = body_outline(description)
     if outline is None:
-        return float(max(0.0, np.min(world.distance(poses[:, :2])) - description.radius))
-    c, s = np.cos(poses[:, 2])[:, None], np.sin(poses[:, 2])[:, None]
-    px = poses[:, 0:1] + c * outline[:, 0] - s * outline[:, 1]
-    py = poses[:, 1:2] + s * outline[:, 0] + c * outline[:, 1]
-    return float(np.min(world.distance(np.column_stack((px.ravel(), py.ravel())))))
+        points = truth[:, None, 1:3]
+        static = float(max(0.0, np.min(world.distance(truth[:, 1:3])) - description.radius))
+        inflate = description.radius
+    else:
+        c, s = np.cos(truth[:, 3])[:, None], np.sin(truth[:, 3])[:, None]
+        points = np.stack([truth[:, 1:2] + c * outline[:, 0] - s * outline[:, 1],
+                           truth[:, 2:3] + s * outline[:, 0] + c * outline[:, 1]], axis=2)
+        static = float(np.min(world.distance(points.reshape(-1, 2))))
+        inflate = 0.0
+    if not world.moving:
+        return static
+    tracks = MovingTracks(world.moving)
+    moving = math.inf
+    for t, body in zip(truth[:, 0], points):
+        centres = tracks.states(float(t))[:, :2]
+        gaps = np.hypot(body[:, None, 0] - centres[:, 0], body[:, None, 1] - centres[:, 1]) - tracks.reach
+        moving = min(moving, float(gaps.min()) - inflate)
+    return min(static, max(0.0, moving))
 
 
 # -- the loop --------------------------------------------------------------------------------------
@@ -249,7 +265,7 @@ def run_goal(session: NavigationSession | RemoteSession, goal: Pose2D, budget_s:
         status=status, success=not failures, failures=failures, reason=run.reason, time_s=time_s,
         budget_s=budget_s, path_length=float(np.sum(np.hypot(*np.diff(truth[:, 1:3], axis=0).T))),
         straight_line=math.hypot(goal.x - start.x, goal.y - start.y), collisions=collisions,
-        min_clearance=min_clearance(session.world, session.description, truth[:, 1:4]),
+        min_clearance=min_clearance(session.world, session.description, truth),
         replans=stats.navigation.replans - stats0.navigation.replans if stats else None,
         recoveries=stats.navigation.recoveries - stats0.navigation.recoveries if stats else None,
         cycle_p95_ms=cycles.percentile_s(95) * 1e3 if cycles and cycles.cycles else None,

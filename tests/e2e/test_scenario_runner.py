@@ -1,5 +1,6 @@
 """The scenario runner's goals, budgets, measures and outputs; and the command itself on a short run."""
 
+import dataclasses
 import json
 import math
 import os
@@ -13,6 +14,7 @@ from simplebot_description import robot_description
 from simplebot_navigation.scenarios.report import plot, table, write_json
 from simplebot_navigation.scenarios.runner import (GoalResult, ScenarioOptions, min_clearance, parse_goals,
                                                    shortest_path_length, time_budget)
+from simplebot_navigation.sim.moving import MovingObstacle
 from simplebot_navigation.sim.world import Pose2D, world_from_dict
 from simplebot_navigation.sim.world_loader import load_world
 
@@ -61,12 +63,24 @@ def test_budget_follows_the_way_through_the_doors():
 
 def test_clearance_of_the_box_and_the_round_body():
     box, round_body = robot_description("box"), robot_description("round", 0.3)
-    poses = np.array([[0.0, 0.0, 0.0], [-0.5, 0.0, 0.0]])
+    truth = np.array([[0.0, 0.0, 0.0, 0.0], [0.1, -0.5, 0.0, 0.0]])
     # The wall's face is at x = 1.0; the box's front edge at x = 0.45, the round body's at 0.3.
-    assert min_clearance(WALL, box, poses) == pytest.approx(0.55)
-    assert min_clearance(WALL, round_body, poses) == pytest.approx(0.7)
+    assert min_clearance(WALL, box, truth) == pytest.approx(0.55)
+    assert min_clearance(WALL, round_body, truth) == pytest.approx(0.7)
     # Turned by 90 degrees the box reaches only 0.3 forward.
-    assert min_clearance(WALL, box, np.array([[0.0, 0.0, math.pi / 2]])) == pytest.approx(0.7)
+    assert min_clearance(WALL, box, np.array([[0.0, 0.0, 0.0, math.pi / 2]])) == pytest.approx(0.7)
+
+
+def test_clearance_counts_moving_obstacles_where_they_were_at_the_time():
+    walker = MovingObstacle("cylinder", ((0.0, 0.0, -3.0), (10.0, 0.0, 7.0)), radius=0.25)
+    world = dataclasses.replace(WALL, moving=(walker,))
+    round_body = robot_description("round", 0.3)
+    # The walker walks up x = 0 at 1 m/s and crosses y = 0 at t = 3. At t = 3 the robot at (-2, 0) has it 2 m
+    # ahead (2 - 0.3 - 0.25 = 1.45 m); at t = 0 the robot at (0, 0) has it 3 m away, but the wall 0.7 m.
+    truth = np.array([[0.0, 0.0, 0.0, 0.0], [3.0, -2.0, 0.0, 0.0]])
+    assert min_clearance(world, round_body, truth) == pytest.approx(0.7)
+    truth = np.array([[3.0, -2.0, 0.0, 0.0]])
+    assert min_clearance(world, round_body, truth) == pytest.approx(2.0 - 0.55)
 
 
 def result(goal="library", success=True, clearance=0.4, **kw) -> GoalResult:
