@@ -199,7 +199,7 @@ class Run:
     def drive(self, world: World, goals: list[Pose2D], max_vel_x: float, result: RunResult) -> None:
         """Each goal in turn; CPU, cycles and cmd_vel intervals accumulate over the goals' active spans."""
         for goal in goals:
-            budget = world.extra.get("time_budget") or time_budget(world, self.client.pose, goal, max_vel_x)
+            budget = time_budget(world, self.client.pose, goal, max_vel_x)
             cpu0 = {name: cpu_seconds(pid) for name, pid in self.pids.items()}
             wall0, sim0 = time.monotonic(), self.client.sim_time()
             epoch0 = time.time_ns()

@@ -10,17 +10,18 @@ def initial_covariance(count: int, position_sigma: float, speed_sigma: float) ->
                    (count, 1, 1))
 
 
-def predict(state: np.ndarray, cov: np.ndarray, dt: float, acceleration_sigma: float) -> None:
-    """Advance (T, 4) states and (T, 4, 4) covariances by dt in place; white acceleration noise."""
+def predict(state: np.ndarray, cov: np.ndarray, dt: float, acceleration_sigma) -> None:
+    """Advance (T, 4) states and (T, 4, 4) covariances by dt in place; white acceleration noise of
+    acceleration_sigma, one for all tracks or one per track."""
     if dt <= 0.0 or not len(state):
         return
     state[:, 0:2] += dt * state[:, 2:4]
     f = np.eye(4)
     f[0, 2] = f[1, 3] = dt
-    q = acceleration_sigma ** 2
-    a, b, c = q * dt ** 4 / 4, q * dt ** 3 / 2, q * dt ** 2
-    noise = np.array([[a, 0, b, 0], [0, a, 0, b], [b, 0, c, 0], [0, b, 0, c]])
-    cov[:] = f @ cov @ f.T + noise
+    a, b, c = dt ** 4 / 4, dt ** 3 / 2, dt ** 2
+    unit = np.array([[a, 0, b, 0], [0, a, 0, b], [b, 0, c, 0], [0, b, 0, c]])
+    q = np.broadcast_to(np.square(np.asarray(acceleration_sigma, dtype=float)), (len(state),))
+    cov[:] = f @ cov @ f.T + q[:, None, None] * unit
 
 
 def update(state: np.ndarray, cov: np.ndarray, measured: np.ndarray, sigma: float) -> None:

@@ -22,8 +22,10 @@ class TrackerParams:
                                      "tracked", gt=0.0, le=10.0)
     association_gate: float = param(0.6, "m", "farthest a cluster centre may lie from a track's predicted "
                                     "centre to update it", gt=0.0, le=5.0)
-    acceleration_noise: float = param(0.7, "m/s^2", "process noise of the constant-velocity model (1 sigma)",
-                                      gt=0.0, le=50.0)
+    acceleration_noise: float = param(1.5, "m/s^2", "process noise of the constant-velocity model of a moving "
+                                      "track (1 sigma): people and crowds turn and change pace", gt=0.0, le=50.0)
+    static_acceleration_noise: float = param(0.5, "m/s^2", "process noise of a track not (yet) moving (1 sigma): "
+                                             "low, so that static things report ~0 velocity", gt=0.0, le=50.0)
     measurement_noise: float = param(0.03, "m", "noise of a cluster centre (1 sigma)", gt=0.0, le=1.0)
     initial_speed_sigma: float = param(1.0, "m/s", "velocity uncertainty of a new track (1 sigma)", gt=0.0,
                                        le=10.0)

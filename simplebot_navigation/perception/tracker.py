@@ -87,7 +87,7 @@ class ObstacleTracker:
             return False
         p = self.params
         kalman.predict(self.state, self.cov, 0.0 if self.stamp is None else stamp - self.stamp,
-                       p.acceleration_noise)
+                       np.where(self.moving, p.acceleration_noise, p.static_acceleration_noise))
         self.stamp = stamp
         clusters = Clusters.concatenate([segment(s, p.breakpoint_angle, p.breakpoint_distance, p.range_noise,
                                                  p.min_points) for s in scans])
@@ -110,7 +110,10 @@ class ObstacleTracker:
             return track_of, cluster_of
         distance = np.hypot(*(self.state[:, None, :2] - clusters.centre[None, :, :]).transpose(2, 0, 1))
         gate = self.params.association_gate
-        rows, cols = linear_sum_assignment(np.where(distance <= gate, distance, gate * 1e3))
+        # Both lidars may see one obstacle, one of them cut at its field's edge: a whole outline wins the
+        # track, as only whole ones correct the filter.
+        cost = distance + gate * clusters.occluded[None, :]
+        rows, cols = linear_sum_assignment(np.where(distance <= gate, cost, gate * 1e3))
         ok = distance[rows, cols] <= gate
         cluster_of[rows[ok]] = cols[ok]
         track_of[cols[ok]] = rows[ok]
