@@ -135,6 +135,9 @@ class TebConfig:
     weight_inflation: float = param(0.1, "", "weight of inflation_dist", ge=0)
     weight_dynamic_obstacle: float = param(50.0, "", "weight of dynamic obstacle distance", ge=0)
     weight_dynamic_obstacle_inflation: float = param(0.1, "", "weight of dynamic obstacle inflation", ge=0)
+    dynamic_obstacle_radius_growth: float = param(0.0, "m/s", "Here: a predicted obstacle's radius grows by this "
+                                                  "per second of prediction (with include_dynamic_obstacles)",
+                                                  ge=0, le=2.0)
     weight_velocity_obstacle_ratio: float = param(0.0, "", "weight of the speed limit near obstacles", ge=0,
                                                   not_implemented=_PROXIMITY)
     weight_viapoint: float = param(1.0, "", "weight of the distance to via-points", ge=0)

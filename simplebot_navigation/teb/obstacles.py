@@ -73,17 +73,20 @@ def predicted_centres(obstacles: np.ndarray, times: np.ndarray) -> np.ndarray:
     return obstacles[:, None, :2] + times[None, :, None] * obstacles[:, None, 2:4]
 
 
-def dynamic_obstacle_edges(model, poses: np.ndarray, times: np.ndarray, obstacles: np.ndarray, reach: float):
+def dynamic_obstacle_edges(model, poses: np.ndarray, times: np.ndarray, obstacles: np.ndarray, reach: float,
+                           radius_growth: float = 0.0):
     """AddEdgesDynamicObstacles: one edge per interior pose and dynamic obstacle (rows x, y, vx, vy,
     radius), the obstacle taken where it is predicted at the pose's time; returns (pose indices,
-    (m, 3) predicted x, y and radius), obstacle after obstacle. **Here** a pair whose predicted
-    centre lies farther than reach from every point of the model (its centre distance less the
-    bounding radius and the obstacle's radius) gets no edge: its errors are zero and stay so unless
-    the pose moves by about reach within one outer iteration, and a crowd would otherwise put
-    hundreds of idle edges into every evaluation."""
+    (m, 3) predicted x, y and radius), obstacle after obstacle. **Here** the radius grows by
+    radius_growth per second of prediction (dynamic_obstacle_radius_growth: a person's velocity is
+    an estimate, and people turn), and a pair whose predicted centre lies farther than reach from
+    every point of the model (its centre distance less the bounding radius and the obstacle's
+    radius) gets no edge: its errors are zero and stay so unless the pose moves by about reach
+    within one outer iteration, and a crowd would otherwise put hundreds of idle edges into every
+    evaluation."""
     inner = np.arange(1, len(poses) - 1)
     centres = predicted_centres(obstacles, times[inner])                              # K, n-1, 2
-    gap = (np.hypot(*(centres - poses[None, inner, :2]).transpose(2, 0, 1))
-           - model.bounding_radius - obstacles[:, None, 4])
+    radii = obstacles[:, None, 4] + radius_growth * times[None, inner]                # K, n-1
+    gap = np.hypot(*(centres - poses[None, inner, :2]).transpose(2, 0, 1)) - model.bounding_radius - radii
     k, i = np.nonzero(gap <= reach)
-    return inner[i], np.column_stack([centres[k, i], obstacles[k, 4]])
+    return inner[i], np.column_stack([centres[k, i], radii[k, i]])

@@ -132,8 +132,9 @@ class TebOptimizer:
         if dynamic_obstacles is not None and len(dynamic_obstacles) and cfg.weight_dynamic_obstacle > 0:
             reach = max(cfg.min_obstacle_dist * cfg.obstacle_association_cutoff_factor,
                         cfg.min_obstacle_dist + cfg.penalty_epsilon, cfg.dynamic_obstacle_inflation_dist)
+            growth = cfg.dynamic_obstacle_radius_growth if cfg.include_dynamic_obstacles else 0.0
             edges.dyn_pose, edges.dyn_obstacle = dynamic_obstacle_edges(self.model, band.poses, band.time_stamps,
-                                                                        dynamic_obstacles, reach)
+                                                                        dynamic_obstacles, reach, growth)
         return edges
 
     @property

@@ -1,12 +1,13 @@
 """Three robots in the lab, each with its own move_base, swap places through the shared corridor.
 
 ``multi_navigation`` runs as the launcher's processes at real time; goals go to each robot's
-/robotK/move_base action stamped in the common ``map`` frame. robot1 (open-plan office) drives east
-to robot3's start (the lab), robot2 (north meeting room) west to robot1's and robot3 to robot2's, so
-robot1 meets the other two head-on in the 2.5 m corridor: they must see each other in their lidars
-and keep apart. (The other rotation sends robot2 into the lab's door just as robot3 comes out of it,
-and robot2 then waits for its stale marks of robot3 to be cleared.) Which topics each move_base uses
-is checked from a separate process.
+/robotK/move_base action stamped in the common ``map`` frame. robot1 (open-plan office) drives to
+robot2's start (north meeting room), robot2 to robot3's (the lab) and robot3 to robot1's, so robot2
+and robot3 meet in the corridor and at the lab's door: they must see each other in their lidars and
+keep apart. robot2 reaches the lab's door just as robot3 comes out of it; before the obstacle
+tracker cleared the marks a passing robot leaves, robot2 stood about 30 s in front of robot3's
+stale marks. Now no robot may stand still for more than STANDING_LIMIT_S while its goal is active.
+Which topics each move_base uses is checked from a separate process.
 """
 
 import itertools
@@ -31,6 +32,9 @@ pytestmark = [pytest.mark.timeout(900), pytest.mark.e2e]
 RTF = 1.0
 NAMESPACES = ("robot1", "robot2", "robot3")
 DRIVE_WALL_S = 480.0
+STANDING_LIMIT_S = 5.0
+#: slower than this (m/s, over a ground-truth sample) is standing
+STANDING_SPEED = 0.02
 #: names every node may share: the clock, TF, diagnostics and ROS's own
 SHARED = {"/clock", "/tf", "/tf_static", "/diagnostics", "/rosout", "/parameter_events"}
 
@@ -86,9 +90,23 @@ def closest_approach(clients) -> float:
     return min(math.dist(a[t], b[t]) for a, b in itertools.combinations(tracks, 2) for t in a.keys() & b.keys())
 
 
+def longest_standstill(truth, t0: float, t1: float) -> tuple[float, float]:
+    """(seconds, start) of the longest stretch between t0 and t1 in which the robot stood still."""
+    samples = [s for s in truth if t0 <= s[0] <= t1]
+    longest, began, since = 0.0, math.nan, None
+    for (ta, xa, ya, _), (tb, xb, yb, _) in zip(samples, samples[1:]):
+        if tb > ta and math.hypot(xb - xa, yb - ya) / (tb - ta) < STANDING_SPEED:
+            since = ta if since is None else since
+            if tb - since > longest:
+                longest, began = tb - since, since
+        else:
+            since = None
+    return longest, began
+
+
 def test_three_robots_swap_places_without_touching():
     starts = load_world("lab").starts
-    goals = starts[-1:] + starts[:-1]
+    goals = starts[1:] + starts[:1]
     with ProcessSession("lab", rtf=RTF, launch_file="multi_navigation") as session:
         clients = [ScenarioClient(session.context, namespace) for namespace in NAMESPACES]
         for client in clients:
@@ -125,6 +143,13 @@ def test_three_robots_swap_places_without_touching():
         # robot1 passed the others in the corridor (otherwise the test proves little): closer than 2 m.
         assert closest < 2.0, closest
 
+        for client, result in zip(clients, results):
+            name = client.get_namespace()
+            # Standing still until the goal's end counts only up to the last movement: a robot at its goal stands.
+            moved = [s[0] for s, n in zip(client.truth, client.truth[1:]) if math.hypot(n[1] - s[1], n[2] - s[2]) > 1e-3]
+            standing, since = longest_standstill(client.truth, t0, moved[-1] if moved else t0)
+            print(f"{name}: longest standstill while driving {standing:.1f} s (from t = {since:.1f} s)")
+            assert standing <= STANDING_LIMIT_S, f"{name} stood {standing:.1f} s from t = {since:.1f} s"
         for client, goal, result in zip(clients, goals, results):
             name = client.get_namespace()
             assert result.result().status == 4, f"{name}: status {result.result().status}"  # SUCCEEDED

@@ -1,0 +1,117 @@
+"""Moving obstacles end to end, in lockstep: a crowd world of each level and people walking in the lab's corridor.
+
+The round body r = 0.25 m at 1 m/s with the narrow-passage set and prediction on (the crowd campaign's set,
+CROWD below), and the lab's box with the lab's files at 0.4 m/s among the people. While the robot drives, the
+local costmap is checked every half second for stale marks: a lethal cell that neither a wall nor a moving
+obstacle's place during the last second explains.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from simplebot_navigation.costmap.cost_values import LETHAL_OBSTACLE
+from simplebot_navigation.scenarios import NavigationSession, run_goal
+from simplebot_navigation.scenarios.runner import time_budget
+from simplebot_navigation.sim.moving import MovingTracks
+
+pytestmark = [pytest.mark.timeout(1200), pytest.mark.e2e]
+
+AT_ONE_METRE_PER_SECOND = ("TebLocalPlannerROS.max_vel_x=1.0", "TebLocalPlannerROS.acc_lim_x=1.0",
+                           "TebLocalPlannerROS.max_vel_theta=1.0", "TebLocalPlannerROS.acc_lim_theta=1.0",
+                           "TebLocalPlannerROS.dt_ref=0.15", "TebLocalPlannerROS.dt_hysteresis=0.015")
+#: the crowd arena's goal lies 20 m ahead: the global costmap must reach past it
+CROWD = AT_ONE_METRE_PER_SECOND + ("global_costmap.width=50.0", "global_costmap.height=50.0",
+                                   "global_costmap.origin_x=-25.0", "global_costmap.origin_y=-25.0",
+                                   "TebLocalPlannerROS.include_dynamic_obstacles=true")
+PREDICTION = ("TebLocalPlannerROS.include_dynamic_obstacles=true",)
+STALE_AFTER_S = 1.0
+#: cells within this of a wall or of a moving obstacle's recent place are explained (two cells and the
+#: clearing margin)
+EXPLAINED_M = 0.2
+CHECK_PERIOD_S = 0.5
+
+
+class StaleMarks:
+    """Samples the local costmap while the session runs: the lethal cells nothing explains."""
+
+    def __init__(self, session):
+        self.session = session
+        self.world = session.world
+        self.tracks = MovingTracks(self.world.moving)
+        start = self.world.start
+        self.odom_to_world = (start.x, start.y, start.yaw)
+        self.next_check = 0.0
+        self.worst: tuple[int, float] = (0, math.nan)
+
+    def __call__(self) -> bool:
+        now = self.session.time
+        if now >= self.next_check:
+            self.next_check = now + CHECK_PERIOD_S
+            count = self.count(now)
+            if count > self.worst[0]:
+                self.worst = (count, now)
+        return False
+
+    def count(self, now: float) -> int:
+        costmap_ros = self.session.move_base.local_costmap
+        with costmap_ros.lock:
+            costmap = costmap_ros.costmap
+            my, mx = np.nonzero(costmap.costmap == LETHAL_OBSTACLE)
+        if not len(mx):
+            return 0
+        ox, oy, oyaw = self.odom_to_world
+        x = costmap.origin_x + (mx + 0.5) * costmap.resolution
+        y = costmap.origin_y + (my + 0.5) * costmap.resolution
+        c, s = math.cos(oyaw), math.sin(oyaw)
+        cells = np.column_stack([ox + c * x - s * y, oy + s * x + c * y])
+        unexplained = self.world.distance(cells) > EXPLAINED_M
+        for t in np.arange(now - STALE_AFTER_S, now + 1e-9, 0.05):
+            states = self.tracks.states(float(t))
+            near = np.hypot(cells[:, None, 0] - states[:, 0], cells[:, None, 1] - states[:, 1]) \
+                <= self.tracks.reach + EXPLAINED_M
+            unexplained &= ~near.any(axis=1)
+        return int(unexplained.sum())
+
+
+def drive(world, robot, radius, tight, overrides):
+    with NavigationSession(world, robot=robot, radius=radius, tight=tight, overrides=overrides) as session:
+        session.wait_ready(wall_timeout_s=120)
+        goal = session.world.goal("goal")
+        stale = StaleMarks(session)
+        original = session.run_until
+
+        def run_until(sim_time_s=None, stop=None, wall_timeout_s=None):
+            return original(sim_time_s, lambda: stale() or (stop is not None and stop()), wall_timeout_s)
+
+        session.run_until = run_until
+        max_vel_x = session.controller_param("max_vel_x", 0.4)
+        result = run_goal(session, goal, time_budget(session.world, session.pose(), goal, max_vel_x),
+                          wall_timeout_s=600)
+        return result, stale.worst
+
+
+@pytest.mark.parametrize("world", ["crowd:0", "crowd:1", "crowd:2"], ids=["easy", "medium", "hard"])
+def test_the_round_robot_crosses_a_crowd(world):
+    result, (stale, when) = drive(world, "round", 0.25, True, CROWD)
+    print(f"{world}: {result.status} in {result.time_s:.1f} s, clearance {result.min_clearance:.2f} m, "
+          f"collisions {result.collisions}, struck standing {result.struck_standing}; "
+          f"most unexplained lethal cells {stale} (t = {when:.1f} s)")
+    assert result.success, result.failures
+    assert result.collisions == 0
+    assert stale == 0, f"{stale} lethal cells at t = {when:.1f} s that no wall or recent obstacle explains"
+
+
+@pytest.mark.parametrize("robot, radius, tight, overrides", [
+    ("round", 0.25, True, AT_ONE_METRE_PER_SECOND + PREDICTION),
+    ("box", 0.3, False, PREDICTION),
+], ids=["round-1m/s", "box-lab"])
+def test_people_walk_past_in_the_lab(robot, radius, tight, overrides):
+    result, (stale, when) = drive("people:0", robot, radius, tight, overrides)
+    print(f"people:0 {robot}: {result.status} in {result.time_s:.1f} s, clearance {result.min_clearance:.2f} m, "
+          f"collisions {result.collisions}, struck standing {result.struck_standing}; "
+          f"most unexplained lethal cells {stale} (t = {when:.1f} s)")
+    assert result.success, result.failures
+    assert result.collisions == 0
+    assert stale == 0, f"{stale} lethal cells at t = {when:.1f} s that no wall or recent obstacle explains"
