@@ -11,10 +11,10 @@ from simplebot_navigation.sim.moving import MovingTracks
 from simplebot_navigation.sim.world import write_world
 from simplebot_navigation.sim.world_loader import load_world
 
-SEEDS = range(0, 150, 7)
+SEEDS = range(0, 150, 13)
 
 
-def loop_speeds(obstacle, samples: int = 2000) -> np.ndarray:
+def loop_speeds(obstacle, samples: int = 500) -> np.ndarray:
     """The obstacle's speed at many times over one period of its loop."""
     t0, t1 = obstacle.keyframes[0][0], obstacle.keyframes[-1][0]
     times = np.linspace(t0, t1, samples, endpoint=False) + obstacle.phase
