@@ -33,8 +33,7 @@ def is_trajectory_feasible(costmap, footprint, inscribed_radius: float, poses: n
     inserting intermediate poses where consecutive ones are farther apart than the inscribed radius
     or turn more than min_angular_resolution. With dynamic_obstacles (K, 5: x, y, vx, vy, radius),
     a checked pose also fails when ``model`` (collision_model) overlaps an obstacle's circle where
-    it is predicted at the pose's time (time_stamps of the band poses; inserted poses interpolate),
-    unless standing still at the first pose would meet an obstacle sooner."""
+    it is predicted at the pose's time (time_stamps of the band poses; inserted poses interpolate)."""
     poses = np.asarray(poses, dtype=float).reshape(-1, 3)
     times = np.zeros(len(poses)) if time_stamps is None else np.asarray(time_stamps, dtype=float)
     checked, checked_times = _checked_poses(poses, times, _look(poses, no_poses, lookahead_distance),
@@ -43,24 +42,10 @@ def is_trajectory_feasible(costmap, footprint, inscribed_radius: float, poses: n
         return False
     if dynamic_obstacles is None or len(dynamic_obstacles) == 0:
         return True
-    contact = _first_contact(model, checked, checked_times, dynamic_obstacles)
-    if contact == math.inf:
-        return True
-    # Yield only where yielding helps: when an obstacle will run into the robot where it stands, and
-    # sooner than into the band, the band (which the optimiser keeps away from the obstacles as well
-    # as it can) is the way out.
-    standing = np.broadcast_to(poses[0], checked.shape)
-    return _first_contact(model, standing, checked_times, dynamic_obstacles) < contact
-
-
-def _first_contact(model: FootprintModel, poses: np.ndarray, times: np.ndarray, obstacles: np.ndarray) -> float:
-    """The earliest of the times at which the model at its pose overlaps an obstacle's circle where
-    the obstacle is then (inf: none)."""
-    centres = predicted_centres(obstacles, times)                                      # K, P, 2
-    k = len(obstacles)
-    d = model.pair_distances(np.tile(poses, (k, 1)), centres.reshape(-1, 2)).reshape(k, -1)
-    hit = (d < obstacles[:, 4:5]).any(axis=0)
-    return float(times[hit].min()) if hit.any() else math.inf
+    centres = predicted_centres(dynamic_obstacles, checked_times)                     # K, P, 2
+    k = len(dynamic_obstacles)
+    d = model.pair_distances(np.tile(checked, (k, 1)), centres.reshape(-1, 2)).reshape(k, -1)
+    return not bool(np.any(d < dynamic_obstacles[:, 4:5]))
 
 
 def _look(poses: np.ndarray, no_poses: int, lookahead_distance: float) -> int:
