@@ -17,18 +17,19 @@ NODE = "move_base"
 
 
 def apply_set(config: LaunchConfig, assignments: list[str]) -> None:
-    """Apply --set assignments to the launch's move_base node (its ROS 1 tree and its ROS 2 parameters);
+    """Apply --set assignments to the launch's move_base nodes, every robot's (their ROS 1 trees and ROS 2 parameters);
     LaunchError names what was wrong. What move_base warns about, it logs itself when it starts."""
     if not assignments:
         return
-    spec = next((node for node in config.nodes if node.name == NODE), None)
-    if spec is None:
+    specs = [node for node in config.nodes if node.name == NODE]
+    if not specs:
         raise LaunchError(f"--set: {config.file} starts no {NODE} node")
-    tree = config.params.get(spec.full_name, {})
-    try:
-        tree, _ = apply_move_base_overrides(tree if isinstance(tree, dict) else {}, assignments)
-        flat = to_ros2_overrides(tree, where=spec.full_name + "/")
-    except ParameterError as err:
-        raise LaunchError(f"--set: {err}") from None
-    config.params.set(spec.full_name, tree)
-    spec.parameters = {**flat, **{k: v for k, v in spec.parameters.items() if k == "use_sim_time"}}
+    for spec in specs:                     # every robot's move_base (multi_navigation)
+        tree = config.params.get(spec.full_name, {})
+        try:
+            tree, _ = apply_move_base_overrides(tree if isinstance(tree, dict) else {}, assignments)
+            flat = to_ros2_overrides(tree, where=spec.full_name + "/")
+        except ParameterError as err:
+            raise LaunchError(f"--set: {err}") from None
+        config.params.set(spec.full_name, tree)
+        spec.parameters = {**flat, **{k: v for k, v in spec.parameters.items() if k == "use_sim_time"}}

@@ -9,7 +9,7 @@ from simplebot_navigation.parameters import ParameterError, build, param
 
 @dataclass
 class TrackerParams:
-    enabled: bool = param(True, "", "track moving obstacles in the lidar scans, hand them to the local planner "
+    enabled: bool = param(False, "", "track moving obstacles in the lidar scans, hand them to the local planner "
                           "and clear their marks from the costmaps")
     min_points: int = param(3, "", "a cluster of fewer returns is noise and dropped", ge=1, le=100)
     breakpoint_angle: float = param(0.17, "rad", "adaptive breakpoint: the flattest angle between beam and surface "

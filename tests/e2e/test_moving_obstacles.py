@@ -24,8 +24,8 @@ AT_ONE_METRE_PER_SECOND = ("TebLocalPlannerROS.max_vel_x=1.0", "TebLocalPlannerR
 #: the crowd arena's goal lies 20 m ahead: the global costmap must reach past it
 CROWD = AT_ONE_METRE_PER_SECOND + ("global_costmap.width=50.0", "global_costmap.height=50.0",
                                    "global_costmap.origin_x=-25.0", "global_costmap.origin_y=-25.0",
-                                   "TebLocalPlannerROS.include_dynamic_obstacles=true")
-PREDICTION = ("TebLocalPlannerROS.include_dynamic_obstacles=true",)
+                                   "TebLocalPlannerROS.include_dynamic_obstacles=true", "obstacle_tracking.enabled=true")
+PREDICTION = ("TebLocalPlannerROS.include_dynamic_obstacles=true", "obstacle_tracking.enabled=true")
 STALE_AFTER_S = 1.0
 #: cells within this of a wall or of a moving obstacle's recent place are explained (two cells and the
 #: clearing margin)

@@ -6,7 +6,8 @@ robot2's start (north meeting room), robot2 to robot3's (the lab) and robot3 to 
 and robot3 meet in the corridor and at the lab's door: they must see each other in their lidars and
 keep apart. robot2 reaches the lab's door just as robot3 comes out of it; before the obstacle
 tracker cleared the marks a passing robot leaves, robot2 stood about 30 s in front of robot3's
-stale marks. Now no robot may stand still for more than STANDING_LIMIT_S while its goal is active.
+stale marks. With the obstacle tracker on (obstacle_tracking.enabled, for every robot's move_base) no robot
+may stand still for more than STANDING_LIMIT_S while its goal is active.
 Which topics each move_base uses is checked from a separate process.
 """
 
@@ -107,7 +108,8 @@ def longest_standstill(truth, t0: float, t1: float) -> tuple[float, float]:
 def test_three_robots_swap_places_without_touching():
     starts = load_world("lab").starts
     goals = starts[1:] + starts[:1]
-    with ProcessSession("lab", rtf=RTF, launch_file="multi_navigation") as session:
+    with ProcessSession("lab", rtf=RTF, launch_file="multi_navigation",
+                        overrides=("obstacle_tracking.enabled=true",)) as session:
         clients = [ScenarioClient(session.context, namespace) for namespace in NAMESPACES]
         for client in clients:
             session.executor.add_node(client)

@@ -84,7 +84,8 @@ def lab():
     context = Context()
     rclpy.init(context=context)
     spec = next(n for n in load_launch("navigation").nodes if n.name == "move_base")
-    overrides = [Parameter(name, value=value) for name, value in dict(spec.parameters, use_sim_time=False).items()]
+    parameters = dict(spec.parameters, use_sim_time=False, **{"obstacle_tracking.enabled": True})
+    overrides = [Parameter(name, value=value) for name, value in parameters.items()]
     move_base = MoveBaseNode(context=context, parameter_overrides=overrides)
     robot = FakeRobot(context)
     listener = Node("listener", context=context)
