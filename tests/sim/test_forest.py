@@ -103,7 +103,7 @@ def test_load_world_resolves_forest_names():
     assert load_world("forest", robot_radius=0.25) == benchmark_forest(0)
     world = load_world("forest:7", robot_radius=0.25)
     assert world.source == "forest:7" and world.extra["min_passage"] == benchmark_knobs(7)["min_passage"]
-    with pytest.raises(ValueError, match=r"world 'forest:x'.*generated one \(forest, forest:<seed>\)"):
+    with pytest.raises(ValueError, match=r"world 'forest:x'.*generated one \(forest, forest:<seed>, crowd:<seed>, people:<seed>\)"):
         load_world("forest:x")
 
 
