@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import rclpy
 from costmap_converter_msgs.msg import ObstacleArrayMsg, ObstacleMsg
-from geometry_msgs.msg import Point32, TransformStamped
+from geometry_msgs.msg import Point32
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
@@ -24,20 +24,13 @@ from simplebot_navigation.launch.loader import load_launch
 from simplebot_navigation.ros.move_base.move_base_node import MoveBaseNode
 from simplebot_navigation.ros.tf import StaticTransformBroadcaster, TransformBroadcaster
 from simplebot_navigation.testing.lidar_scenes import Cylinder, lidars, scans_at, truth_at
+from tests.ros.test_costmap_ros import transform
 
 pytestmark = pytest.mark.timeout(120)
 OBSTACLES = "/move_base/TebLocalPlannerROS/obstacles"
 PERSON = Cylinder(0.25, (1.8, -2.2), (0.0, 1.0))
 WALL = [(2.6, -3.0, 2.6, 3.0)]
 FRAMES = ("front_laser_link", "back_laser_link")
-
-
-def transform(parent, child, stamp, x, y, yaw, z=0.0) -> TransformStamped:
-    tf = TransformStamped()
-    tf.header.frame_id, tf.header.stamp, tf.child_frame_id = parent, stamp, child
-    tf.transform.translation.x, tf.transform.translation.y, tf.transform.translation.z = x, y, z
-    tf.transform.rotation.z, tf.transform.rotation.w = math.sin(yaw / 2), math.cos(yaw / 2)
-    return tf
 
 
 class FakeRobot(Node):

@@ -70,3 +70,16 @@ def footprint_hits(pose, footprint: np.ndarray, points: np.ndarray) -> bool:
     local = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]])
     half = np.abs(footprint).max(axis=0)
     return bool(np.any((np.abs(local[:, 0]) <= half[0]) & (np.abs(local[:, 1]) <= half[1])))
+
+
+def lab_door_scene() -> tuple[np.ndarray, np.ndarray]:
+    """The lab's corridor (walls at y = +-1.25) with a 1.2 m door at x = 1.5, and a plan (x, y, yaw) from
+    the origin along the corridor, round a 0.6 m arc and up through the door: (wall cells, plan)."""
+    walls = np.vstack([box_cells(-2.0, 1.25, 2.9, 0.03), box_cells(4.0, 1.25, 1.9, 0.03),
+                       box_cells(1.0, -1.25, 5.0, 0.03)])
+    a = np.linspace(-math.pi / 2, 0.0, 19)
+    path = np.vstack([np.column_stack([np.arange(0.0, 0.9, RES), np.zeros(18)]),
+                      np.column_stack([0.9 + 0.6 * np.cos(a), 0.6 + 0.6 * np.sin(a)])[1:],
+                      np.column_stack([np.full(40, 1.5), 0.6 + RES * np.arange(1, 41)])])
+    yaw = np.arctan2(np.gradient(path[:, 1]), np.gradient(path[:, 0]))
+    return walls, np.column_stack([path, yaw])

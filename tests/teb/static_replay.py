@@ -12,28 +12,21 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 from pathlib import Path
 
 import numpy as np
 
 from simplebot_navigation.teb import planner as planner_module
 from simplebot_navigation.teb import warm_up
-from tests.teb.scenes import RES, box_cells, lab_planner, rolling_costmap, straight_plan, unicycle_step
+from tests.teb.scenes import box_cells, lab_door_scene, lab_planner, rolling_costmap, straight_plan, unicycle_step
 
 RECORDING = Path(__file__).with_name("data") / "static_outputs.json"
 CYCLES = 40
 
 
 def _door():
-    walls = np.vstack([box_cells(-2.0, 1.25, 2.9, 0.03), box_cells(4.0, 1.25, 1.9, 0.03),
-                       box_cells(1.0, -1.25, 5.0, 0.03)])
-    a = np.linspace(-math.pi / 2, 0.0, 19)
-    path = np.vstack([np.column_stack([np.arange(0.0, 0.9, RES), np.zeros(18)]),
-                      np.column_stack([0.9 + 0.6 * np.cos(a), 0.6 + 0.6 * np.sin(a)])[1:],
-                      np.column_stack([np.full(40, 1.5), 0.6 + RES * np.arange(1, 41)])])
-    yaw = np.arctan2(np.gradient(path[:, 1]), np.gradient(path[:, 0]))
-    return walls, np.column_stack([path, yaw]), (0.0, 0.0, 0.0)
+    walls, plan = lab_door_scene()
+    return walls, plan, (0.0, 0.0, 0.0)
 
 
 SCENES = {

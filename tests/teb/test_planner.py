@@ -8,7 +8,8 @@ from simplebot_navigation.teb.config import TebConfig
 from simplebot_navigation.teb.optimizer import RotType
 from simplebot_navigation.teb.planner import TebLocalPlanner
 
-from .scenes import (LAB_FOOTPRINT, LAB_PADDED_FOOTPRINT, LAB_PARAMS, PERIOD, RES, box_cells, footprint_hits, lab_planner,
+from .scenes import (LAB_FOOTPRINT, LAB_PADDED_FOOTPRINT, LAB_PARAMS, PERIOD, RES, box_cells, footprint_hits, lab_door_scene,
+                     lab_planner,
                      rolling_costmap, straight_plan, unicycle_step)
 
 
@@ -241,15 +242,9 @@ def test_lab_robot_turns_through_a_door_narrower_than_min_obstacle_dist_asks_for
     # line the two_circles model keeps 0.625 - 0.2 = 0.425 m from the jamb cells, less than
     # min_obstacle_dist 0.5. The band must still take the robot through on the centre line
     # instead of stalling in front of the door with its poses pushed out of it.
-    walls = np.vstack([box_cells(-2.0, 1.25, 2.9, 0.03), box_cells(4.0, 1.25, 1.9, 0.03),
-                       box_cells(1.0, -1.25, 5.0, 0.03)])
-    a = np.linspace(-math.pi / 2, 0.0, 19)
-    path = np.vstack([np.column_stack([np.arange(0.0, 0.9, RES), np.zeros(18)]),
-                      np.column_stack([0.9 + 0.6 * np.cos(a), 0.6 + 0.6 * np.sin(a)])[1:],
-                      np.column_stack([np.full(40, 1.5), 0.6 + RES * np.arange(1, 41)])])
-    yaw = np.arctan2(np.gradient(path[:, 1]), np.gradient(path[:, 0]))
+    walls, plan = lab_door_scene()
     planner = lab_planner()
-    planner.set_plan(np.column_stack([path, yaw]))
+    planner.set_plan(plan)
     poses, _, results = drive(planner, 0.0, walls, seconds=25.0)
     assert results[-1].goal_reached, (results[-1].message, poses[-1])
     assert not any(footprint_hits(p, LAB_FOOTPRINT, walls) for p in poses)
