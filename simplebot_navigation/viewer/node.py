@@ -2,7 +2,8 @@
 
 Callbacks only copy message contents into a Scene; the HTTP server (own threads)
 encodes frames at a bounded rate. The page's 2D Nav Goal comes back as a POST and
-is published as a PoseStamped on /move_base_simple/goal in the fixed frame.
+is published as a PoseStamped on /move_base_simple/goal in the fixed frame; its 2D Pose Estimate as a
+PoseWithCovarianceStamped on /initialpose, as RViz's tools do.
 
 The topics are subscribed only while a page is open: taking ~150 messages a second
 costs a Python process a sixth of a core, which the navigation nodes need more
@@ -20,7 +21,7 @@ import numpy as np
 import yourdfpy
 from actionlib_msgs.msg import GoalStatus, GoalStatusArray
 from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import PolygonStamped, PoseArray, PoseStamped, Twist
+from geometry_msgs.msg import PolygonStamped, PoseArray, PoseStamped, PoseWithCovarianceStamped, Twist
 from map_msgs.msg import OccupancyGridUpdate
 from nav_msgs.msg import OccupancyGrid, Odometry, Path
 from rcl_interfaces.msg import Log
@@ -55,6 +56,9 @@ STATUS = "/move_base/status"
 ODOM = "/simplebot_controller/odom"
 CMD_VEL = "/simplebot_controller/cmd_vel"
 GOAL = "/move_base_simple/goal"
+INITIAL_POSE = "/initialpose"
+#: the spread a 2D Pose Estimate gives the localizer, as RViz's tool: 0.5 m and 15 deg standard deviations
+INITIAL_POSE_VARIANCES = (0.25, 0.25, (math.pi / 12.0) ** 2)
 DIAGNOSTICS = "/diagnostics"
 MOVING_OBSTACLES = "/sim/moving_obstacles"
 
@@ -121,10 +125,12 @@ class ViewerNode(SetUpNode):
         self.listener: TransformListener | None = None
         self._live: list = []
         self.goal_pub = self.create_publisher(PoseStamped, GOAL, 1)
+        self.initial_pose_pub = self.create_publisher(PoseWithCovarianceStamped, INITIAL_POSE, 1)
         self.create_subscription(String, "/robot_description", self._on_description, LATCHED)
         try:
             self.server = ViewerServer(self.scene, self._lookup, self.publish_goal, host=p["host"], port=p["port"],
-                                       rate=p["rate"], base_frame=self.base_frame)
+                                       rate=p["rate"], base_frame=self.base_frame,
+                                       on_initial_pose=self.publish_initial_pose)
         except OSError as err:
             raise OSError(f"viewer cannot listen on {p['host']}:{p['port']}: {err.strerror or err} "
                           "(set the 'port' parameter, 0 picks a free one)") from err
@@ -282,6 +288,19 @@ class ViewerNode(SetUpNode):
         msg.pose = xyyaw_to_pose(x, y, yaw)
         self.goal_pub.publish(msg)
         self.get_logger().info(f"2D Nav Goal: x {x:.3f}, y {y:.3f}, yaw {math.degrees(yaw):.1f} deg "
+                               f"in {self.fixed_frame}")
+        return msg
+
+    def publish_initial_pose(self, x: float, y: float, yaw: float) -> PoseWithCovarianceStamped:
+        msg = PoseWithCovarianceStamped()
+        msg.header.frame_id = self.fixed_frame
+        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.pose.pose = xyyaw_to_pose(x, y, yaw)
+        covariance = [0.0] * 36
+        covariance[0], covariance[7], covariance[35] = INITIAL_POSE_VARIANCES
+        msg.pose.covariance = covariance
+        self.initial_pose_pub.publish(msg)
+        self.get_logger().info(f"2D Pose Estimate: x {x:.3f}, y {y:.3f}, yaw {math.degrees(yaw):.1f} deg "
                                f"in {self.fixed_frame}")
         return msg
 

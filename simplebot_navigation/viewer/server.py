@@ -3,9 +3,10 @@
 GET /frame?after=V&<layer>=<version>... answers as soon as the scene is newer than V
 (or after a second, so the page notices a dead link), never faster than ``rate``
 frames a second; costmaps and the robot body are only sent when the page's copy is
-stale. POST /goal with {"x", "y", "yaw"} (fixed frame, radians) sets a navigation goal.
+stale. POST /goal with {"x", "y", "yaw"} (fixed frame, radians) sets a navigation goal (RViz's 2D Nav
+Goal), POST /initialpose the same way the localizer's pose (2D Pose Estimate).
 
-A goal moves the robot, so it is taken only from the viewer's own page: the Host header must
+Either moves the robot, so it is taken only from the viewer's own page: the Host header must
 name this server (a foreign name is DNS rebinding), a browser's Origin must be that same
 server (anything else is a cross-site request), and the body must be application/json, which
 an HTML form cannot send.
@@ -47,10 +48,14 @@ class _HTTPServer(ThreadingHTTPServer):
 
 class ViewerServer:
     def __init__(self, scene: Scene, lookup: Lookup, on_goal: Callable[[float, float, float], object],
-                 host: str = "127.0.0.1", port: int = 8765, rate: float = 20.0, base_frame: str = "base_link"):
+                 host: str = "127.0.0.1", port: int = 8765, rate: float = 20.0, base_frame: str = "base_link",
+                 on_initial_pose: Callable[[float, float, float], object] | None = None):
         self.scene = scene
         self.lookup = lookup
-        self.on_goal = on_goal
+        #: POST path -> what takes the pose
+        self.pose_targets = {"/goal": on_goal}
+        if on_initial_pose is not None:
+            self.pose_targets["/initialpose"] = on_initial_pose
         self.period_s = 1.0 / rate
         self.base_frame = base_frame
         self._last_frame = 0.0
@@ -99,21 +104,22 @@ class ViewerServer:
             return f"refused, Host {authority!r} is not this viewer ({bound}:{port}); open {self.url}"
         return None
 
-    def goal(self, body: bytes) -> dict:
-        """Parse and publish a goal; ValueError names what is wrong with the request."""
+    def take_pose(self, body: bytes, path: str = "/goal") -> dict:
+        """Parse a pose and hand it to the target of ``path``; ValueError names what is wrong with the request."""
+        what = path.lstrip("/")
         try:
             data = json.loads(body)
         except (UnicodeDecodeError, json.JSONDecodeError) as err:
-            raise ValueError(f"goal: body is not JSON: {err}") from err
+            raise ValueError(f"{what}: body is not JSON: {err}") from err
         if not isinstance(data, dict):
-            raise ValueError("goal: body must be a JSON object with x, y, yaw")
+            raise ValueError(f"{what}: body must be a JSON object with x, y, yaw")
         values = []
         for key in ("x", "y", "yaw"):
             value = data.get(key)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise ValueError(f"goal: {key!r} must be a finite number, got {value!r}")
+                raise ValueError(f"{what}: {key!r} must be a finite number, got {value!r}")
             values.append(float(value))
-        self.on_goal(*values)
+        self.pose_targets[path](*values)
         return dict(zip(("x", "y", "yaw"), values))
 
     def _handler_class(self):
@@ -168,47 +174,49 @@ class _RequestHandler(BaseHTTPRequestHandler):
             self._refuse(HTTPStatus.NOT_FOUND, f"no such page: {url.path}")
 
     def do_POST(self) -> None:  # noqa: N802
-        if urlsplit(self.path).path != "/goal":
-            self._refuse(HTTPStatus.NOT_FOUND, "POST only to /goal")
+        path = urlsplit(self.path).path
+        if path not in self.viewer.pose_targets:
+            self._refuse(HTTPStatus.NOT_FOUND, f"POST only to {' and '.join(self.viewer.pose_targets)}")
             return
-        if not self._host_ok("goal: "):
+        what = path.lstrip("/")
+        if not self._host_ok(f"{what}: "):
             return
         origin = self.headers.get("Origin")
         if origin is not None and origin.strip().lower() != f"http://{self.headers['Host'].strip().lower()}":
             self._refuse(HTTPStatus.FORBIDDEN,
-                         f"goal: refused, Origin {origin!r} is not this viewer (a cross-site request)")
+                         f"{what}: refused, Origin {origin!r} is not this viewer (a cross-site request)")
             return
         kind = self.headers.get("Content-Type", "")
         if kind.partition(";")[0].strip().lower() != "application/json":
             self._refuse(HTTPStatus.FORBIDDEN,
-                         f"goal: refused, Content-Type must be application/json, got {kind!r}")
+                         f"{what}: refused, Content-Type must be application/json, got {kind!r}")
             return
-        body = self._read_body()
+        body = self._read_body(what)
         if body is None:
             return
         try:
-            sent = self.viewer.goal(body)
+            sent = self.viewer.take_pose(body, path)
         except ValueError as err:
             self._refuse(HTTPStatus.BAD_REQUEST, str(err))
             return
         self._send(HTTPStatus.OK, json.dumps(sent).encode(), "application/json")
 
-    def _read_body(self) -> bytes | None:
+    def _read_body(self, what: str) -> bytes | None:
         """The body as Content-Length announces it, or None after answering what was wrong."""
         declared = self.headers.get("Content-Length")
         if declared is None:
-            self._refuse(HTTPStatus.LENGTH_REQUIRED, "goal: Content-Length is required")
+            self._refuse(HTTPStatus.LENGTH_REQUIRED, f"{what}: Content-Length is required")
             return None
         if not _DIGITS.fullmatch(declared.strip()):
-            self._refuse(HTTPStatus.BAD_REQUEST, f"goal: Content-Length {declared!r} is not a number of bytes")
+            self._refuse(HTTPStatus.BAD_REQUEST, f"{what}: Content-Length {declared!r} is not a number of bytes")
             return None
         length = int(declared)
         if length == 0:
-            self._refuse(HTTPStatus.BAD_REQUEST, "goal: the body is empty")
+            self._refuse(HTTPStatus.BAD_REQUEST, f"{what}: the body is empty")
             return None
         if length > MAX_BODY:
             self._refuse(HTTPStatus.REQUEST_ENTITY_TOO_LARGE,
-                         f"goal: a body of {length} bytes is too long (at most {MAX_BODY})")
+                         f"{what}: a body of {length} bytes is too long (at most {MAX_BODY})")
             return None
         body = b""
         try:
@@ -220,6 +228,6 @@ class _RequestHandler(BaseHTTPRequestHandler):
         except TimeoutError:
             pass
         if len(body) < length:
-            self._refuse(HTTPStatus.BAD_REQUEST, f"goal: the body ended after {len(body)} of {length} bytes")
+            self._refuse(HTTPStatus.BAD_REQUEST, f"{what}: the body ended after {len(body)} of {length} bytes")
             return None
         return body

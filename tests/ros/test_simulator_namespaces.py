@@ -87,3 +87,26 @@ def test_bad_starts_stop_the_node_with_the_reason(context):
         SimulatorNode(context=context, parameter_overrides=[
             Parameter("world", value="empty"), Parameter("namespaces", value="robot1 robot2"),
             Parameter("starts", value="0,0,0")])
+
+
+def test_with_a_localizer_the_simulator_leaves_map_to_odom_to_it(context):
+    """map_to_odom:=false (navigation on a map): amcl publishes map -> robot1/odom, so the simulator must not."""
+    sim = SimulatorNode(context=context, parameter_overrides=[
+        Parameter("world", value="empty"), Parameter("real_time_factor", value=0.0),
+        Parameter("namespaces", value="robot7"), Parameter("map_to_odom", value=False)])
+    probe = Node("probe", context=context)
+    static = []
+    probe.create_subscription(TFMessage, "/tf_static", lambda m: static.extend(m.transforms), LATCHED)
+    executor = SingleThreadedExecutor(context=context)
+    for node in (sim, probe):
+        executor.add_node(node)
+    try:
+        deadline = time.monotonic() + 10.0
+        while not any(t.child_frame_id == "robot7/front_laser_link" for t in static):
+            assert time.monotonic() < deadline, "timed out waiting for the static transforms"
+            executor.spin_once(timeout_sec=0.01)
+        assert not any(t.child_frame_id == "robot7/odom" for t in static)
+    finally:
+        executor.shutdown()
+        for node in (probe, sim):
+            node.destroy_node()

@@ -341,6 +341,7 @@ def test_the_simulator_does_not_follow_its_own_clock(context):
     ("physics_rate", "fast", r"'physics_rate': expected a number, got 'fast'"),
     ("real_time_factor", float("nan"), r"'real_time_factor': expected a number \(finite\), got nan"),
     ("physics_rate", 0.0, r"'physics_rate': must be > 0, got 0.0"),
+    ("odom_scale_std", -0.01, r"parameter 'odom_scale_std' must be >= 0 \(a relative standard deviation\)"),
 ])
 def test_bad_parameters_fail_with_a_clear_message(context, name, value, message):
     with pytest.raises(ValueError, match=message):

@@ -10,7 +10,7 @@ import time
 import numpy as np
 import pytest
 from actionlib_msgs.msg import GoalStatus, GoalStatusArray
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped
 from nav_msgs.msg import OccupancyGrid
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
@@ -55,6 +55,9 @@ class FakeMoveBase(Node):
         super().__init__("fake_move_base", context=context)
         self.goals: list[PoseStamped] = []
         self.create_subscription(PoseStamped, "/move_base_simple/goal", self.goals.append, 10)
+        #: what a localizer would receive from a 2D Pose Estimate
+        self.initial_poses: list[PoseWithCovarianceStamped] = []
+        self.create_subscription(PoseWithCovarianceStamped, "/initialpose", self.initial_poses.append, 10)
         stamp = self.get_clock().now().to_msg()
         self.costmap_pub = self.create_publisher(OccupancyGrid, "/global_costmap/costmap", LATCHED)
         self.costmap_pub.publish(occupancy_grid_msg(costmap_array(), RESOLUTION, *ORIGIN, "odom", stamp))

@@ -97,26 +97,29 @@ def test_both_scans_drawn_on_their_walls(page):
     assert pixel(page, *back) == pytest.approx(BACK_SCAN, abs=2)
 
 
-def test_2d_nav_goal_click_and_drag(page, scenario):
+@pytest.mark.parametrize("tool", ["goal-tool", "pose-tool"])
+def test_2d_nav_goal_and_pose_estimate_click_and_drag(page, scenario, tool):
+    """The two tools of RViz: a goal on /move_base_simple/goal, a pose for the localizer on /initialpose."""
     show(page)
-    goal_x, goal_y, heading = 1.2, -1.8, math.radians(135.0)
-    start = page.evaluate(f"() => window.viewer.worldToPage({goal_x}, {goal_y})")
-    end = page.evaluate(f"() => window.viewer.worldToPage({goal_x + math.cos(heading)}, "
-                        f"{goal_y + math.sin(heading)})")
-    page.click("#goal-tool")
-    before = len(scenario.move_base.goals)
+    x, y, heading = 1.2, -1.8, math.radians(135.0)
+    start = page.evaluate(f"() => window.viewer.worldToPage({x}, {y})")
+    end = page.evaluate(f"() => window.viewer.worldToPage({x + math.cos(heading)}, {y + math.sin(heading)})")
+    received = scenario.move_base.goals if tool == "goal-tool" else scenario.move_base.initial_poses
+    page.click(f"#{tool}")
+    before = len(received)
     page.mouse.move(*start)
     page.mouse.down()
     page.mouse.move(*end, steps=5)
     page.mouse.up()
-    scenario.wait_for(lambda: len(scenario.move_base.goals) > before, what="the goal on /move_base_simple/goal")
-    goal = scenario.move_base.goals[-1]
-    assert goal.header.frame_id == "odom"
+    scenario.wait_for(lambda: len(received) > before, what=f"the pose of the {tool}")
+    message = received[-1]
+    pose = message.pose if tool == "goal-tool" else message.pose.pose
+    assert message.header.frame_id == "odom"
     pixel_m = 1.0 / SCALE
-    assert goal.pose.position.x == pytest.approx(goal_x, abs=pixel_m)
-    assert goal.pose.position.y == pytest.approx(goal_y, abs=pixel_m)
-    assert yaw_of(goal.pose.orientation) == pytest.approx(heading, abs=2 * pixel_m)
-    assert page.locator("#goal-tool.on").count() == 0  # one goal per click of the tool, as RViz
+    assert pose.position.x == pytest.approx(x, abs=pixel_m)
+    assert pose.position.y == pytest.approx(y, abs=pixel_m)
+    assert yaw_of(pose.orientation) == pytest.approx(heading, abs=2 * pixel_m)
+    assert page.locator(f"#{tool}.on").count() == 0  # one pose per click of the tool, as RViz
 
 
 def test_status_panel_and_screenshot(page, tmp_path):

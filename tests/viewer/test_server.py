@@ -36,8 +36,8 @@ def get(url: str) -> bytes:
         return response.read()
 
 
-def post_goal(url: str, body: bytes):
-    request = urllib.request.Request(url + "goal", data=body, method="POST",
+def post_goal(url: str, body: bytes, path: str = "goal"):
+    request = urllib.request.Request(url + path, data=body, method="POST",
                                      headers={"Content-Type": "application/json"})
     try:
         with urllib.request.urlopen(request, timeout=5) as response:
@@ -129,7 +129,8 @@ def test_moving_obstacles_are_drawn_as_outlines_in_odom(scenario):
 
 
 def test_static_page_and_unknown_paths(scenario):
-    assert b"2D Nav Goal" in get(scenario.viewer.url)
+    page = get(scenario.viewer.url)
+    assert b"2D Nav Goal" in page and b"2D Pose Estimate" in page
     assert b"worldToPage" in get(scenario.viewer.url + "viewer.js")
     with pytest.raises(urllib.error.HTTPError, match="404"):
         get(scenario.viewer.url + "nothing")
@@ -148,6 +149,22 @@ def test_goal_post_is_checked_and_published(scenario):
     assert (goal.header.frame_id, goal.pose.position.x, goal.pose.position.y) == ("odom", -1.25, 0.5)
     assert yaw_of(goal.pose.orientation) == pytest.approx(-2.0, abs=1e-12)
     assert not math.isnan(goal.pose.orientation.w)
+
+
+def test_pose_estimate_post_is_checked_and_published_with_rviz_spread(scenario):
+    url = scenario.viewer.url
+    assert post_goal(url, b'{"x": 1, "y": 1e999, "yaw": 0}', "initialpose") == (
+        400, "initialpose: 'y' must be a finite number, got inf")
+    status, _ = post_goal(url, b'{"x": 2.5, "y": -1.0, "yaw": 1.5}', "initialpose")
+    assert status == 200
+    scenario.wait_for(lambda: scenario.move_base.initial_poses, what="the initial pose")
+    pose = scenario.move_base.initial_poses[-1]
+    assert (pose.header.frame_id, pose.pose.pose.position.x, pose.pose.pose.position.y) == ("odom", 2.5, -1.0)
+    assert yaw_of(pose.pose.pose.orientation) == pytest.approx(1.5, abs=1e-12)
+    covariance = np.array(pose.pose.covariance).reshape(6, 6)
+    assert np.diag(covariance)[[0, 1, 5]] == pytest.approx([0.25, 0.25, (math.pi / 12) ** 2])
+    assert not scenario.move_base.goals or scenario.move_base.goals[-1].pose.position.x != 2.5
+    assert post_goal(url, b'{"x": 0, "y": 0, "yaw": 0}', "elsewhere")[0] == 404
 
 
 def test_a_taken_port_is_named(scenario, context):

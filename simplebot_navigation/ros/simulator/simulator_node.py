@@ -35,6 +35,7 @@ from simplebot_navigation.ros.simulator.moving_markers import MovingObstacleMark
 from simplebot_navigation.ros.simulator.simulator_faults import SimulatorFaults
 from simplebot_navigation.ros.simulator.simulator_robot import SimulatedRobotIO, set_stamp
 from simplebot_navigation.ros.tf import StaticTransformBroadcaster, TransformBroadcaster
+from simplebot_navigation.sim.diff_drive import OdomNoise
 from simplebot_navigation.sim.simulator import SimplebotSim
 from simplebot_navigation.sim.starts import robot_starts
 from simplebot_navigation.sim.world_loader import load_world
@@ -48,8 +49,12 @@ MARKER_RATE_HZ = 10.0
 # Launch files and `-p name:=2` give whole numbers as integers; the numeric parameters take both.
 # ``namespaces``: one robot per space-separated name ("robot1 robot2"); empty: one robot, no namespace.
 # ``starts``: "x,y,yaw;x,y,yaw;..." for them; empty: the world's starts (one robot: its start).
+# ``odom_scale_std``/``odom_speed_std``: encoder errors (relative, sim/diff_drive.py OdomNoise), off by default.
+# ``map_to_odom``: namespaced robots' odom frames hang from a static ``map`` at their starts; false where a
+# localizer (amcl) publishes map -> odom itself.
 PARAMETERS = {"world": "lab", "robot": "box", "radius": 0.3, "real_time_factor": 1.0, "physics_rate": 100.0,
-              "odom_rate": 50.0, "seed": 0, "range_noise_std": 0.0, "namespaces": "", "starts": ""}
+              "odom_rate": 50.0, "seed": 0, "range_noise_std": 0.0, "namespaces": "", "starts": "",
+              "odom_scale_std": 0.0, "odom_speed_std": 0.0, "map_to_odom": True}
 
 
 def _quaternion_from_matrix(m: np.ndarray) -> tuple[float, float, float, float]:
@@ -81,8 +86,9 @@ class SimulatorNode(SetUpNode):
                                   self.description)
         except ValueError as err:
             raise ValueError(f"parameter 'starts': {err}") from err
+        odom_noise = OdomNoise(scale_std=p["odom_scale_std"], speed_std=p["odom_speed_std"])
         self.sim = SimplebotSim(self.world, self.description, physics_rate=p["physics_rate"], seed=p["seed"],
-                                range_noise_std=p["range_noise_std"], starts=starts)
+                                range_noise_std=p["range_noise_std"], odom_noise=odom_noise, starts=starts)
         self.rtf = p["real_time_factor"]
         self._odom_every = max(1, round(p["physics_rate"] / p["odom_rate"]))
         self._markers_every = max(1, round(p["physics_rate"] / MARKER_RATE_HZ))
@@ -96,7 +102,7 @@ class SimulatorNode(SetUpNode):
         self.add_on_set_parameters_callback(self._refuse_restart_only)
         self.tf_broadcaster = TransformBroadcaster(self)
         StaticTransformBroadcaster(self).send_transform([tf for robot in self.robots
-                                                         for tf in robot.static_transforms()])
+                                                         for tf in robot.static_transforms(p["map_to_odom"])])
         self._clock_msg = ClockMsg()
         self._steps = 0
         self._stepper: threading.Thread | None = None
@@ -128,6 +134,10 @@ class SimulatorNode(SetUpNode):
         if not (math.isfinite(values["real_time_factor"]) and values["real_time_factor"] >= 0):
             raise ValueError(f"parameter 'real_time_factor' must be >= 0 (0: stepped by a driver), "
                              f"got {values['real_time_factor']!r}")
+        for name in ("odom_scale_std", "odom_speed_std"):
+            if values[name] < 0:
+                raise ValueError(f"parameter {name!r} must be >= 0 (a relative standard deviation), "
+                                 f"got {values[name]!r}")
         return values
 
     # -- stepping -------------------------------------------------------------------------------

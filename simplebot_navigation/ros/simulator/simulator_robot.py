@@ -92,11 +92,12 @@ class SimulatedRobotIO:
     def frame(self, name: str) -> str:
         return self.prefix + name
 
-    def static_transforms(self) -> list[TransformStamped]:
-        """The URDF's fixed joints and, for a namespaced robot, map -> its odom at the start pose."""
+    def static_transforms(self, map_to_odom: bool = True) -> list[TransformStamped]:
+        """The URDF's fixed joints and, for a namespaced robot unless a localizer owns it, map -> its odom at the
+        start pose."""
         joints = [transform(self.frame(j.parent), self.frame(j.child), j.xyz, rpy_to_quaternion(j.rpy))
                   for j in self.sim.description.fixed_joints]
-        if not self.namespace:
+        if not self.namespace or not map_to_odom:
             return joints
         start = self.sim.robots[self.index].start
         return joints + [transform(MAP_FRAME, self._odom_tf.header.frame_id, (start.x, start.y, 0.0),

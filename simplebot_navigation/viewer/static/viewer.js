@@ -18,8 +18,8 @@
     view: { x: 0, y: 0, scale: 40 }, // centre in world metres, pixels per metre
     fitted: false,
     follow: false,
-    goalTool: false,
-    drag: null,            // {kind: "pan"|"goal", ...}
+    tool: null,            // null, "goal" (2D Nav Goal) or "pose" (2D Pose Estimate)
+    drag: null,            // {kind: "pan"|"goal"|"pose", ...}
     sentGoal: null,
     frameTimes: [],
     visible: Object.fromEntries(LAYERS.map(([name]) => [name, true])),
@@ -215,10 +215,12 @@
       const d = L.goal.data;
       arrow(d[0], d[1], d[2], px(40), COLOURS.goal, 3);
     }
-    if (state.drag && state.drag.kind === "goal") {
+    if (state.drag && state.drag.kind !== "pan") {
       const g = state.drag;
-      arrow(g.x, g.y, g.yaw, px(40), "#2a6", 3);
-    } else if (state.sentGoal && !(L.goal && sameGoal(L.goal.data, state.sentGoal))) {
+      arrow(g.x, g.y, g.yaw, px(40), TOOL_COLOURS[g.kind], 3);
+    }
+    const dragging = state.drag && state.drag.kind === "goal";
+    if (!dragging && state.sentGoal && !(L.goal && sameGoal(L.goal.data, state.sentGoal))) {
       const g = state.sentGoal;
       arrow(g.x, g.y, g.yaw, px(40), "#2a6", 2);
     }
@@ -286,11 +288,19 @@
   }
 
   // -- input ---------------------------------------------------------------------------------------
-  function setGoalTool(on) {
-    state.goalTool = on;
-    $("goal-tool").classList.toggle("on", on);
-    canvas.classList.toggle("goal", on);
-    $("hint").textContent = on ? "click the goal position, drag for the heading" : "";
+  // The two pose tools, as RViz's: where each sends what the user clicked and dragged.
+  const TOOLS = {
+    goal: { button: "goal-tool", path: "goal", hint: "click the goal position, drag for the heading" },
+    pose: { button: "pose-tool", path: "initialpose",
+            hint: "click where the robot is, drag for its heading (sets the localizer's pose)" },
+  };
+  const TOOL_COLOURS = { goal: "#2a6", pose: "#a2c" };
+
+  function setTool(tool) {
+    state.tool = tool;
+    for (const [name, t] of Object.entries(TOOLS)) $(t.button).classList.toggle("on", name === tool);
+    canvas.classList.toggle("goal", tool !== null);
+    $("hint").textContent = tool ? TOOLS[tool].hint : "";
   }
 
   function setFollow(on) {
@@ -306,20 +316,20 @@
     return [event.clientX - r.left, event.clientY - r.top];
   }
 
-  async function sendGoal(goal) {
-    state.sentGoal = goal;
-    const response = await fetch("goal", { method: "POST", headers: { "Content-Type": "application/json" },
-      body: JSON.stringify(goal) });
-    $("hint").textContent = response.ok ? "" : "goal refused: " + await response.text();
+  async function sendPose(kind, pose) {
+    if (kind === "goal") state.sentGoal = pose;
+    const response = await fetch(TOOLS[kind].path, { method: "POST",
+      headers: { "Content-Type": "application/json" }, body: JSON.stringify(pose) });
+    $("hint").textContent = response.ok ? "" : `${TOOLS[kind].path} refused: ` + await response.text();
     draw();
   }
 
   canvas.addEventListener("mousedown", (event) => {
     if (event.button !== 0 && event.button !== 1) return;
     const [sx, sy] = local(event);
-    if (state.goalTool && event.button === 0) {
+    if (state.tool && event.button === 0) {
       const [x, y] = toWorld(sx, sy);
-      state.drag = { kind: "goal", x, y, yaw: 0, sx, sy };
+      state.drag = { kind: state.tool, x, y, yaw: 0, sx, sy };
     } else {
       state.drag = { kind: "pan", sx, sy, vx: state.view.x, vy: state.view.y };
       if (state.follow) setFollow(false);
@@ -343,9 +353,9 @@
   window.addEventListener("mouseup", () => {
     const d = state.drag;
     state.drag = null;
-    if (d && d.kind === "goal") {
-      setGoalTool(false);
-      sendGoal({ x: d.x, y: d.y, yaw: d.yaw });
+    if (d && d.kind !== "pan") {
+      setTool(null);
+      sendPose(d.kind, { x: d.x, y: d.y, yaw: d.yaw });
     }
     draw();
   });
@@ -364,13 +374,16 @@
 
   window.addEventListener("keydown", (event) => {
     if (event.target.tagName === "INPUT") return;
-    if (event.key === "g") setGoalTool(!state.goalTool);
+    if (event.key === "g") setTool(state.tool === "goal" ? null : "goal");
+    else if (event.key === "p") setTool(state.tool === "pose" ? null : "pose");
     else if (event.key === "f") setFollow(!state.follow);
     else if (event.key === "0") fit();
-    else if (event.key === "Escape") { state.drag = null; setGoalTool(false); draw(); }
+    else if (event.key === "Escape") { state.drag = null; setTool(null); draw(); }
   });
 
-  $("goal-tool").addEventListener("click", () => setGoalTool(!state.goalTool));
+  for (const [name, t] of Object.entries(TOOLS)) {
+    $(t.button).addEventListener("click", () => setTool(state.tool === name ? null : name));
+  }
   $("follow").addEventListener("click", () => setFollow(!state.follow));
   $("fit").addEventListener("click", fit);
   window.addEventListener("resize", draw);
