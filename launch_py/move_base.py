@@ -8,7 +8,7 @@ overridden below.
 """
 
 from simplebot_navigation.launch.description import Arg, Group, Include, Node, Param, Remap, RosParam
-from simplebot_navigation.launch.simplebot_args import COLLISION_MONITOR, NAMESPACE
+from simplebot_navigation.launch.simplebot_args import COLLISION_MONITOR, MAP, MAPPED, NAMESPACE
 from simplebot_navigation.launch.simplebot_args import TIGHT as TIGHT_ARG
 
 CONFIG = "$(find simplebot_navigation)/config"
@@ -34,6 +34,7 @@ LAUNCH = [
         doc="restart move_base when it exits (roslaunch's respawn)"),
     NAMESPACE,
     COLLISION_MONITOR,
+    MAP,
 
     Param("/use_sim_time", True),
 
@@ -73,6 +74,10 @@ LAUNCH = [
         *(Param(f"move_base/{costmap}/obstacles/{laser}/{key}", value, if_=NAMESPACED)
           for costmap in ("global_costmap", "local_costmap") for laser, scan in LASERS.items()
           for key, value in (("sensor_frame", f"{PREFIX}{laser}_link"), ("topic", f"{laser}/{scan}"))),
+
+        # Navigating on a map: the global costmap in amcl's map frame with the map as its static layer (after the
+        # namespace's frames above: the map frame is shared by all robots).
+        RosParam(file=f"{CONFIG}/map/costmap_global_map.yaml", ns="move_base", if_=MAPPED),
 
         # The last word on every command: the scans against the body, in a process of its own.
         Node(pkg="simplebot_navigation", type="collision_monitor", name="collision_monitor", output="screen",

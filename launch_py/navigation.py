@@ -1,7 +1,13 @@
-"""navigation.launch: the simulated simplebot plus move_base_local.launch, all on simulated time."""
+"""navigation.launch: the simulated simplebot plus move_base_local.launch, all on simulated time.
+
+With ``map:=office.yaml`` (or a world's name, whose map is exported) it navigates on a map: map_server and amcl
+start, the global costmap is in ``map`` with the map as its static layer, and the encoders drift.
+"""
 
 from simplebot_navigation.launch.description import Arg, Include, Node, Param
-from simplebot_navigation.launch.simplebot_args import COLLISION_MONITOR, NAMESPACE, RADIUS, ROBOT, RTF, TIGHT, WORLD
+from simplebot_navigation.launch.simplebot_args import (COLLISION_MONITOR, ENCODER_NOISE, INITIAL_POSE, MAP,
+                                                        MAPPED, NAMESPACE, RADIUS, ROBOT, RTF, TIGHT,
+                                                        WITH_ENCODER_NOISE, WORLD)
 from simplebot_navigation.web_host import FOXGLOVE_ALLOWED_ORIGINS
 
 LAUNCH_DIR = "$(find simplebot_navigation)/launch_py"
@@ -24,15 +30,28 @@ LAUNCH = [
         doc="restart the simulator and move_base when they exit (roslaunch's respawn)"),
     NAMESPACE,
     COLLISION_MONITOR,
+    MAP,
+    INITIAL_POSE,
+    ENCODER_NOISE,
 
     Include(file=f"{LAUNCH_DIR}/simulator.py", args={
         "world": "$(arg world)", "robot": "$(arg robot)", "radius": "$(arg radius)", "rtf": "$(arg rtf)",
-        "respawn": "$(arg respawn)", "namespaces": "$(arg namespace)"}),
+        "respawn": "$(arg respawn)", "namespaces": "$(arg namespace)", "encoder_noise": WITH_ENCODER_NOISE,
+        "map_to_odom": "$(eval map == '')"}),
     Include(file=f"{LAUNCH_DIR}/move_base.py", args={
         "robot": "$(arg robot)", "radius": "$(arg radius)", "tight": "$(arg tight)", "respawn": "$(arg respawn)",
-        "namespace": "$(arg namespace)", "collision_monitor": "$(arg collision_monitor)"}),
+        "namespace": "$(arg namespace)", "collision_monitor": "$(arg collision_monitor)", "map": "$(arg map)"}),
 
-    Node(pkg="simplebot_navigation", type="viewer", name="viewer", output="screen", if_="$(arg viewer)"),
+    # Navigation on a map: the map_server's map and amcl on it.
+    Node(pkg="map_server", type="map_server", name="map_server", output="screen", respawn="$(arg respawn)",
+         if_=MAPPED, params=[Param("yaml_filename", "$(arg map)")]),
+    Include(file=f"{LAUNCH_DIR}/amcl.py", if_=MAPPED, args={
+        "world": "$(arg world)", "namespace": "$(arg namespace)", "initial_pose": "$(arg initial_pose)",
+        "respawn": "$(arg respawn)"}),
+
+    Node(pkg="simplebot_navigation", type="viewer", name="viewer", output="screen", if_="$(arg viewer)", params=[
+        Param("fixed_frame", "map", if_=MAPPED),
+    ]),
     Node(pkg="simplebot_navigation", type="foxglove_bridge", name="foxglove_bridge", output="screen",
          if_="$(arg foxglove)", params=[
         Param("host", "$(arg foxglove_host)"),

@@ -8,6 +8,11 @@ it simulates one robot per name in the same world (``multi_navigation``).
 from simplebot_navigation.launch.description import Arg, Node, Param
 from simplebot_navigation.launch.simplebot_args import RADIUS, ROBOT, RTF, WORLD
 
+#: encoder errors with encoder_noise:=true (relative standard deviations, sim/diff_drive.py OdomNoise): a wheel
+#: 1 % off in scale turns a 2 m straight line by about 2 degrees, so a lab tour drifts by metres
+ENCODER_SCALE_STD = 0.01
+ENCODER_SPEED_STD = 0.02
+
 LAUNCH = [
     WORLD,
     ROBOT,
@@ -18,6 +23,11 @@ LAUNCH = [
     Arg("namespaces", default="",
         doc="one robot per space-separated namespace (robot1 robot2); empty: one robot without a namespace"),
     Arg("starts", default="", doc="x,y,yaw;x,y,yaw;... per robot (empty: the world's starts, or its start)"),
+    Arg("encoder_noise", default="false",
+        doc="wheel encoder errors (1 % scale per wheel, 2 % per-step speed noise), so that odometry drifts as a "
+            "real robot's does"),
+    Arg("map_to_odom", default="true",
+        doc="place namespaced robots' odom frames in map at their starts; false where amcl publishes map -> odom"),
 
     Param("/use_sim_time", True),
 
@@ -29,5 +39,8 @@ LAUNCH = [
         Param("real_time_factor", "$(arg rtf)"),
         Param("namespaces", "$(arg namespaces)"),
         Param("starts", "$(arg starts)"),
+        Param("odom_scale_std", ENCODER_SCALE_STD, if_="$(arg encoder_noise)"),
+        Param("odom_speed_std", ENCODER_SPEED_STD, if_="$(arg encoder_noise)"),
+        Param("map_to_odom", "$(arg map_to_odom)"),
     ]),
 ]

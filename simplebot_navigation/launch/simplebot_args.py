@@ -33,3 +33,14 @@ TIGHT = Arg("tight", default="false", choices=("true", "false"),
 COLLISION_MONITOR = Arg("collision_monitor", default="true", choices=("true", "false"),
                         doc="put the collision monitor between move_base (cmd_vel_nav) and the base "
                             "(simplebot_controller/cmd_vel); false: move_base drives the base directly")
+MAP = Arg("map", default="",
+          doc="navigate on a map: a map_server YAML, or a world's name whose map is exported at 0.05 m; "
+              "starts map_server and amcl (empty: the lab's odom-only set-up)")
+#: a condition: navigating on a map
+MAPPED = "$(eval map != '')"
+INITIAL_POSE = Arg("initial_pose", default="",
+                   doc="x,y,yaw of the robot in the map frame for amcl (empty: the world's start); with map:= only")
+ENCODER_NOISE = Arg("encoder_noise", default="", choices=("", "true", "false"),
+                    doc="simulate wheel encoder errors so that odometry drifts (empty: on with a map, off without)")
+#: the simulator's encoder_noise argument from ENCODER_NOISE and MAP
+WITH_ENCODER_NOISE = "$(eval encoder_noise == 'true' or encoder_noise == '' and map != '')"
