@@ -215,12 +215,9 @@
       const d = L.goal.data;
       arrow(d[0], d[1], d[2], px(40), COLOURS.goal, 3);
     }
-    if (state.drag && state.drag.kind !== "pan") {
-      const g = state.drag;
-      arrow(g.x, g.y, g.yaw, px(40), TOOL_COLOURS[g.kind], 3);
-    }
-    const dragging = state.drag && state.drag.kind === "goal";
-    if (!dragging && state.sentGoal && !(L.goal && sameGoal(L.goal.data, state.sentGoal))) {
+    const drag = state.drag;
+    if (drag && drag.kind !== "pan") arrow(drag.x, drag.y, drag.yaw, px(40), TOOLS[drag.kind].dataset.colour, 3);
+    if (!(drag && drag.kind === "goal") && state.sentGoal && !(L.goal && sameGoal(L.goal.data, state.sentGoal))) {
       const g = state.sentGoal;
       arrow(g.x, g.y, g.yaw, px(40), "#2a6", 2);
     }
@@ -288,19 +285,14 @@
   }
 
   // -- input ---------------------------------------------------------------------------------------
-  // The two pose tools, as RViz's: where each sends what the user clicked and dragged.
-  const TOOLS = {
-    goal: { button: "goal-tool", path: "goal", hint: "click the goal position, drag for the heading" },
-    pose: { button: "pose-tool", path: "initialpose",
-            hint: "click where the robot is, drag for its heading (sets the localizer's pose)" },
-  };
-  const TOOL_COLOURS = { goal: "#2a6", pose: "#a2c" };
+  // The two pose tools, as RViz's: each button's data-path is where the clicked and dragged pose goes.
+  const TOOLS = { goal: $("goal-tool"), pose: $("pose-tool") };
 
   function setTool(tool) {
     state.tool = tool;
-    for (const [name, t] of Object.entries(TOOLS)) $(t.button).classList.toggle("on", name === tool);
+    for (const [name, button] of Object.entries(TOOLS)) button.classList.toggle("on", name === tool);
     canvas.classList.toggle("goal", tool !== null);
-    $("hint").textContent = tool ? TOOLS[tool].hint : "";
+    $("hint").textContent = tool ? TOOLS[tool].dataset.hint : "";
   }
 
   function setFollow(on) {
@@ -318,9 +310,10 @@
 
   async function sendPose(kind, pose) {
     if (kind === "goal") state.sentGoal = pose;
-    const response = await fetch(TOOLS[kind].path, { method: "POST",
-      headers: { "Content-Type": "application/json" }, body: JSON.stringify(pose) });
-    $("hint").textContent = response.ok ? "" : `${TOOLS[kind].path} refused: ` + await response.text();
+    const path = TOOLS[kind].dataset.path;
+    const response = await fetch(path, { method: "POST", headers: { "Content-Type": "application/json" },
+      body: JSON.stringify(pose) });
+    $("hint").textContent = response.ok ? "" : `${path} refused: ` + await response.text();
     draw();
   }
 
@@ -381,9 +374,7 @@
     else if (event.key === "Escape") { state.drag = null; setTool(null); draw(); }
   });
 
-  for (const [name, t] of Object.entries(TOOLS)) {
-    $(t.button).addEventListener("click", () => setTool(state.tool === name ? null : name));
-  }
+  for (const [name, button] of Object.entries(TOOLS)) button.onclick = () => setTool(state.tool === name ? null : name);
   $("follow").addEventListener("click", () => setFollow(!state.follow));
   $("fit").addEventListener("click", fit);
   window.addEventListener("resize", draw);
