@@ -24,7 +24,7 @@ import rclpy
 from action_msgs.msg import GoalStatus
 from actionlib_msgs.msg import GoalStatusArray
 from diagnostic_msgs.msg import DiagnosticStatus
-from geometry_msgs.msg import PoseStamped, Twist
+from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped, Twist
 from nav_msgs.msg import Odometry
 from rclpy.action import ActionClient
 from rclpy.executors import SingleThreadedExecutor
@@ -87,10 +87,12 @@ class ScenarioClient(Node):
                                    result_service_qos_profile=ACTION_SERVICE_QOS,
                                    cancel_service_qos_profile=ACTION_SERVICE_QOS)
         self.truth: list[tuple[float, float, float, float]] = []  # (t, x, y, yaw) in the world frame
+        self.localized: list[tuple[float, float, float, float]] = []  # amcl's (t, x, y, yaw) in map, on a map
         self.collisions = 0              # the robot's own: it drove into something (simulator's count_moving)
         self.struck_standing = 0         # something ran into it while it stood (count_standing)
         self.status: GoalStatusArray | None = None
         self.create_subscription(Odometry, "simplebot/ground_truth", self._on_truth, 100)
+        self.create_subscription(PoseWithCovarianceStamped, "amcl_pose", self._on_amcl_pose, 10)
         self.create_subscription(DiagnosticStatus, "simplebot/collisions", self._on_collisions, LATCHED)
         self.create_subscription(GoalStatusArray, "move_base/status", self._on_status, 10)
 
@@ -98,6 +100,10 @@ class ScenarioClient(Node):
         p, q = msg.pose.pose.position, msg.pose.pose.orientation
         stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
         self.truth.append((stamp, p.x, p.y, yaw_of(q)))
+
+    def _on_amcl_pose(self, msg: PoseWithCovarianceStamped) -> None:
+        p, q = msg.pose.pose.position, msg.pose.pose.orientation
+        self.localized.append((msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9, p.x, p.y, yaw_of(q)))
 
     def _on_collisions(self, msg: DiagnosticStatus) -> None:
         values = {kv.key: kv.value for kv in msg.values}
@@ -137,6 +143,8 @@ class _Session(abc.ABC):
     client: ScenarioClient
     context: rclpy.Context
     executor: SingleThreadedExecutor | None = None
+    #: navigating on this map (a map YAML or a world's name); empty: in odom, the lab's way
+    map_name: str = ""
 
     @property
     @abc.abstractmethod
@@ -202,10 +210,12 @@ class _Session(abc.ABC):
         return pose_in_frame((s.x, s.y, s.yaw), (x, y, yaw))
 
     def goal_message(self, goal: Pose2D) -> MoveBase.Goal:
-        x, y, yaw = self.to_odom(goal.x, goal.y, goal.yaw)
+        """A goal in odom, or on a map in ``map``: a map exported from the world has the world's coordinates."""
+        on_map = bool(self.map_name)
+        x, y, yaw = (goal.x, goal.y, goal.yaw) if on_map else self.to_odom(goal.x, goal.y, goal.yaw)
         msg = MoveBase.Goal()
         pose: PoseStamped = msg.target_pose
-        pose.header.frame_id = self.client.frame_prefix + "odom"
+        pose.header.frame_id = "map" if on_map else self.client.frame_prefix + "odom"
         pose.header.stamp = self.client.get_clock().now().to_msg()
         pose.pose.position.x, pose.pose.position.y = x, y
         pose.pose.orientation = quaternion_msg(yaw)
@@ -249,13 +259,15 @@ class _Session(abc.ABC):
 
 def launch_args(world: str, robot: str, radius: float, rtf: float, tight: bool,
                 respawn: bool = False, foxglove_port: int | None = None,
-                collision_monitor: bool = True) -> dict[str, str]:
+                collision_monitor: bool = True, map_name: str = "") -> dict[str, str]:
     """The navigation launch file's arguments for a session; by default a node that dies is not respawned,
     so a scenario shows the crash instead of hiding it. With a foxglove_port (0: a free one) the run is
-    also served to the Foxglove app on 127.0.0.1."""
+    also served to the Foxglove app on 127.0.0.1. With a map_name (a map YAML or a world) it runs on a map."""
     args = {"world": str(world), "robot": robot, "radius": str(radius), "rtf": str(rtf),
             "tight": "true" if tight else "false", "respawn": "true" if respawn else "false",
             "collision_monitor": "true" if collision_monitor else "false"}
+    if map_name:
+        args["map"] = map_name
     if foxglove_port is not None:
         args.update(foxglove="true", foxglove_port=str(foxglove_port))
     return args
@@ -266,14 +278,16 @@ class NavigationSession(_Session):
 
     def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, rtf: float = 0.0,
                  seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation", tight: bool = False,
-                 overrides: tuple[str, ...] = (), foxglove_port: int | None = None, collision_monitor: bool = True):
+                 overrides: tuple[str, ...] = (), foxglove_port: int | None = None, collision_monitor: bool = True,
+                 map_name: str = ""):
         if not (math.isfinite(rtf) and rtf >= 0):
             raise ValueError(f"rtf must be >= 0 (0: lockstep), got {rtf!r}")
         self.description = robot_description(robot, radius)
         self.world = load_world(world, robot_radius=self.description.inscribed_radius)
         self.rtf = rtf
+        self.map_name = map_name
         config = load_launch(launch_file, launch_args(world, robot, radius, rtf, tight, foxglove_port=foxglove_port,
-                                                      collision_monitor=collision_monitor))
+                                                      collision_monitor=collision_monitor, map_name=map_name))
         apply_set(config, list(overrides))
         self.context = rclpy.Context()
         rclpy.init(context=self.context)

@@ -232,6 +232,24 @@ class SimRobot:
         pb.resetBasePositionAndOrientation(self._hull, [x, y, self._hull_z], pb.getQuaternionFromEuler([0, 0, yaw]),
                                            physicsClientId=c)
 
+    def kidnap(self, pose: Pose2D) -> None:
+        """Put the robot at ``pose`` (world frame), standing, its command dropped: its odometry does not notice,
+        as a robot carried away does not (the kidnapped-robot test of a localizer)."""
+        c = self._client
+        _, com_orn = pb.getBasePositionAndOrientation(self.body, physicsClientId=c)
+        link_to_com = pb.invertTransform(*self._com_to_link)
+        base_z = self.base_link_pose()[0][2]
+        com, orn = pb.multiplyTransforms([pose.x, pose.y, base_z], pb.getQuaternionFromEuler([0, 0, pose.yaw]),
+                                         *link_to_com)
+        pb.resetBasePositionAndOrientation(self.body, com, orn, physicsClientId=c)
+        pb.resetBaseVelocity(self.body, [0, 0, 0], [0, 0, 0], physicsClientId=c)
+        for wheel in self._wheels:
+            angle = pb.getJointState(self.body, wheel, physicsClientId=c)[0]
+            pb.resetJointState(self.body, wheel, angle, 0.0, physicsClientId=c)
+        self._cmd, self._wheel_cmd = None, self._stopped
+        self._apply_wheel_cmd()
+        self.move_hull()
+
     def add_scans(self, scans: list[LaserScanData]) -> None:
         self._pending_scans += scans
 

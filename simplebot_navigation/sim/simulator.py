@@ -39,7 +39,7 @@ from simplebot_navigation.sim.diff_drive import DiffDriveParams, OdomNoise
 from simplebot_navigation.sim.lidar import LaserScanData
 from simplebot_navigation.sim.moving import MovingObstacle, MovingObstacleState, MovingTracks, obstacle_label
 from simplebot_navigation.sim.robot import CollisionGroups, CollisionReport, JointStates, Odometry, SimRobot
-from simplebot_navigation.sim.world import Box, Cylinder, Pose2D, World
+from simplebot_navigation.sim.world import Box, Cylinder, Pose2D, World, check_poses_clear
 
 # Collision filter groups. Bullet lets a ray hit an object only if the object's mask has bit 1
 # (the ray's own group), so only the ray mesh and the robots' hulls carry that bit.
@@ -177,6 +177,12 @@ class SimplebotSim:
         Raises ValueError for NaN/inf; the previous command then stays in force (and times out).
         """
         self.robots[robot].set_cmd_vel(v, w, self.sim_time if now is None else now)
+
+    def kidnap(self, pose: Pose2D, robot: int = 0) -> None:
+        """Teleport a robot to ``pose`` in the world frame without telling its odometry; a pose inside an
+        obstacle is a ValueError."""
+        check_poses_clear(self.world, [("kidnap pose", pose)], self.description.inscribed_radius)
+        self.robots[robot].kidnap(pose)
 
     def step(self) -> None:
         """Advance one physics step: drive control, physics, odometry, contacts, due scans."""

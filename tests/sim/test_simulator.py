@@ -346,3 +346,22 @@ def test_joint_states_report_wheel_speeds(make_sim):
 def test_bad_simulator_arguments(kwargs, message):
     with pytest.raises(ValueError, match=message):
         SimplebotSim(World("empty"), BOX, **kwargs)
+
+
+
+def test_a_kidnapped_robot_stands_where_it_was_put_and_its_odometry_does_not_know(make_sim):
+    sim = make_sim(wall_ahead(3.0))
+    drive(sim, 0.2, 0.0, 1.0)
+    before = sim.odometry()
+    sim.kidnap(Pose2D(1.5, 0.0, 0.0))
+    sim.step_until(sim.sim_time + 0.05)
+    sim.due_scans()     # what was cast before the kidnap
+    sim.step_until(sim.sim_time + 0.5)
+    truth, odom = sim.ground_truth(), sim.odometry()
+    assert (truth.x, truth.y, truth.yaw) == pytest.approx((1.5, 0.0, 0.0), abs=0.01)
+    assert (odom.x, odom.y, odom.yaw) == pytest.approx((before.x, before.y, before.yaw), abs=0.02)
+    scan = {s.frame: s for s in sim.due_scans()}["front_laser_link"]
+    laser_x = BOX.laser_poses["front_laser_link"][0]
+    assert scan.ranges[CENTRE] == pytest.approx(1.5 - laser_x, abs=0.01)
+    with pytest.raises(ValueError, match="kidnap pose"):
+        sim.kidnap(Pose2D(3.05, 0.0, 0.0))
