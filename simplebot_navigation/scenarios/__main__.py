@@ -54,6 +54,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="port of the Foxglove WebSocket server (default: 8766; 0: a free one)")
     p.add_argument("--no-collision-monitor", action="store_true",
                    help="run without the collision monitor: move_base drives the base directly")
+    p.add_argument("--map", metavar="MAP",
+                   help="navigate on a map, localized by amcl, with drifting encoders: 'world' (the map of each "
+                        "run's world) or a map_server YAML; reports amcl's error against ground truth")
     p.add_argument("--json", metavar="OUT.json", help="write the results as JSON")
     p.add_argument("--plot", metavar="OUT.png", help="draw the trajectories over the world (matplotlib PNG)")
     return p
@@ -74,6 +77,9 @@ def _check(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Scenari
         parser.error(f"--repeat must be >= 1, got {args.repeat}")
     if not 0 <= args.foxglove_port <= 65535:
         parser.error(f"--foxglove-port must be 0..65535, got {args.foxglove_port}")
+    if args.map not in (None, "world") and not (args.map.lower().endswith((".yaml", ".yml"))
+                                               and os.path.isfile(args.map)):
+        parser.error(f"--map {args.map}: neither 'world' nor an existing map YAML file")
     for option, path in (("--json", args.json), ("--plot", args.plot)):
         folder = os.path.dirname(os.path.abspath(path)) if path else None
         if folder and not os.path.isdir(folder):
@@ -91,7 +97,7 @@ def _check(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Scenari
                            time_budget=args.time_budget, processes=args.processes, tight=args.tight,
                            wall_timeout_s=args.wall_timeout, overrides=tuple(args.set),
                            foxglove_port=args.foxglove_port if args.foxglove else None,
-                           collision_monitor=not args.no_collision_monitor)
+                           collision_monitor=not args.no_collision_monitor, map_name=args.map or "")
 
 
 def main(argv: list[str] | None = None) -> int:

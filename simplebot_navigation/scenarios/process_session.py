@@ -94,10 +94,11 @@ class ProcessSession(RemoteSession):
     def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, rtf: float = 1.0,
                  seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation", tight: bool = False,
                  respawn: bool = False, overrides: tuple[str, ...] = (), foxglove_port: int | None = None,
-                 namespace: str = "", collision_monitor: bool = True):
+                 namespace: str = "", collision_monitor: bool = True, map_name: str = ""):
         if not (math.isfinite(rtf) and rtf > 0):
             raise ValueError(f"separate processes need rtf > 0 (lockstep is single-process), got {rtf!r}")
-        args = launch_args(world, robot, radius, rtf, tight, respawn, foxglove_port, collision_monitor)
+        self.map_name = map_name
+        args = launch_args(world, robot, radius, rtf, tight, respawn, foxglove_port, collision_monitor, map_name)
         if namespace:  # the launch file's namespace argument: the robot's topics and frames under it
             args["namespace"] = namespace
         launch = load_launch(launch_file, args)

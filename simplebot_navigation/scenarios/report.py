@@ -59,6 +59,14 @@ def table(results: list[GoalResult]) -> str:
                  f"mean time to goal {s['mean_time_s']:.1f} s sim ({s['mean_time_ratio']:.2f} x path / max_vel_x), "
                  f"collisions while moving {s['collisions']}, struck while standing {s['struck_standing']}, "
                  f"min clearance {s['min_clearance']:.2f} m, recoveries {s['recoveries']}")
+    located = [r.localization for r in results if r.localization]
+    if located:
+        samples = sum(e.samples for e in located)
+        rms = math.sqrt(sum(e.samples * e.position_rms ** 2 for e in located) / samples)
+        yaw = math.sqrt(sum(e.samples * e.yaw_rms ** 2 for e in located) / samples)
+        worst_p95, worst = max(e.position_p95 for e in located), max(e.position_max for e in located)
+        lines.append(f"amcl against ground truth: {100 * rms:.1f} cm RMS, worst goal's p95 {100 * worst_p95:.1f} cm, "
+                     f"max {100 * worst:.1f} cm, yaw {math.degrees(yaw):.2f} deg RMS ({samples} poses)")
     return "\n".join(lines)
 
 

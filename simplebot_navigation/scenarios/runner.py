@@ -17,6 +17,7 @@ from simplebot_description import RobotDescription
 from simplebot_navigation.sim.moving import MovingTracks
 from simplebot_navigation.sim.world import Pose2D, World, write_world
 from simplebot_navigation.sim.world_gen import clutter_world
+from simplebot_navigation.scenarios.localization import LocalizationError, localization_error
 from simplebot_navigation.scenarios.process_session import ProcessSession, RemoteSession
 from simplebot_navigation.scenarios.session import NavigationSession
 
@@ -57,6 +58,7 @@ class GoalResult:
     max_vel_x: float             # the local planner's top speed during the goal
     trajectory: list[tuple[float, float, float, float]] = field(repr=False)
     struck_standing: int = 0     # a moving obstacle ran into the standing robot: reported, not a failure
+    localization: LocalizationError | None = None   # on a map: amcl's pose against ground truth during the goal
 
     @property
     def time_ratio(self) -> float:
@@ -86,6 +88,7 @@ class ScenarioOptions:
     overrides: tuple[str, ...] = ()      # --set NAME=VALUE for move_base
     foxglove_port: int | None = None     # serve the run to the Foxglove app on this port (0: a free one)
     collision_monitor: bool = True       # False: move_base drives the base directly
+    map_name: str = ""             # navigate on this map (a map YAML; "world": the run's world's), amcl localizing
 
 
 # -- goals -----------------------------------------------------------------------------------------
@@ -116,6 +119,11 @@ def parse_goals(text: str | None, world: World) -> list[Pose2D]:
         else:
             goals += [world.goal(name) for name in fields]
     return goals
+
+
+def map_for_run(map_name: str, world: str) -> str:
+    """--map: "world" is the map of the run's world (exported by map_server), anything else a map YAML."""
+    return world if map_name == "world" else map_name
 
 
 def world_for_run(world: str, seed: int, folder: str) -> str:
@@ -275,7 +283,8 @@ def run_goal(session: NavigationSession | RemoteSession, goal: Pose2D, budget_s:
         cycles_missed=cycles.missed if cycles else None,
         final=final, position_error=position_error, yaw_error=yaw_error,
         wall_s=time.monotonic() - wall_start, max_vel_x=session.controller_param("max_vel_x", 0.4),
-        trajectory=_thinned(truth), struck_standing=struck_standing)
+        trajectory=_thinned(truth), struck_standing=struck_standing,
+        localization=localization_error(session.client.localized, truth) if session.map_name else None)
 
 
 def _pose_failures(position_error, yaw_error, success_radius, xy_tol, yaw_tol) -> list[str]:
@@ -318,27 +327,35 @@ def run_scenarios(options: ScenarioOptions, progress: Callable[[str], None] = pr
     for index in range(options.repeat):
         seed = options.seed + index
         session_class = ProcessSession if options.processes else NavigationSession
-        with tempfile.TemporaryDirectory(prefix="simplebot_scenarios_") as folder, \
-                session_class(world_for_run(options.world, seed, folder), options.robot, options.radius,
-                              options.rtf, seed, options.range_noise, tight=options.tight,
-                              overrides=options.overrides, foxglove_port=options.foxglove_port,
-                              collision_monitor=options.collision_monitor) as session:
-            goals = parse_goals(options.goals, session.world)
-            worlds.append(session.world)
-            session.wait_ready(wall_timeout_s=options.wall_timeout_s or 120.0)
-            max_vel_x = session.controller_param("max_vel_x", 0.4)
-            for number, goal in enumerate(goals, 1):
-                budget = options.time_budget or time_budget(session.world, session.pose(), goal, max_vel_x)
-                result = run_goal(session, goal, budget, index, options.wall_timeout_s)
-                results.append(result)
-                verdict = "ok  " if result.success else "FAIL"
-                why = "" if result.success else "  (" + "; ".join(result.failures) + ")"
-                progress(f"[run {index + 1}/{options.repeat} seed {seed}] goal {number}/{len(goals)} "
-                         f"{result.goal}: {verdict} {result.status} in {result.time_s:.1f} s sim "
-                         f"(budget {budget:.0f} s), path {result.path_length:.1f} m, "
-                         f"clearance {result.min_clearance:.2f} m, {result.wall_s:.0f} s wall{why}")
-                if result.status == "HUNG":
-                    progress(f"[run {index + 1}/{options.repeat}] the nodes hung: "
-                             f"{len(goals) - number} goal(s) of this run skipped")
-                    break
+        with tempfile.TemporaryDirectory(prefix="simplebot_scenarios_") as folder:
+            world = world_for_run(options.world, seed, folder)
+            with session_class(world, options.robot, options.radius, options.rtf, seed, options.range_noise,
+                               tight=options.tight, overrides=options.overrides, foxglove_port=options.foxglove_port,
+                               collision_monitor=options.collision_monitor,
+                               map_name=map_for_run(options.map_name, world)) as session:
+                worlds.append(session.world)
+                results += _run_goals(session, options, index, seed, progress)
     return results, worlds
+
+
+def _run_goals(session, options: ScenarioOptions, index: int, seed: int, progress) -> list[GoalResult]:
+    goals = parse_goals(options.goals, session.world)
+    session.wait_ready(wall_timeout_s=options.wall_timeout_s or 120.0)
+    max_vel_x = session.controller_param("max_vel_x", 0.4)
+    results = []
+    for number, goal in enumerate(goals, 1):
+        budget = options.time_budget or time_budget(session.world, session.pose(), goal, max_vel_x)
+        result = run_goal(session, goal, budget, index, options.wall_timeout_s)
+        results.append(result)
+        verdict = "ok  " if result.success else "FAIL"
+        why = "" if result.success else "  (" + "; ".join(result.failures) + ")"
+        located = f", amcl {result.localization.text()}" if result.localization else ""
+        progress(f"[run {index + 1}/{options.repeat} seed {seed}] goal {number}/{len(goals)} "
+                 f"{result.goal}: {verdict} {result.status} in {result.time_s:.1f} s sim "
+                 f"(budget {budget:.0f} s), path {result.path_length:.1f} m, "
+                 f"clearance {result.min_clearance:.2f} m{located}, {result.wall_s:.0f} s wall{why}")
+        if result.status == "HUNG":
+            progress(f"[run {index + 1}/{options.repeat}] the nodes hung: "
+                     f"{len(goals) - number} goal(s) of this run skipped")
+            break
+    return results
