@@ -3,8 +3,9 @@
 An image comes back as grey *levels*, unsigned integers with row 0 at the image's top, plus the level
 of white: a decoder then works on a table of every possible level instead of a float per pixel, which
 keeps a map of 10^8 cells within a few hundred MB. A colour pixel's level is the sum of its red, green
-and blue levels (white is 765), since map_server averages the colour channels. Alpha never enters the
-level; a pixel whose alpha is 0 is *transparent*.
+and blue levels (white is 765), since map_server averages the colour channels (a grey pixel of an image
+with alpha counts as three equal channels, as GraphicsMagick sees it). Alpha, where the image has it,
+comes apart: 255 is opaque.
 
 The size is checked from the header, before any pixel is read: at most ``MAX_SIDE`` pixels a side and
 ``MAX_CELLS`` in all, so a header that claims 50000 x 50000 is refused at once.
@@ -37,7 +38,7 @@ class MapError(ValueError):
 class Levels:
     levels: np.ndarray               # [rows, cols], unsigned; row 0 is the image's top
     white: int                       # the level of a white pixel
-    transparent: np.ndarray | None   # [rows, cols] bool, or None when the image has no alpha
+    alpha: np.ndarray | None         # [rows, cols] uint8 (255 opaque), or None when the image has no alpha
 
 
 def check_size(width: int, height: int, where) -> None:
@@ -148,10 +149,10 @@ def _pillow_levels(image: Image.Image) -> Levels:
         return Levels(np.asarray(image.convert("L"), dtype=np.uint8), 255, None)
     if image.mode == "LA":
         pixels = np.asarray(image)
-        return Levels(np.ascontiguousarray(pixels[:, :, 0]), 255, pixels[:, :, 1] == 0)
+        return Levels(pixels[:, :, 0].astype(np.uint16) * 3, 765, np.ascontiguousarray(pixels[:, :, 1]))
     pixels = np.asarray(image.convert("RGBA" if has_alpha else "RGB"))
     levels = pixels[:, :, :3].sum(axis=2, dtype=np.uint16)
-    return Levels(levels, 765, pixels[:, :, 3] == 0 if has_alpha else None)
+    return Levels(levels, 765, np.ascontiguousarray(pixels[:, :, 3]) if has_alpha else None)
 
 
 def write_png(path: Path, grey: np.ndarray, alpha: np.ndarray) -> None:

@@ -2,12 +2,15 @@
 
 The YAML keys (docs/reference.md §7): ``image`` (relative to the YAML file), ``resolution`` (m/cell),
 ``origin`` ([x, y, yaw] of the lower-left pixel), ``negate``, ``occupied_thresh``, ``free_thresh`` and
-``mode`` (trinary, scale or raw). A pixel's grey value is the mean of its colour channels, ``p``, taken as
-``255 - p`` when negated; then
+``mode`` (trinary, scale or raw). The pixel rules are Nav2's map_server's (ROS 1's differ in scale and raw
+mode). ``p`` is the mean of a pixel's colour channels, 0..255, and ``occ`` is ``(255 - p) / 255``
+(``p / 255`` when negated):
 
-- trinary: occupancy ``(255 - p) / 255`` above occupied_thresh is 100, below free_thresh is 0, else -1;
-- scale: the same, but between the thresholds ``1 + 98 * ratio`` (truncated) and a transparent pixel -1;
-- raw: ``p`` itself when it is 0..100, else -1.
+- trinary: ``p`` also averages in the opacity when the image has alpha; occ above occupied_thresh is 100,
+  below free_thresh 0, anything else -1;
+- scale: a pixel not fully opaque is -1; occ above occupied_thresh 100, below free_thresh 0, in between
+  ``rint(100 * (occ - free_thresh) / (occupied_thresh - free_thresh))``;
+- raw: ``round(p)`` when it is 0..100, else -1; negate does not apply.
 
 Anything wrong raises MapError with one line naming the file and the key.
 """
@@ -148,26 +151,25 @@ def threshold_problem(occupied_thresh: float, free_thresh: float) -> tuple[str, 
 def decode_map(meta: MapYaml) -> OccupancyMap:
     """Read the image and turn its pixels into cells, bottom row first."""
     image = read_image(meta.image)
-    table = level_table(image.white, meta.mode, meta.negate, meta.occupied_thresh, meta.free_thresh)
-    cells = table[image.levels]
-    if meta.mode == "scale" and image.transparent is not None:
-        cells[image.transparent] = -1
+    levels, white = image.levels, image.white
+    if meta.mode == "trinary" and image.alpha is not None:
+        levels, white = levels + image.alpha, white + 255      # the opacity as one more channel
+    cells = level_table(white, meta.mode, meta.negate, meta.occupied_thresh, meta.free_thresh)[levels]
+    if meta.mode == "scale" and image.alpha is not None:
+        cells[image.alpha != 255] = -1
     return OccupancyMap(np.ascontiguousarray(cells[::-1]), meta.resolution, meta.origin)
 
 
 def level_table(white: int, mode: str, negate: bool, occupied_thresh: float, free_thresh: float) -> np.ndarray:
     """The cell value (int8) of every grey level 0..white, by map_server's rules (module docstring)."""
     grey = np.arange(white + 1, dtype=float) * 255.0 / white
-    if negate:
-        grey = 255.0 - grey
     if mode == "raw":
-        value = np.floor(grey + 1e-9)
-        return np.where((value >= 0) & (value <= 100), value, -1).astype(np.int8)
-    occupancy = (255.0 - grey) / 255.0
+        value = np.floor(grey + 0.5)
+        return np.where(value <= 100, value, -1).astype(np.int8)
+    occupancy = grey / 255.0 if negate else (255.0 - grey) / 255.0
     table = np.full(white + 1, -1, dtype=np.int8)
     if mode == "scale":
-        ratio = (occupancy - free_thresh) / (occupied_thresh - free_thresh)
-        table[:] = np.clip(np.trunc(1.0 + 98.0 * ratio), -1, 100)
+        table[:] = np.clip(np.rint(100.0 * (occupancy - free_thresh) / (occupied_thresh - free_thresh)), -1, 100)
     table[occupancy > occupied_thresh] = 100
     table[occupancy < free_thresh] = 0
     return table
@@ -178,8 +180,9 @@ def save_map(occupancy_map: OccupancyMap, yaml_path: str | Path, mode: str = "tr
              occupied_thresh: float = 0.65, free_thresh: float = 0.25) -> Path:
     """Write the YAML file and its image beside it (``name.pgm``; ``name.png`` in scale mode); the image path.
 
-    trinary (map_saver's): a cell 0..free_thresh*100 is grey 254, occupied_thresh*100..100 is 0, anything else
-    205, and the YAML declares thresholds 0.65/0.196, which read exactly those three greys back. scale: each
+    trinary (map_saver's): a cell 0..free_thresh*100 is grey 254, occupied_thresh*100..100 is 0 (thresholds
+    rounded to whole percents), anything else 205; the YAML declares thresholds 0.65/0.196, ROS 1 map_saver's,
+    which read exactly those three greys back (Nav2's saver writes the given ones, and 0.25 reads 205 as free). scale: each
     value 0..100 gets a grey that the YAML's thresholds (the ones given) read back as that value, unknown is
     transparent. raw: the value itself as the grey, unknown 255. load_map gives the written cells back."""
     if mode not in MODES:
@@ -194,8 +197,8 @@ def save_map(occupancy_map: OccupancyMap, yaml_path: str | Path, mode: str = "tr
     comment = f"CREATOR: simplebot_navigation map_saver {occupancy_map.resolution:.3f} m/pix"
     if mode == "trinary":
         grey = np.full(cells.shape, UNKNOWN_GREY, dtype=np.uint8)
-        grey[known & (cells <= free_thresh * 100 + 1e-9)] = FREE_GREY
-        grey[known & (cells >= occupied_thresh * 100 - 1e-9)] = OCCUPIED_GREY
+        grey[known & (cells <= round(free_thresh * 100))] = FREE_GREY
+        grey[known & (cells >= round(occupied_thresh * 100))] = OCCUPIED_GREY
         write_pgm(image_path, grey, comment)
         occupied_thresh, free_thresh = TRINARY_YAML_THRESH
     elif mode == "raw":
