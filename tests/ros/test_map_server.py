@@ -21,6 +21,7 @@ from simplebot_navigation.launch.nodes import resolve_executable
 from simplebot_navigation.maps import load_map, save_map
 from simplebot_navigation.ros.conversions import occupancy_map_from_msg
 from simplebot_navigation.ros.executor import LeanExecutor
+from simplebot_navigation.ros.map_saver_node import parse_arguments
 from simplebot_navigation.ros.map_server_node import LATCHED, MapServerNode, file_argument
 from simplebot_navigation.sim import load_world
 from simplebot_navigation.sim.map_export import export_map
@@ -183,3 +184,26 @@ def test_the_file_comes_from_the_first_argument_and_both_executables_are_registe
         file_argument(["map_server", "a.yaml", "b.yaml"])
     assert resolve_executable("map_server", "map_server").node_class == "MapServerNode"
     assert resolve_executable("map_server", "map_saver").module == "simplebot_navigation.ros.map_saver_node"
+
+
+def test_map_saver_without_a_map_exits_1_with_one_line(tmp_path):
+    result = subprocess.run([sys.executable, "-m", "simplebot_navigation.ros.map_saver_node", "-f",
+                             str(tmp_path / "saved"), "--timeout", "0.5", "--map-topic", "no_map_here"],
+                            cwd=REPO, capture_output=True, text=True, timeout=WAIT_S * 2)
+    assert result.returncode == 1
+    assert result.stderr.strip() == "map_saver: no map on 'no_map_here' within 0.5 s"
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--occ", "1.5"], "--occ: must be in [0, 1], got 1.5"),
+    (["--occ", "0.2", "--free", "0.3"], "--free: 0.3 must be below occupied_thresh 0.2"),
+    (["--mode", "fancy"], "argument --mode: invalid choice: 'fancy'"),
+    (["--timeout", "0"], "--timeout: must be a positive number of seconds"),
+    (["-f", "/no/such/folder/office"], "folder /no/such/folder does not exist"),
+])
+def test_map_saver_refuses_bad_arguments_in_one_line(capsys, args, message):
+    with pytest.raises(SystemExit) as exit:
+        parse_arguments(args)
+    err = capsys.readouterr().err
+    assert exit.value.code == 2 and message in err and err.count("\n") == 1, err
