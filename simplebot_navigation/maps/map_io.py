@@ -181,10 +181,11 @@ def save_map(occupancy_map: OccupancyMap, yaml_path: str | Path, mode: str = "tr
     """Write the YAML file and its image beside it (``name.pgm``; ``name.png`` in scale mode); the image path.
 
     trinary (map_saver's): a cell 0..free_thresh*100 is grey 254, occupied_thresh*100..100 is 0 (thresholds
-    rounded to whole percents), anything else 205; the YAML declares thresholds 0.65/0.196, ROS 1 map_saver's,
-    which read exactly those three greys back (Nav2's saver writes the given ones, and 0.25 reads 205 as free). scale: each
-    value 0..100 gets a grey that the YAML's thresholds (the ones given) read back as that value, unknown is
-    transparent. raw: the value itself as the grey, unknown 255. load_map gives the written cells back."""
+    rounded to whole percents), anything else 205; the YAML declares ROS 1 map_saver's thresholds 0.65/0.196,
+    which read exactly those three greys back (Nav2's saver writes the given ones: 0.25 reads 205 as free).
+    scale: each value 0..100 a grey that the given thresholds, written to the YAML, read back as that value
+    (scale_greys); unknown transparent. raw: the value itself as the grey, unknown 255. load_map gives the
+    written cells back."""
     if mode not in MODES:
         raise MapError(f"{yaml_path}: mode: expected trinary, scale or raw, got {mode!r}")
     problem = threshold_problem(occupied_thresh, free_thresh)
@@ -211,8 +212,8 @@ def save_map(occupancy_map: OccupancyMap, yaml_path: str | Path, mode: str = "tr
 
 
 def scale_greys(occupied_thresh: float, free_thresh: float) -> np.ndarray:
-    """For each value 0..100, the grey (uint8) that scale mode reads back as that value with these thresholds:
-    the middle one of the greys that do."""
+    """For each value 0..100, a grey (uint8) that scale mode reads back as that value with these thresholds:
+    white for 0, black for 100, the middle one of the greys that do for the others."""
     table = level_table(255, "scale", False, occupied_thresh, free_thresh)
     greys = np.zeros(101, dtype=np.uint8)
     for value in range(101):
@@ -220,7 +221,7 @@ def scale_greys(occupied_thresh: float, free_thresh: float) -> np.ndarray:
         if len(found) == 0:
             raise MapError(f"scale mode: thresholds occupied {occupied_thresh} and free {free_thresh} leave "
                            f"no grey level for the value {value}; spread them further apart")
-        greys[value] = found[len(found) // 2]
+        greys[value] = found[-1] if value == 0 else found[0] if value == 100 else found[len(found) // 2]
     return greys
 
 
