@@ -138,7 +138,8 @@ def test_scale_save_with_other_thresholds_and_too_close_ones(tmp_path):
     original = random_map(np.random.default_rng(5), list(range(-1, 101)), shape=(12, 12))
     save_map(original, tmp_path / "m.yaml", mode="scale", occupied_thresh=0.9, free_thresh=0.1)
     assert np.array_equal(load_map(tmp_path / "m.yaml").data, original.data)
-    pixels = np.asarray(Image.open(tmp_path / "m.png"))[::-1]            # grey and alpha, bottom row first
+    with Image.open(tmp_path / "m.png") as image:
+        pixels = np.asarray(image)[::-1]                                # grey and alpha, bottom row first
     cells = original.data
     assert np.all(pixels[cells == 0, 0] == 255) and np.all(pixels[cells == 100, 0] == 0)
     assert np.all(pixels[cells == -1, 1] == 0) and np.all(pixels[cells != -1, 1] == 255)

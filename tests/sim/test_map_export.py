@@ -100,8 +100,10 @@ def test_noisy_maps_are_the_same_per_seed_and_differ_by_the_rule(lab, lab_map):
     beside_walls[:, :-1] |= walls_only[:, 1:]
     assert np.all(beside_walls[added]), "only cells beside a wall are added"
 
-    furniture = [s for s in (*lab.boxes, *lab.cylinders)
-                 if (math.pi * s.radius ** 2 if isinstance(s, Cylinder) else s.size[0] * s.size[1]) <= FURNITURE_AREA_M2]
+    def area(shape):
+        return math.pi * shape.radius ** 2 if isinstance(shape, Cylinder) else shape.size[0] * shape.size[1]
+
+    furniture = [s for s in (*lab.boxes, *lab.cylinders) if area(s) <= FURNITURE_AREA_M2]
     gone = [s for s in furniture if cell_of(noisy, *s.center) == 0]
     assert len(gone) == math.ceil(len(furniture) / 5)
     gone_world = World("gone", boxes=tuple(s for s in gone if not isinstance(s, Cylinder)),
