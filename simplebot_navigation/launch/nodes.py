@@ -20,6 +20,8 @@ EXECUTABLES: dict[tuple[str, str], Executable] = {
                                                               "CollisionMonitorNode"),
     ("simplebot_navigation", "foxglove_bridge"): Executable("simplebot_navigation.ros.tools.foxglove_bridge",
                                                             "FoxgloveBridge"),
+    ("map_server", "map_server"): Executable("simplebot_navigation.ros.map_server_node", "MapServerNode"),
+    ("map_server", "map_saver"): Executable("simplebot_navigation.ros.map_saver_node", None),
 }
 
 

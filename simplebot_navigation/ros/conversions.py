@@ -9,6 +9,7 @@ from nav_msgs.msg import OccupancyGrid, Path
 
 from simplebot_navigation.costmap.cost_values import OCCUPANCY_GRID_TABLE
 from simplebot_navigation.geometry import quaternion_to_yaw, yaw_to_quaternion
+from simplebot_navigation.maps.map_io import OccupancyMap
 
 
 def quaternion_msg(yaw: float) -> Quaternion:
@@ -84,3 +85,30 @@ def occupancy_grid_msg(costs: np.ndarray, resolution: float, origin_x: float, or
     msg.info.origin.orientation.w = 1.0
     msg.data = OCCUPANCY_GRID_TABLE[costs].ravel().tobytes()
     return msg
+
+
+def occupancy_map_msg(occupancy_map: OccupancyMap, stamp: TimeMsg) -> OccupancyGrid:
+    """A map_server map as nav_msgs/OccupancyGrid (its cells as they are, row 0 at the origin)."""
+    msg = OccupancyGrid()
+    msg.header.frame_id = occupancy_map.frame_id
+    msg.header.stamp = stamp
+    msg.info.map_load_time = stamp
+    msg.info.resolution = float(occupancy_map.resolution)
+    msg.info.width, msg.info.height = occupancy_map.width, occupancy_map.height
+    x, y, yaw = occupancy_map.origin
+    msg.info.origin.position.x, msg.info.origin.position.y = float(x), float(y)
+    msg.info.origin.orientation = quaternion_msg(yaw)
+    msg.data = occupancy_map.data.tobytes()
+    return msg
+
+
+def occupancy_map_from_msg(msg: OccupancyGrid) -> OccupancyMap:
+    """The map a nav_msgs/OccupancyGrid carries; ValueError if its data does not fill width x height."""
+    info = msg.info
+    if len(msg.data) != info.width * info.height:
+        raise ValueError(f"{len(msg.data)} cells for {info.width} x {info.height}")
+    data = np.array(msg.data, dtype=np.int8).reshape(info.height, info.width)
+    # resolution is a float32 field: its shortest decimal is the value the publisher meant (0.05, not 0.0500000007)
+    return OccupancyMap(data, float(str(np.float32(info.resolution))),
+                        (info.origin.position.x, info.origin.position.y, yaw_of(info.origin.orientation)),
+                        msg.header.frame_id)

@@ -1,0 +1,209 @@
+"""map_server and map_saver over real topics: the map latched for late subscribers, GetMap, a saved map that loads
+back the same, a bad file at start (exit 2, one line) and a bad file set live (refused, the old map stays)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import rclpy
+from nav_msgs.msg import MapMetaData, OccupancyGrid
+from nav_msgs.srv import GetMap
+from rcl_interfaces.srv import GetParameters, SetParameters
+from rclpy.parameter import Parameter, parameter_value_to_python
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+from simplebot_navigation.launch.nodes import resolve_executable
+from simplebot_navigation.maps import load_map, save_map
+from simplebot_navigation.ros.conversions import occupancy_map_from_msg
+from simplebot_navigation.ros.executor import LeanExecutor
+from simplebot_navigation.ros.map_saver_node import parse_arguments
+from simplebot_navigation.ros.map_server_node import LATCHED, MapServerNode, file_argument
+from simplebot_navigation.sim import load_world
+from simplebot_navigation.sim.map_export import export_map
+
+pytestmark = pytest.mark.timeout(120)
+REPO = Path(__file__).resolve().parents[2]
+WAIT_S = 15.0
+
+
+@pytest.fixture(scope="module")
+def maps(tmp_path_factory):
+    """The lab exported exactly and noisily, and a map whose resolution is negative."""
+    folder = tmp_path_factory.mktemp("maps")
+    lab = load_world("lab")
+    save_map(export_map(lab, 0.1), folder / "office.yaml")
+    save_map(export_map(lab, 0.1, noisy_seed=1), folder / "noisy.yaml")
+    (folder / "bad.yaml").write_text("image: office.pgm\nresolution: -0.1\norigin: [0, 0, 0]\n")
+    return folder
+
+
+class Graph:
+    """The map server and the nodes that talk to it, on one executor; all destroyed at the end of the test."""
+
+    def __init__(self, context):
+        self.context = context
+        self.executor = LeanExecutor(context=context)
+        self.nodes = []
+
+    def add(self, node):
+        self.nodes.append(node)
+        self.executor.add_node(node)
+        return node
+
+    def server(self, yaml_filename, **params):
+        return self.add(MapServerNode(context=self.context, parameter_overrides=[
+            Parameter("yaml_filename", value=str(yaml_filename)),
+            *(Parameter(name, value=value) for name, value in params.items())]))
+
+    def client(self, name):
+        return self.add(rclpy.create_node(name, context=self.context))
+
+    def spin_until(self, done, seconds=WAIT_S):
+        deadline = time.monotonic() + seconds
+        while not done() and time.monotonic() < deadline:
+            self.executor.spin_once(timeout_sec=0.02)
+        return done()
+
+    def call(self, client, request):
+        assert self.spin_until(client.service_is_ready), f"no {client.srv_name} service"
+        future = client.call_async(request)
+        assert self.spin_until(future.done)
+        return future.result()
+
+
+@pytest.fixture
+def graph(context):
+    graph = Graph(context)
+    yield graph
+    graph.executor.shutdown()
+    for node in graph.nodes:
+        node.destroy_node()
+
+
+def subscribe(node, msg_type, topic, qos=LATCHED):
+    received = []
+    node.create_subscription(msg_type, topic, received.append, qos)
+    return received
+
+
+def test_a_late_subscriber_gets_the_latched_map_and_a_volatile_one_does_not(graph, maps):
+    graph.server(maps / "office.yaml")
+    graph.spin_until(lambda: False, seconds=0.2)                 # published well before anyone listens
+    late = graph.client("late_listener")
+    grids, metadata = subscribe(late, OccupancyGrid, "/map"), subscribe(late, MapMetaData, "/map_metadata")
+    volatile = subscribe(late, OccupancyGrid, "/map", QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE))
+    assert graph.spin_until(lambda: grids and metadata)
+    expected = load_map(maps / "office.yaml")
+    received = occupancy_map_from_msg(grids[0])
+    assert np.array_equal(received.data, expected.data)
+    assert received.frame_id == "map" and received.resolution == expected.resolution
+    assert received.origin == pytest.approx(expected.origin)
+    assert metadata[0] == grids[0].info
+    graph.spin_until(lambda: False, seconds=0.3)
+    assert not volatile
+
+
+def test_get_map_returns_the_published_grid(graph, maps):
+    graph.server(maps / "office.yaml", frame_id="/world")
+    client = graph.client("get_map_client")
+    grids = subscribe(client, OccupancyGrid, "/map")
+    response = graph.call(client.create_client(GetMap, "/map_server/map"), GetMap.Request())
+    assert graph.spin_until(lambda: grids)
+    assert response.map == grids[0] and response.map.header.frame_id == "world"
+    assert np.array_equal(occupancy_map_from_msg(response.map).data, load_map(maps / "office.yaml").data)
+
+
+def test_map_saver_writes_a_map_that_loads_back_the_same(graph, maps, tmp_path):
+    graph.server(maps / "noisy.yaml")
+    saver = subprocess.Popen([sys.executable, "-m", "simplebot_navigation.ros.map_saver_node", "-f",
+                              str(tmp_path / "saved"), "--timeout", str(WAIT_S)],
+                             cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        graph.spin_until(lambda: saver.poll() is not None, seconds=2 * WAIT_S)
+    finally:
+        if saver.poll() is None:
+            saver.kill()
+        out, err = saver.communicate()
+    assert saver.returncode == 0, err
+    assert "wrote" in out and "saved.pgm" in out
+    original, saved = load_map(maps / "noisy.yaml"), load_map(tmp_path / "saved.yaml")
+    assert np.array_equal(saved.data, original.data)
+    assert saved.resolution == original.resolution and saved.origin == pytest.approx(original.origin)
+
+
+def test_map_server_exits_2_with_one_line_on_a_bad_file(maps):
+    result = subprocess.run([sys.executable, "-m", "simplebot_navigation.ros.map_server_node", str(maps / "bad.yaml")],
+                            cwd=REPO, capture_output=True, text=True, timeout=WAIT_S * 2)
+    assert result.returncode == 2
+    assert result.stderr.strip() == f"map_server: {maps / 'bad.yaml'}: resolution: must be positive, got -0.1"
+
+
+def test_a_bad_file_set_live_is_refused_and_the_old_map_stays(graph, maps):
+    graph.server(maps / "office.yaml")
+    client = graph.client("parameter_client")
+    grids = subscribe(client, OccupancyGrid, "/map")
+    set_service = client.create_client(SetParameters, "/map_server/set_parameters")
+
+    def set_file(path):
+        request = SetParameters.Request(parameters=[Parameter("yaml_filename", value=str(path)).to_parameter_msg()])
+        return graph.call(set_service, request).results[0]
+
+    def current_file():
+        request = GetParameters.Request(names=["yaml_filename"])
+        values = graph.call(client.create_client(GetParameters, "/map_server/get_parameters"), request).values
+        return parameter_value_to_python(values[0])
+
+    assert graph.spin_until(lambda: grids)
+    for bad, reason in ((maps / "bad.yaml", "bad.yaml: resolution: must be positive"),
+                        (maps / "missing.yaml", "missing.yaml: no such file")):
+        result = set_file(bad)
+        assert not result.successful and reason in result.reason
+    assert current_file() == str(maps / "office.yaml")
+    late = graph.client("late_listener")
+    late_grids = subscribe(late, OccupancyGrid, "/map")
+    assert graph.spin_until(lambda: late_grids)
+    office = load_map(maps / "office.yaml").data
+    assert len(grids) == 1 and np.array_equal(occupancy_map_from_msg(late_grids[0]).data, office)
+
+    assert set_file(maps / "noisy.yaml").successful                 # a good file is taken, and published
+    assert graph.spin_until(lambda: len(grids) == 2)
+    assert np.array_equal(occupancy_map_from_msg(grids[1]).data, load_map(maps / "noisy.yaml").data)
+    assert current_file() == str(maps / "noisy.yaml")
+
+
+def test_the_file_comes_from_the_first_argument_and_both_executables_are_registered():
+    (given,) = file_argument(["map_server", "office.yaml", "--ros-args", "-p", "frame_id:=map"])
+    assert (given.name, given.value) == ("yaml_filename", "office.yaml")
+    assert file_argument(["map_server", "--ros-args", "-p", "yaml_filename:=office.yaml"]) == []
+    with pytest.raises(ValueError, match="one map YAML file at most"):
+        file_argument(["map_server", "a.yaml", "b.yaml"])
+    assert resolve_executable("map_server", "map_server").node_class == "MapServerNode"
+    assert resolve_executable("map_server", "map_saver").module == "simplebot_navigation.ros.map_saver_node"
+
+
+def test_map_saver_without_a_map_exits_1_with_one_line(tmp_path):
+    result = subprocess.run([sys.executable, "-m", "simplebot_navigation.ros.map_saver_node", "-f",
+                             str(tmp_path / "saved"), "--timeout", "0.5", "--map-topic", "no_map_here"],
+                            cwd=REPO, capture_output=True, text=True, timeout=WAIT_S * 2)
+    assert result.returncode == 1
+    assert result.stderr.strip() == "map_saver: no map on 'no_map_here' within 0.5 s"
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--occ", "1.5"], "--occ: must be in [0, 1], got 1.5"),
+    (["--occ", "0.2", "--free", "0.3"], "--free: 0.3 must be below occupied_thresh 0.2"),
+    (["--mode", "fancy"], "argument --mode: invalid choice: 'fancy'"),
+    (["--timeout", "0"], "--timeout: must be a positive number of seconds"),
+    (["-f", "/no/such/folder/office"], "folder /no/such/folder does not exist"),
+])
+def test_map_saver_refuses_bad_arguments_in_one_line(capsys, args, message):
+    with pytest.raises(SystemExit) as exit:
+        parse_arguments(args)
+    err = capsys.readouterr().err
+    assert exit.value.code == 2 and message in err and err.count("\n") == 1, err
