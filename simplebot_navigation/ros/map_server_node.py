@@ -4,7 +4,8 @@
     python -m simplebot_navigation.ros.map_server_node office.yaml [--ros-args -p frame_id:=map]
 
 The file is the parameter ``yaml_filename`` (Nav2's name) or the first argument (as ROS 1's ``rosrun map_server
-map_server office.yaml``), the argument winning. A bad map at start is one line naming the file and the key, and
+map_server office.yaml``), the argument winning. A world's name instead of a file (``lab``, ``forest:3``) serves
+that world's map, exported at WORLD_MAP_RESOLUTION (sim/map_export.py), so a simulated world needs no map file. A bad map at start is one line naming the file and the key, and
 exit code 2. Setting ``yaml_filename`` (or ``frame_id``) while running loads the new map in full first: a bad
 one is refused with the reason, and the old map stays served.
 """
@@ -21,6 +22,7 @@ from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.utilities import remove_ros_args
 
+from simplebot_description import world_name_problem
 from simplebot_navigation.maps.map_io import OccupancyMap, load_map
 from simplebot_navigation.parameters.spec import Param
 from simplebot_navigation.ros.conversions import occupancy_map_msg
@@ -28,9 +30,12 @@ from simplebot_navigation.ros.node_main import SetUpNode, run_node
 from simplebot_navigation.ros.params import descriptor, refuse_unknown_parameters
 from simplebot_navigation.ros.publishers import create_publisher
 
+#: metres per cell of a world's map served by name
+WORLD_MAP_RESOLUTION = 0.05
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 PARAMETERS = {
-    "yaml_filename": Param(str, "", "", "the map's YAML file (map_server format); setting it loads that map"),
+    "yaml_filename": Param(str, "", "", "the map's YAML file (map_server format), or a world's name whose map is "
+                           "exported; setting it loads that map"),
     "frame_id": Param(str, "map", "", "the frame the published map is stamped with"),
 }
 
@@ -59,7 +64,7 @@ class MapServerNode(SetUpNode):
         frame = frame_id.lstrip("/")
         if not frame:
             raise ValueError(f"parameter 'frame_id': expected a frame name, got {frame_id!r}")
-        return dataclasses.replace(loaded or load_map(yaml_filename), frame_id=frame)
+        return dataclasses.replace(loaded or read_map(yaml_filename), frame_id=frame)
 
     def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
         """A new file or frame is loaded in full before it is taken; if anything is wrong, nothing changes."""
@@ -90,6 +95,19 @@ class MapServerNode(SetUpNode):
     def _on_get_map(self, _request: GetMap.Request, response: GetMap.Response) -> GetMap.Response:
         response.map = self._msg
         return response
+
+
+def read_map(source: str) -> OccupancyMap:
+    """A map YAML file, or the exported map of the world named ``source``."""
+    if source.lower().endswith((".yaml", ".yml")):
+        return load_map(source)
+    problem = world_name_problem(source)
+    if problem:
+        raise ValueError(f"parameter 'yaml_filename': {source!r} is neither a map YAML file nor a world: {problem}")
+    # Only a world needs the simulator's package, which loads pybullet (and its banner on stderr).
+    from simplebot_navigation.sim.map_export import export_map
+    from simplebot_navigation.sim.world_loader import load_world
+    return export_map(load_world(source), WORLD_MAP_RESOLUTION)
 
 
 def file_argument(argv: list[str]) -> list[Parameter]:

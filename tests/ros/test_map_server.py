@@ -22,7 +22,7 @@ from simplebot_navigation.maps import load_map, save_map
 from simplebot_navigation.ros.conversions import occupancy_map_from_msg
 from simplebot_navigation.ros.executor import LeanExecutor
 from simplebot_navigation.ros.map_saver_node import parse_arguments
-from simplebot_navigation.ros.map_server_node import LATCHED, MapServerNode, file_argument
+from simplebot_navigation.ros.map_server_node import LATCHED, WORLD_MAP_RESOLUTION, MapServerNode, file_argument, read_map
 from simplebot_navigation.sim import load_world
 from simplebot_navigation.sim.map_export import export_map
 
@@ -116,6 +116,17 @@ def test_get_map_returns_the_published_grid(graph, maps):
     assert graph.spin_until(lambda: grids)
     assert response.map == grids[0] and response.map.header.frame_id == "world"
     assert np.array_equal(occupancy_map_from_msg(response.map).data, load_map(maps / "office.yaml").data)
+
+
+def test_a_world_name_serves_that_worlds_exported_map(graph):
+    graph.server("lab")
+    client = graph.client("world_map_client")
+    grids = subscribe(client, OccupancyGrid, "/map")
+    assert graph.spin_until(lambda: grids)
+    expected = export_map(load_world("lab"), WORLD_MAP_RESOLUTION)
+    assert np.array_equal(occupancy_map_from_msg(grids[0]).data, expected.data)
+    with pytest.raises(ValueError, match="'atlantis' is neither a map YAML file nor a world"):
+        read_map("atlantis")
 
 
 def test_map_saver_writes_a_map_that_loads_back_the_same(graph, maps, tmp_path):
