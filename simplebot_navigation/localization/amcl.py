@@ -1,0 +1,153 @@
+"""Amcl: ROS 1 amcl's localization as a pure object (docs/reference.md §8). No ROS here: the node hands in the map,
+odometry poses and scans as plain values and takes the estimate and the particles back.
+
+One cycle, as amcl's laserReceived runs it for every scan:
+
+1. ``odometry_update(odom_pose)`` with the odometry pose (x, y, yaw in the odom frame) at the scans' time. The
+   first pose after construction, an initial pose or global localization is only remembered. Afterwards the
+   particles move by the motion since the last filter update once it exceeds update_min_d along x or along y
+   (each on its own, as amcl compares them) or update_min_a in yaw, or when an update is forced
+   (``request_nomotion_update``); while an update is due every further odometry pose moves them too.
+2. ``sensor_update(scans)`` weighs the particles with each scan in turn, if an update is due; every scan counts
+   towards resample_interval (amcl counts each laser's message), and resampling happens when the count reaches it.
+3. ``estimate()``: the heaviest cluster's mean with amcl's covariance; amcl publishes it after each resampling.
+
+``reset()`` (time went backwards) starts over as if constructed anew: particles around initial_pose_* (which the
+node may have updated from the last estimate, save_pose_rate) and the generator re-seeded.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from simplebot_navigation.localization import clusters
+from simplebot_navigation.localization.amcl_params import AmclParams
+from simplebot_navigation.localization.laser_models import LaserModel, RangeScan
+from simplebot_navigation.localization.map_grid import AmclMap
+from simplebot_navigation.localization.motion_model import angle_diff, sample_motion
+from simplebot_navigation.localization.particle_filter import ParticleFilter
+
+
+class Amcl:
+    """Adaptive Monte Carlo localization on one occupancy grid.
+
+    ``map_data``: int8 [height, width] in nav_msgs/OccupancyGrid order (row 0 at the origin's y; -1 unknown,
+    0..100), ``resolution`` in m per cell, ``origin`` = (x, y, yaw) of the grid's corner in the global frame."""
+
+    def __init__(self, params: AmclParams, map_data, resolution: float, origin=(0.0, 0.0, 0.0)):
+        params.check()
+        self.params = params
+        self.map = AmclMap(map_data, resolution, origin)
+        self.laser = LaserModel(params, self.map)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget everything: particles around the initial_pose_* parameters, a fresh generator from ``seed``."""
+        p = self.params
+        self.filter = ParticleFilter(p, self.map, np.random.default_rng(p.seed))
+        self._odom_reference: np.ndarray | None = None
+        self._update_due = True
+        self._force_update = False
+        self._resample_count = 0
+        self.filter.init_gaussian((p.initial_pose_x, p.initial_pose_y, p.initial_pose_a),
+                                  np.diag([p.initial_cov_xx, p.initial_cov_yy, p.initial_cov_aa]))
+
+    def set_initial_pose(self, x: float, y: float, yaw: float, covariance) -> None:
+        """Restart the particles around (x, y, yaw) in the global frame with a 3x3 (x, y, yaw) covariance
+        (amcl's /initialpose). ValueError naming the field if a value is not finite or the covariance not
+        positive definite; the filter then stays as it was."""
+        for name, value in (("x", x), ("y", y), ("yaw", yaw)):
+            if not math.isfinite(value):
+                raise ValueError(f"initial pose {name}: must be finite, got {value!r}")
+        cov = np.asarray(covariance, dtype=float)
+        if cov.shape != (3, 3):
+            raise ValueError(f"initial pose covariance: expected 3x3 (x, y, yaw), got shape {cov.shape}")
+        if not np.all(np.isfinite(cov)):
+            raise ValueError("initial pose covariance: must be finite")
+        if not np.allclose(cov, cov.T, rtol=1e-9, atol=1e-12):
+            raise ValueError("initial pose covariance: must be symmetric")
+        try:
+            np.linalg.cholesky(cov)
+        except np.linalg.LinAlgError:
+            raise ValueError(f"initial pose covariance: must be positive definite, eigenvalues "
+                             f"{np.round(np.linalg.eigvalsh(cov), 6).tolist()}") from None
+        self.filter.init_gaussian((x, y, yaw), cov)
+        self._restarted()
+        if self.params.force_update_after_initialpose:
+            self._force_update = True
+
+    def global_localization(self) -> None:
+        """Spread max_particles particles uniformly over the free cells (amcl's global_localization service)."""
+        self.filter.init_uniform()
+        self._restarted()
+
+    def request_nomotion_update(self) -> None:
+        """Make the next odometry update move the particles and the next sensor update weigh them, whether the
+        robot moved or not (amcl's request_nomotion_update service)."""
+        self._force_update = True
+
+    def _restarted(self) -> None:
+        self._odom_reference = None
+        self._update_due = True
+
+    def odometry_update(self, odom_pose) -> bool:
+        """Take the odometry pose (x, y, yaw) at the next scans' time; True if the particles moved and a sensor
+        update is due. ValueError if a value is not finite."""
+        pose = np.asarray(odom_pose, dtype=float)
+        if pose.shape != (3,) or not np.all(np.isfinite(pose)):
+            raise ValueError(f"odometry pose: expected finite (x, y, yaw), got {odom_pose!r}")
+        if self._odom_reference is None:
+            self._odom_reference = pose
+            self._update_due = True
+            self._resample_count = 0
+            return False
+        reference = self._odom_reference
+        delta = np.array([pose[0] - reference[0], pose[1] - reference[1], float(angle_diff(pose[2], reference[2]))])
+        p = self.params
+        move = (self._update_due or self._force_update or abs(delta[0]) > p.update_min_d
+                or abs(delta[1]) > p.update_min_d or abs(delta[2]) > p.update_min_a)
+        self._force_update = False
+        if not move:
+            return False
+        alphas = (p.odom_alpha1, p.odom_alpha2, p.odom_alpha3, p.odom_alpha4)
+        self.filter.poses = sample_motion(self.filter.poses, delta, reference[2], alphas, p.motion_model,
+                                          self.filter.rng)
+        self._odom_reference = pose
+        self._update_due = True
+        return True
+
+    def sensor_update(self, scans: list[RangeScan]) -> bool:
+        """Weigh the particles with the scans, if an update is due, and resample every resample_interval scans.
+        True if the scans were used. ValueError naming the field of a malformed scan (nothing changes then)."""
+        for scan in scans:
+            scan.check()
+        if not self._update_due:
+            return False
+        grid_poses = self.map.to_grid(self.filter.poses)
+        for scan in scans:
+            factors = self.laser.weights(grid_poses, scan, self.filter.converged)
+            if factors is None:
+                continue
+            self.filter.apply_weights(factors)
+            self._resample_count += 1
+            if self._resample_count % self.params.resample_interval == 0:
+                self.filter.resample()
+                grid_poses = self.map.to_grid(self.filter.poses)
+        self._update_due = False
+        return True
+
+    def estimate(self) -> clusters.PoseEstimate:
+        """The heaviest cluster's mean with the whole filter's covariance, as amcl publishes on amcl_pose."""
+        return clusters.estimate(self.filter.poses, self.filter.weights)
+
+    @property
+    def particles(self) -> np.ndarray:
+        """(N, 3) x, y, yaw of the particles in the global frame (amcl's particlecloud); a copy."""
+        return self.filter.poses.copy()
+
+    @property
+    def weights(self) -> np.ndarray:
+        """The particles' normalised weights; a copy."""
+        return self.filter.weights.copy()

@@ -1,0 +1,150 @@
+"""amcl's parameters (ROS 1 ``/amcl/*``; docs/reference.md §8).
+
+Defaults are what ROS 1 noetic's amcl node reads when a parameter is not set (its ``param()`` fallbacks), which
+for ``recovery_alpha_slow`` / ``recovery_alpha_fast`` differ from the wiki and AMCL.cfg (0.0, disabled): the node
+falls back to 0.001 and 0.1 and ignores dynamic_reconfigure's first call. Lower bounds are what the algorithm
+needs (ROS 1 divides by ``kld_err`` and takes ``resample_interval`` as a modulus); the cfg's upper bounds are
+slider ranges for rqt and are not enforced (the robot's scans have 683 beams, the cfg stops at 100).
+
+Parameters the pure filter does not use belong to the ROS node, which is not written yet: they are accepted and
+warn that they have no effect so far.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from simplebot_navigation.parameters import ParameterError, build, param
+
+LASER_MODELS = ("likelihood_field", "beam", "likelihood_field_prob")
+ODOM_MODELS = ("diff", "diff-corrected", "omni", "omni-corrected")
+#: the differential-drive model used when an omnidirectional one is configured
+DIFF_FOR_OMNI = {"omni": "diff", "omni-corrected": "diff-corrected"}
+
+_NODE = "a parameter of amcl's ROS node, which is not written yet (the filter itself is localization/amcl.py)"
+_UNUSED_IN_ROS1 = "ROS 1's amcl reads it but never uses it either"
+_OMNI = "odom_alpha5 is the strafe noise of the omni models; a differential drive does not strafe"
+
+
+@dataclass
+class AmclParams:
+    # Overall filter
+    min_particles: int = param(100, "", "fewest particles KLD sampling keeps", ge=1, rounds=True)
+    max_particles: int = param(5000, "", "most particles; global localization spreads this many", ge=1,
+                               rounds=True)
+    kld_err: float = param(0.01, "", "KLD sampling: largest error between the true and the sampled distribution",
+                           gt=0.0, le=1.0)
+    kld_z: float = param(0.99, "", "KLD sampling: the upper standard normal quantile z itself (amcl uses the "
+                         "value as z, so 0.99 is z = 0.99)", ge=0.0)
+    update_min_d: float = param(0.2, "m", "odometry travel along x or y (each on its own) before a filter update",
+                                ge=0.0)
+    update_min_a: float = param(math.pi / 6, "rad", "odometry rotation before a filter update", ge=0.0)
+    resample_interval: int = param(2, "", "scans (one per laser) weighed between resamplings", ge=1, rounds=True)
+    transform_tolerance: float = param(0.1, "s", "how far the published map -> odom transform is post-dated",
+                                       ge=0.0, not_implemented=_NODE)
+    recovery_alpha_slow: float = param(0.001, "", "decay rate of the long-term average likelihood; 0 disables "
+                                       "recovery", ge=0.0, le=1.0)
+    recovery_alpha_fast: float = param(0.1, "", "decay rate of the short-term average likelihood; random "
+                                       "particles are injected while it is below the long-term one", ge=0.0,
+                                       le=1.0)
+    selective_resampling: bool = param(False, "", "resample only when the effective sample size falls below "
+                                       "half the particles")
+    initial_pose_x: float = param(0.0, "m", "initial pose mean, x in the global frame")
+    initial_pose_y: float = param(0.0, "m", "initial pose mean, y in the global frame")
+    initial_pose_a: float = param(0.0, "rad", "initial pose mean, yaw in the global frame")
+    initial_cov_xx: float = param(0.5 * 0.5, "m^2", "initial pose variance of x", gt=0.0)
+    initial_cov_yy: float = param(0.5 * 0.5, "m^2", "initial pose variance of y", gt=0.0)
+    initial_cov_aa: float = param((math.pi / 12) ** 2, "rad^2", "initial pose variance of yaw", gt=0.0)
+    force_update_after_initialpose: bool = param(False, "", "force a filter update (no motion needed) after a "
+                                                 "new initial pose")
+    force_update_after_set_map: bool = param(False, "", "force a filter update after the set_map service",
+                                             not_implemented=_NODE)
+    gui_publish_rate: float = param(-1.0, "Hz", "largest rate of visualisation output, -1 for none", ge=-1.0,
+                                    not_implemented=_UNUSED_IN_ROS1)
+    save_pose_rate: float = param(0.5, "Hz", "rate at which the estimate is stored in initial_pose_* and "
+                                  "initial_cov_*, -1 for never", ge=-1.0, not_implemented=_NODE)
+    use_map_topic: bool = param(False, "", "subscribe to the map topic instead of calling static_map",
+                                not_implemented=_NODE, restart=True)
+    first_map_only: bool = param(False, "", "use only the first map received", not_implemented=_NODE)
+    tf_broadcast: bool = param(True, "", "publish map -> odom on /tf", not_implemented=_NODE)
+    std_warn_level_x: float = param(0.2, "m", "diagnostics warn above this standard deviation of x", ge=0.0,
+                                    not_implemented=_NODE)
+    std_warn_level_y: float = param(0.2, "m", "diagnostics warn above this standard deviation of y", ge=0.0,
+                                    not_implemented=_NODE)
+    std_warn_level_yaw: float = param(0.1, "rad", "diagnostics warn above this standard deviation of yaw",
+                                      ge=0.0, not_implemented=_NODE)
+    bag_scan_period: float = param(-1.0, "s", "pause between scans when amcl replays a bag itself",
+                                   not_implemented="amcl's own bag replay (--run-from-bag) is not offered; "
+                                   "replay the bag with ros2 bag instead")
+    # Laser model
+    laser_min_range: float = param(-1.0, "m", "shortest range used; 0 or less (-1) takes the scan's "
+                                   "range_min", ge=-1.0)
+    laser_max_range: float = param(-1.0, "m", "longest range used; 0 or less (-1) takes the scan's "
+                                   "range_max", ge=-1.0)
+    laser_max_beams: int = param(30, "", "evenly spaced beams used of each scan (fewer than 2: scans are not "
+                                 "used, as in amcl)", ge=0, rounds=True)
+    laser_z_hit: float = param(0.95, "", "mixture weight of the hit (Gaussian) part", ge=0.0)
+    laser_z_short: float = param(0.1, "", "mixture weight of the short (exponential) part, beam model", ge=0.0)
+    laser_z_max: float = param(0.05, "", "mixture weight of the max-range part, beam model", ge=0.0)
+    laser_z_rand: float = param(0.05, "", "mixture weight of the uniform part", ge=0.0)
+    laser_sigma_hit: float = param(0.2, "m", "standard deviation of the hit part", gt=0.0)
+    laser_lambda_short: float = param(0.1, "1/m", "decay rate of the short part, beam model", gt=0.0)
+    laser_likelihood_max_dist: float = param(2.0, "m", "distances to the nearest obstacle are capped here, "
+                                             "likelihood field models", ge=0.0)
+    laser_model_type: str = param("likelihood_field", "", "beam, likelihood_field or likelihood_field_prob",
+                                  restart=True)
+    do_beamskip: bool = param(False, "", "likelihood_field_prob: once converged, skip beams most particles "
+                              "find far from the map")
+    beam_skip_distance: float = param(0.5, "m", "a beam end this close to an obstacle agrees with the map",
+                                      ge=0.0)
+    beam_skip_threshold: float = param(0.3, "", "share of particles a beam must agree for to be used",
+                                       ge=0.0, le=1.0)
+    beam_skip_error_threshold: float = param(0.9, "", "share of skipped beams at which all beams are used "
+                                             "again (the filter may have converged wrongly)", ge=0.0, le=1.0)
+    # Odometry model
+    odom_model_type: str = param("diff", "", "diff, diff-corrected, omni or omni-corrected", restart=True)
+    odom_alpha1: float = param(0.2, "", "rotation noise from rotation", ge=0.0)
+    odom_alpha2: float = param(0.2, "", "rotation noise from translation", ge=0.0)
+    odom_alpha3: float = param(0.2, "", "translation noise from translation", ge=0.0)
+    odom_alpha4: float = param(0.2, "", "translation noise from rotation", ge=0.0)
+    odom_alpha5: float = param(0.2, "", "strafe noise, omni models only", ge=0.0, not_for_this_robot=_OMNI)
+    odom_frame_id: str = param("odom", "", "odometry frame", restart=True, not_implemented=_NODE)
+    base_frame_id: str = param("base_link", "", "robot base frame", restart=True, not_implemented=_NODE)
+    global_frame_id: str = param("map", "", "frame of the map and of the estimate", restart=True,
+                                 not_implemented=_NODE)
+    # Ours
+    seed: int = param(0, "", "seed of the filter's random generator (ours: ROS 1 seeds from the clock); the same "
+                      "seed, map and inputs give the same particles", ge=0, restart=True)
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def motion_model(self) -> str:
+        """The odometry model the filter runs: the differential one of an omni configuration."""
+        return DIFF_FOR_OMNI.get(self.odom_model_type, self.odom_model_type)
+
+    @classmethod
+    def from_params(cls, given=None, where: str = "amcl") -> AmclParams:
+        """Checked values of amcl's namespace (ParameterError names the key), with the relations between them."""
+        given = dict(given or {})
+        if "beam_skip_error_threshold_" in given:     # amcl prefers this misspelling (its cfg's) when it is set
+            given["beam_skip_error_threshold"] = given.pop("beam_skip_error_threshold_")
+        params, warnings = build(cls, given, where)
+        params.warnings = warnings
+        params.check(where)
+        if params.odom_model_type in DIFF_FOR_OMNI:
+            params.warnings.append(f"{where}/odom_model_type has no effect: this robot is a differential drive; "
+                                   f"'{params.odom_model_type}' runs as '{params.motion_model}'")
+        return params
+
+    def check(self, where: str = "amcl") -> None:
+        """ParameterError for a value outside its choices or two values that contradict each other."""
+        if self.laser_model_type not in LASER_MODELS:
+            raise ParameterError(f"{where}/laser_model_type: must be one of {', '.join(LASER_MODELS)}, "
+                                 f"got {self.laser_model_type!r}")
+        if self.odom_model_type not in ODOM_MODELS:
+            raise ParameterError(f"{where}/odom_model_type: must be one of {', '.join(ODOM_MODELS)}, "
+                                 f"got {self.odom_model_type!r}")
+        if self.min_particles > self.max_particles:
+            raise ParameterError(f"{where}/min_particles: must not exceed max_particles ({self.max_particles}), "
+                                 f"got {self.min_particles!r}")
