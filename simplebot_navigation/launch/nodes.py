@@ -14,6 +14,7 @@ class Executable:
 
 EXECUTABLES: dict[tuple[str, str], Executable] = {
     ("simplebot_navigation", "simulator"): Executable("simplebot_navigation.ros.simulator.simulator_node", "SimulatorNode"),
+    ("amcl", "amcl"): Executable("simplebot_navigation.ros.amcl.amcl_node", "AmclNode"),
     ("move_base", "move_base"): Executable("simplebot_navigation.ros.move_base.move_base_node", "MoveBaseNode"),
     ("simplebot_navigation", "viewer"): Executable("simplebot_navigation.viewer.node", "ViewerNode"),
     ("simplebot_navigation", "collision_monitor"): Executable("simplebot_navigation.ros.collision_monitor_node",

@@ -138,6 +138,14 @@ class Amcl:
         self._update_due = False
         return True
 
+    def reconfigure(self, params: AmclParams) -> None:
+        """New parameters while running (a live change), the particles kept; a change of max_particles takes
+        effect at the next resampling."""
+        params.check()
+        self.params = params
+        self.laser = LaserModel(params, self.map)
+        self.filter.params = params
+
     def estimate(self) -> clusters.PoseEstimate:
         """The heaviest cluster's mean with the whole filter's covariance, as amcl publishes on amcl_pose."""
         return clusters.estimate(self.filter.poses, self.filter.weights)

@@ -120,6 +120,11 @@ class TebLocalPlanner:
         self.global_plan = plan.copy()
         self.goal_reached = False
 
+    def move_plan(self, global_plan_xyyaw) -> None:
+        """The same plan seen anew in the planning frame, because the plan's frame moved against it (map -> odom,
+        as a localizer corrects the odometry); unlike set_plan it keeps whether the goal was reached."""
+        self.global_plan = np.asarray(global_plan_xyyaw, dtype=float).copy()
+
     def set_dynamic_obstacles(self, obstacles: np.ndarray) -> None:
         """Moving obstacles for the next cycles, until replaced: (K, 5) rows x, y, vx, vy, radius
         in the planning frame (the local costmap's), positions at the time of the coming control

@@ -43,6 +43,7 @@ class TebLocalPlannerROS:
                  plan_frame: str):
         self.name = plugin_namespace(plugin_type)
         self.plan_frame = plan_frame
+        self._plan: np.ndarray | None = None    # the latest global plan, in plan_frame
         self.node = node
         self.costmap_ros = costmap_ros
         self.tf = tf_buffer
@@ -115,21 +116,37 @@ class TebLocalPlannerROS:
 
     # -- the controller interface of move_base ---------------------------------------------------
     def set_plan(self, plan: np.ndarray) -> bool:
-        """Take a global plan ((N, 3) in plan_frame); it is kept in the local costmap frame."""
-        if self.plan_frame != self.frame:
-            try:
-                tf = self.tf.lookup_transform(self.frame, self.plan_frame, Time(), Duration(seconds=0.0))
-            except TransformException as err:
-                self.logger.error(f"Could not transform the global plan to the frame of the controller: {err}")
-                return False
-            plan = transform_points(transform_to_xyyaw(tf), plan, dtype=plan.dtype)
-        self.planner.set_plan(plan)
+        """Take a global plan ((N, 3) in plan_frame); the planner gets it in the local costmap frame, by the
+        latest transform, and again at every cycle (as TEB's transformGlobalPlan), since map -> odom moves."""
+        in_frame = self._in_local_frame(plan)
+        if in_frame is None:
+            return False
+        self._plan = plan
+        self.planner.set_plan(in_frame)
         return True
+
+    def _in_local_frame(self, plan: np.ndarray) -> np.ndarray | None:
+        if self.plan_frame == self.frame:
+            return plan
+        try:
+            tf = self.tf.lookup_transform(self.frame, self.plan_frame, Time(), Duration(seconds=0.0))
+        except TransformException as err:
+            self.logger.error(f"Could not transform the global plan to the frame of the controller: {err}",
+                              throttle_duration_sec=2.0)
+            return None
+        return transform_points(transform_to_xyyaw(tf), plan, dtype=plan.dtype)
+
+    def _follow_plan_frame(self) -> None:
+        if self.plan_frame != self.frame and self._plan is not None:
+            in_frame = self._in_local_frame(self._plan)
+            if in_frame is not None:
+                self.planner.move_plan(in_frame)
 
     def reset(self) -> None:
         self.planner.reset()
 
     def compute(self) -> ControlResult:
+        self._follow_plan_frame()
         pose = self.costmap_ros.get_robot_pose()
         if pose is None:
             return ControlResult(False, message=f"no robot pose: {self.costmap_ros.last_pose_error}")
@@ -142,6 +159,7 @@ class TebLocalPlannerROS:
         return ControlResult(result.ok, result.v, result.omega, result.message)
 
     def is_goal_reached(self) -> bool:
+        self._follow_plan_frame()
         pose = self.costmap_ros.get_robot_pose()
         return pose is not None and self.planner.is_goal_reached(pose[:3], self._robot_velocity())
 

@@ -1,0 +1,70 @@
+"""amcl's messages as the filter's plain values and back: scans, initial poses, the estimate and the particles."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from geometry_msgs.msg import Pose, PoseArray, PoseWithCovarianceStamped, TransformStamped
+from sensor_msgs.msg import LaserScan
+
+from simplebot_navigation.geometry import quaternion_to_yaw, yaw_to_quaternion
+from simplebot_navigation.localization.clusters import PoseEstimate, covariance_from_ros
+from simplebot_navigation.localization.laser_models import RangeScan
+
+#: the most beams a scan may have (a LaserScan of more is refused, not allocated)
+MAX_BEAMS = 100_000
+
+
+def transform_to_xyyaw(tf: TransformStamped) -> tuple[float, float, float]:
+    t, q = tf.transform.translation, tf.transform.rotation
+    return t.x, t.y, quaternion_to_yaw(q.x, q.y, q.z, q.w)
+
+
+def range_scan(msg: LaserScan, sensor_pose: tuple[float, float, float]) -> RangeScan:
+    """The filter's scan of a LaserScan whose frame sits at ``sensor_pose`` in the base frame; ValueError naming
+    the field that cannot be used."""
+    if not 1 <= len(msg.ranges) <= MAX_BEAMS:
+        raise ValueError(f"ranges: 1 to {MAX_BEAMS} beams, got {len(msg.ranges)}")
+    if not (math.isfinite(msg.angle_increment) and msg.angle_increment != 0.0):
+        raise ValueError(f"angle_increment: must be finite and non-zero, got {msg.angle_increment!r}")
+    scan = RangeScan(np.asarray(msg.ranges, dtype=np.float64), float(msg.angle_min), float(msg.angle_increment),
+                     float(msg.range_min), float(msg.range_max), sensor_pose)
+    scan.check()
+    return scan
+
+
+def initial_pose(msg: PoseWithCovarianceStamped) -> tuple[float, float, float, np.ndarray]:
+    """(x, y, yaw, 3x3 covariance) of /initialpose in its own frame; ValueError naming a field that is not finite."""
+    p, q = msg.pose.pose.position, msg.pose.pose.orientation
+    for name, value in (("pose.position.x", p.x), ("pose.position.y", p.y), ("pose.orientation.z", q.z),
+                        ("pose.orientation.w", q.w)):
+        if not math.isfinite(value):
+            raise ValueError(f"{name} is {value}")
+    if math.hypot(q.x, q.y, q.z, q.w) < 1e-6:
+        raise ValueError("pose.orientation is a zero quaternion")
+    if len(msg.pose.covariance) != 36 or not all(math.isfinite(c) for c in msg.pose.covariance):
+        raise ValueError("pose.covariance: must be 36 finite numbers")
+    return p.x, p.y, quaternion_to_yaw(q.x, q.y, q.z, q.w), covariance_from_ros(msg.pose.covariance)
+
+
+def pose_msg(x: float, y: float, yaw: float) -> Pose:
+    pose = Pose()
+    pose.position.x, pose.position.y = float(x), float(y)
+    _, _, pose.orientation.z, pose.orientation.w = yaw_to_quaternion(float(yaw))
+    return pose
+
+
+def estimate_msg(estimate: PoseEstimate, frame_id: str, stamp) -> PoseWithCovarianceStamped:
+    msg = PoseWithCovarianceStamped()
+    msg.header.frame_id, msg.header.stamp = frame_id, stamp
+    msg.pose.pose = pose_msg(estimate.x, estimate.y, estimate.yaw)
+    msg.pose.covariance = estimate.ros_covariance()
+    return msg
+
+
+def particle_cloud_msg(particles: np.ndarray, frame_id: str, stamp) -> PoseArray:
+    msg = PoseArray()
+    msg.header.frame_id, msg.header.stamp = frame_id, stamp
+    msg.poses = [pose_msg(x, y, yaw) for x, y, yaw in particles.tolist()]
+    return msg
