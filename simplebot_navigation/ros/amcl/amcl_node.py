@@ -103,7 +103,7 @@ class AmclNode(SetUpNode):
         self.pose_pub = create_publisher(self, PoseWithCovarianceStamped, "amcl_pose", LATCHED)
         self.cloud_pub = create_publisher(self, PoseArray, "particle_cloud", 1)
         self.create_subscription(OccupancyGrid, "map", self._on_map, LATCHED)
-        self.create_subscription(PoseWithCovarianceStamped, "initialpose", self._on_initial_pose, 2)
+        self.create_subscription(PoseWithCovarianceStamped, "initialpose", self._on_initial_pose, 10)
         for topic in topics:
             self.create_subscription(LaserScan, topic, lambda msg, t=topic: self._on_scan(t, msg),
                                      qos_profile_sensor_data)

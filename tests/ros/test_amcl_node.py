@@ -1,0 +1,148 @@
+"""The amcl node in lockstep with the simulator and map_server on the lab: it localizes a robot whose encoders
+drift, publishes map -> odom, takes initial poses and its services, refuses bad parameters, and shrugs off hostile
+messages."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped
+from rcl_interfaces.msg import Log
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import qos_profile_sensor_data
+from rclpy.time import Time
+from sensor_msgs.msg import LaserScan
+from std_srvs.srv import Empty
+
+from simplebot_navigation.ros.amcl.amcl_node import LATCHED, AmclNode
+from simplebot_navigation.ros.conversions import yaw_of
+from simplebot_navigation.ros.map_server_node import MapServerNode
+from simplebot_navigation.ros.simulator.lockstep import LockstepDriver
+from simplebot_navigation.ros.simulator.simulator_node import SimulatorNode
+from simplebot_navigation.ros.tf import TransformException
+
+pytestmark = pytest.mark.timeout(180)
+
+
+class Probe(Node):
+    def __init__(self, context):
+        super().__init__("amcl_probe", context=context)
+        self.poses: list[PoseWithCovarianceStamped] = []
+        self.clouds: list[PoseArray] = []
+        self.logs: list[str] = []
+        self.create_subscription(PoseWithCovarianceStamped, "/amcl_pose", self.poses.append, LATCHED)
+        self.create_subscription(PoseArray, "/particle_cloud", self.clouds.append, 1)
+        self.create_subscription(Log, "/rosout", lambda m: self.logs.append(m.msg), 100)
+        self.initial_pose = self.create_publisher(PoseWithCovarianceStamped, "/initialpose", 10)
+        self.front = self.create_publisher(LaserScan, "/front_laser/front_scan", qos_profile_sensor_data)
+
+
+@pytest.fixture(scope="module")
+def lab(context):
+    sim = SimulatorNode(context=context, parameter_overrides=[
+        Parameter("world", value="lab"), Parameter("real_time_factor", value=0.0),
+        Parameter("odom_scale_std", value=0.02), Parameter("seed", value=3)])
+    map_server = MapServerNode(context=context, parameter_overrides=[Parameter("yaml_filename", value="lab")])
+    amcl = AmclNode(context=context, parameter_overrides=[
+        Parameter("use_sim_time", value=True), Parameter("odom_model_type", value="diff-corrected"),
+        Parameter("update_min_d", value=0.05), Parameter("update_min_a", value=0.05),
+        Parameter("laser_sigma_hit", value=0.05), Parameter("laser_max_beams", value=60),
+        Parameter("min_particles", value=300), Parameter("max_particles", value=1500)])
+    probe = Probe(context)
+    driver = LockstepDriver(sim, [map_server, amcl, probe])
+    yield sim, amcl, probe, driver
+    driver.executor.shutdown()
+    for node in (probe, amcl, map_server, sim):
+        node.destroy_node()
+
+
+def drive(sim, driver, v, w, seconds):
+    end = driver.time + seconds
+    while driver.time < end - 1e-9:
+        sim.sim.set_cmd_vel(v, w)
+        driver.run_until(min(end, driver.time + 0.1))
+
+
+def pose_error(sim, amcl) -> tuple[float, float]:
+    truth, estimate = sim.sim.ground_truth(), amcl.amcl.estimate()
+    return (math.hypot(estimate.x - truth.x, estimate.y - truth.y),
+            abs(math.remainder(estimate.yaw - truth.yaw, 2 * math.pi)))
+
+
+def covariance(xx=0.25, yy=0.25, aa=0.07) -> list[float]:
+    out = [0.0] * 36
+    out[0], out[7], out[35] = xx, yy, aa
+    return out
+
+
+def initial_pose_msg(x, y, yaw, frame="map", cov=None) -> PoseWithCovarianceStamped:
+    msg = PoseWithCovarianceStamped()
+    msg.header.frame_id = frame
+    msg.pose.pose.position.x, msg.pose.pose.position.y = x, y
+    msg.pose.pose.orientation.z, msg.pose.pose.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
+    msg.pose.covariance = covariance() if cov is None else cov
+    return msg
+
+
+def test_it_localizes_a_drifting_robot_and_publishes_map_to_odom(lab):
+    sim, amcl, probe, driver = lab
+    driver.run_until(1.0, stop=lambda: probe.poses)
+    assert probe.poses and probe.poses[-1].header.frame_id == "map"
+    drive(sim, driver, 0.4, 0.03, 7.0)     # along the corridor
+    error, yaw_error = pose_error(sim, amcl)
+    assert error < 0.1 and yaw_error < math.radians(3)
+    odom = sim.sim.odometry()
+    truth = sim.sim.ground_truth()
+    assert math.hypot(odom.x - truth.x, odom.y - truth.y) > error       # the encoders drift, amcl does not
+    tf = amcl.tf.lookup_transform("map", "base_link", Time())
+    assert math.hypot(tf.transform.translation.x - truth.x, tf.transform.translation.y - truth.y) < 0.15
+
+
+def test_a_wrong_initial_pose_is_taken_and_driving_corrects_it(lab):
+    sim, amcl, probe, driver = lab
+    truth = sim.sim.ground_truth()
+    probe.initial_pose.publish(initial_pose_msg(truth.x + 0.4, truth.y - 0.3, truth.yaw + 0.25))
+    driver.run_until(driver.time + 0.3)
+    assert pose_error(sim, amcl)[0] > 0.3
+    drive(sim, driver, -0.3, -0.03, 11.0)   # back along the corridor, whose walls say little about x
+    error, yaw_error = pose_error(sim, amcl)
+    assert error < 0.1 and yaw_error < math.radians(3)
+
+
+def test_hostile_initial_poses_scans_and_parameters_change_nothing(lab):
+    sim, amcl, probe, driver = lab
+    before = amcl.amcl.particles
+    probe.initial_pose.publish(initial_pose_msg(float("nan"), 0.0, 0.0))
+    probe.initial_pose.publish(initial_pose_msg(0.0, 0.0, 0.0, cov=covariance(xx=-1.0)))
+    probe.initial_pose.publish(initial_pose_msg(0.0, 0.0, 0.0, frame="nowhere"))
+    scan = LaserScan()
+    scan.header.frame_id, scan.header.stamp = "nowhere", sim.get_clock().now().to_msg()
+    scan.angle_increment, scan.range_max, scan.ranges = 0.01, 5.6, [1.0] * 10
+    probe.front.publish(scan)
+    driver.run_until(driver.time + 0.05)
+    assert np.array_equal(amcl.amcl.particles, before)
+    text = "\n".join(probe.logs)
+    assert "initialpose ignored: pose.position.x is nan" in text
+    assert "initialpose ignored: initial pose covariance: must be positive definite" in text
+    assert "initialpose ignored:" in text and "nowhere" in text
+    refused = amcl.set_parameters([Parameter("odom_model_type", value="diff")])[0]
+    assert not refused.successful and "requires restart" in refused.reason
+    refused = amcl.set_parameters([Parameter("min_particles", value=5000)])[0]
+    assert not refused.successful and "min_particles" in refused.reason
+    assert amcl.set_parameters([Parameter("laser_max_beams", value=30)])[0].successful
+    assert amcl.amcl.params.laser_max_beams == 30
+
+
+def test_global_localization_spreads_the_particles_and_the_cloud_is_published(lab):
+    sim, amcl, probe, driver = lab
+    client = probe.create_client(Empty, "/global_localization")
+    future = client.call_async(Empty.Request())
+    driver.run_until(driver.time + 1.0, stop=future.done)
+    assert future.done()
+    spread = amcl.amcl.particles[:, :2].std(axis=0)
+    assert len(amcl.amcl.particles) == amcl.params.max_particles and min(spread) > 2.0
+    drive(sim, driver, 0.0, 0.3, 0.5)
+    assert probe.clouds and probe.clouds[-1].header.frame_id == "map" and len(probe.clouds[-1].poses) > 0
