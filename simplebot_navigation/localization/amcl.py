@@ -18,6 +18,7 @@ node may have updated from the last estimate, save_pose_rate) and the generator 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -142,8 +143,12 @@ class Amcl:
         """New parameters while running (a live change), the particles kept; a change of max_particles takes
         effect at the next resampling."""
         params.check()
+        laser_changed = any(getattr(params, f.name) != getattr(self.params, f.name)
+                            for f in dataclasses.fields(params) if f.name.startswith(("laser_", "do_beamskip", "beam_"))
+                            )
         self.params = params
-        self.laser = LaserModel(params, self.map)
+        if laser_changed:      # the likelihood field is the model's costly part: kept unless the laser changed
+            self.laser = LaserModel(params, self.map)
         self.filter.params = params
 
     def estimate(self) -> clusters.PoseEstimate:

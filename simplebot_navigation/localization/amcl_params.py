@@ -6,8 +6,8 @@ falls back to 0.001 and 0.1 and ignores dynamic_reconfigure's first call. Lower 
 needs (ROS 1 divides by ``kld_err`` and takes ``resample_interval`` as a modulus); the cfg's upper bounds are
 slider ranges for rqt and are not enforced (the robot's scans have 683 beams, the cfg stops at 100).
 
-Parameters the pure filter does not use belong to the ROS node, which is not written yet: they are accepted and
-warn that they have no effect so far.
+Parameters the pure filter does not use (frames, transform_tolerance, tf_broadcast, first_map_only,
+save_pose_rate) are the ROS node's (ros/amcl/amcl_node.py).
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ ODOM_MODELS = ("diff", "diff-corrected", "omni", "omni-corrected")
 #: the differential-drive model used when an omnidirectional one is configured
 DIFF_FOR_OMNI = {"omni": "diff", "omni-corrected": "diff-corrected"}
 
-_NODE = "a parameter of amcl's ROS node, which is not written yet (the filter itself is localization/amcl.py)"
+_NODE = "amcl's ROS node offers no diagnostics and no set_map service"
 _UNUSED_IN_ROS1 = "ROS 1's amcl reads it but never uses it either"
 _OMNI = "odom_alpha5 is the strafe noise of the omni models; a differential drive does not strafe"
 
@@ -42,7 +42,7 @@ class AmclParams:
     update_min_a: float = param(math.pi / 6, "rad", "odometry rotation before a filter update", ge=0.0)
     resample_interval: int = param(2, "", "scans (one per laser) weighed between resamplings", ge=1, rounds=True)
     transform_tolerance: float = param(0.1, "s", "how far the published map -> odom transform is post-dated",
-                                       ge=0.0, not_implemented=_NODE)
+                                       ge=0.0)
     recovery_alpha_slow: float = param(0.001, "", "decay rate of the long-term average likelihood; 0 disables "
                                        "recovery", ge=0.0, le=1.0)
     recovery_alpha_fast: float = param(0.1, "", "decay rate of the short-term average likelihood; random "
@@ -63,11 +63,12 @@ class AmclParams:
     gui_publish_rate: float = param(-1.0, "Hz", "largest rate of visualisation output, -1 for none", ge=-1.0,
                                     not_implemented=_UNUSED_IN_ROS1)
     save_pose_rate: float = param(0.5, "Hz", "rate at which the estimate is stored in initial_pose_* and "
-                                  "initial_cov_*, -1 for never", ge=-1.0, not_implemented=_NODE)
+                                  "initial_cov_*, -1 for never", ge=-1.0)
     use_map_topic: bool = param(False, "", "subscribe to the map topic instead of calling static_map",
-                                not_implemented=_NODE, restart=True)
-    first_map_only: bool = param(False, "", "use only the first map received", not_implemented=_NODE)
-    tf_broadcast: bool = param(True, "", "publish map -> odom on /tf", not_implemented=_NODE)
+                                not_implemented="the map always comes from the latched map topic, as with "
+                                "use_map_topic: true; ROS 1's static_map service is not called", restart=True)
+    first_map_only: bool = param(False, "", "use only the first map received")
+    tf_broadcast: bool = param(True, "", "publish map -> odom on /tf")
     std_warn_level_x: float = param(0.2, "m", "diagnostics warn above this standard deviation of x", ge=0.0,
                                     not_implemented=_NODE)
     std_warn_level_y: float = param(0.2, "m", "diagnostics warn above this standard deviation of y", ge=0.0,
@@ -109,10 +110,9 @@ class AmclParams:
     odom_alpha3: float = param(0.2, "", "translation noise from translation", ge=0.0)
     odom_alpha4: float = param(0.2, "", "translation noise from rotation", ge=0.0)
     odom_alpha5: float = param(0.2, "", "strafe noise, omni models only", ge=0.0, not_for_this_robot=_OMNI)
-    odom_frame_id: str = param("odom", "", "odometry frame", restart=True, not_implemented=_NODE)
-    base_frame_id: str = param("base_link", "", "robot base frame", restart=True, not_implemented=_NODE)
-    global_frame_id: str = param("map", "", "frame of the map and of the estimate", restart=True,
-                                 not_implemented=_NODE)
+    odom_frame_id: str = param("odom", "", "odometry frame", restart=True)
+    base_frame_id: str = param("base_link", "", "robot base frame", restart=True)
+    global_frame_id: str = param("map", "", "frame of the map and of the estimate", restart=True)
     # Ours
     seed: int = param(0, "", "seed of the filter's random generator (ours: ROS 1 seeds from the clock); the same "
                       "seed, map and inputs give the same particles", ge=0, restart=True)

@@ -99,6 +99,8 @@ def test_it_localizes_a_drifting_robot_and_publishes_map_to_odom(lab):
     assert math.hypot(odom.x - truth.x, odom.y - truth.y) > error       # the encoders drift, amcl does not
     tf = amcl.tf.lookup_transform("map", "base_link", Time())
     assert math.hypot(tf.transform.translation.x - truth.x, tf.transform.translation.y - truth.y) < 0.15
+    saved = amcl.get_parameter("initial_pose_x").value, amcl.get_parameter("initial_pose_y").value
+    assert math.hypot(saved[0] - truth.x, saved[1] - truth.y) < 0.8     # save_pose_rate 0.5 Hz: at most 2 s old
 
 
 def test_a_wrong_initial_pose_is_taken_and_driving_corrects_it(lab):

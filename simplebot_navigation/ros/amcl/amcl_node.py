@@ -97,6 +97,7 @@ class AmclNode(SetUpNode):
         self._sensor_poses: dict[str, tuple[float, float, float]] = {}
         self._map_to_odom: tuple[float, float, float] | None = None
         self._newest = -math.inf
+        self._pose_saved_at = -math.inf
         self.tf = Buffer(node=self)
         self._listener = TransformListener(self.tf, self)
         self.tf_broadcaster = TransformBroadcaster(self)
@@ -282,10 +283,24 @@ class AmclNode(SetUpNode):
     # -- outputs --------------------------------------------------------------------------------
     def _publish_estimate(self, odom: tuple[float, float, float], stamp) -> None:
         estimate = self.amcl.estimate()
+        self._save_pose(estimate)
         self._map_to_odom = compose2((estimate.x, estimate.y, estimate.yaw), inverse2(odom))
         self.pose_pub.publish(messages.estimate_msg(estimate, self.global_frame, stamp))
         if self.cloud_pub.get_subscription_count():
             self.cloud_pub.publish(messages.particle_cloud_msg(self.amcl.particles, self.global_frame, stamp))
+
+    def _save_pose(self, estimate) -> None:
+        """save_pose_rate: the estimate becomes the initial_pose_* and initial_cov_* parameters, so that a restart
+        of the filter (a new map, time going back) or of the node with these parameters starts from it."""
+        rate, now = self.params.save_pose_rate, self.get_clock().now().nanoseconds * 1e-9
+        if rate <= 0 or now - self._pose_saved_at < 1.0 / rate:
+            return
+        self._pose_saved_at = now
+        cov = estimate.covariance
+        values = {"initial_pose_x": estimate.x, "initial_pose_y": estimate.y, "initial_pose_a": estimate.yaw,
+                  "initial_cov_xx": cov[0, 0], "initial_cov_yy": cov[1, 1], "initial_cov_aa": cov[2, 2]}
+        if all(math.isfinite(v) and (not name.startswith("initial_cov") or v > 0) for name, v in values.items()):
+            self.set_parameters([Parameter(name, value=float(v)) for name, v in values.items()])
 
     def _send_map_to_odom(self, t: float) -> None:
         if self._map_to_odom is None or not self.params.tf_broadcast:
