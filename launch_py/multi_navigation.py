@@ -1,15 +1,19 @@
 """Several simplebots in one world: one simulator with robots robot1 .. robot<N>, and a move_base per
 robot in its namespace (/robot1/move_base, /robot1/move_base_simple/goal, ...), with frames robot1/odom,
 robot1/base_link, ... on the shared /tf. The simulator places each robot's odom frame in ``map`` at
-its start pose, so goals may be given in ``map`` (docs/design.md §5).
+its start pose, so goals may be given in ``map`` (docs/design.md §5). With ``map:=...`` one map_server serves the
+map and each robot's amcl publishes ``map`` -> its odom instead, starting at the robot's start.
 
     python -m simplebot_navigation.launch multi_navigation robots:=3 [starts:="x,y,yaw;x,y,yaw;..."]
 
 The number of robots is an argument, so the items come from ``generate(args)``.
 """
 
-from simplebot_navigation.launch.description import Arg, Include
-from simplebot_navigation.launch.simplebot_args import COLLISION_MONITOR, RADIUS, ROBOT, RTF, TIGHT, WORLD
+from simplebot_navigation.launch.description import Arg, Include, Node, Param
+from simplebot_navigation.launch.simplebot_args import (COLLISION_MONITOR, ENCODER_NOISE, MAP, MAPPED, RADIUS, ROBOT,
+                                                        RTF, TIGHT, WITH_ENCODER_NOISE, WORLD)
+from simplebot_navigation.sim.starts import parse_starts
+from simplebot_navigation.sim.world_loader import load_world
 
 LAUNCH_DIR = "$(find simplebot_navigation)/launch_py"
 DEFAULT_MAX_ROBOTS = 32
@@ -28,7 +32,17 @@ ARGS = [
     COLLISION_MONITOR,
     Arg("respawn", default="true", choices=("true", "false"),
         doc="restart the simulator and each move_base when they exit (roslaunch's respawn)"),
+    MAP,
+    ENCODER_NOISE,
 ]
+
+
+def initial_poses(args: dict[str, str], count: int) -> list[str]:
+    """Each robot's amcl initial pose on a map: its start (the starts argument, or the world's starts)."""
+    if not args["map"]:
+        return [""] * count
+    poses = parse_starts(args["starts"]) if args["starts"].strip() else load_world(args["world"]).starts
+    return [f"{p.x},{p.y},{p.yaw}" for p in poses[:count]] + [""] * (count - len(poses))
 
 
 def generate(args: dict[str, str]) -> list:
@@ -41,9 +55,16 @@ def generate(args: dict[str, str]) -> list:
     return [
         Include(file=f"{LAUNCH_DIR}/simulator.py", args={
             "world": "$(arg world)", "robot": "$(arg robot)", "radius": "$(arg radius)", "rtf": "$(arg rtf)",
-            "respawn": "$(arg respawn)", "namespaces": " ".join(namespaces), "starts": "$(arg starts)"}),
+            "respawn": "$(arg respawn)", "namespaces": " ".join(namespaces), "starts": "$(arg starts)",
+            "encoder_noise": WITH_ENCODER_NOISE, "map_to_odom": "$(eval map == '')"}),
         *(Include(file=f"{LAUNCH_DIR}/move_base.py", args={
             "robot": "$(arg robot)", "radius": "$(arg radius)", "tight": "$(arg tight)", "respawn": "$(arg respawn)",
-            "namespace": namespace, "collision_monitor": "$(arg collision_monitor)"})
+            "namespace": namespace, "collision_monitor": "$(arg collision_monitor)", "map": "$(arg map)"})
           for namespace in namespaces),
+        # On a map: one map_server for all, an amcl per robot starting at the robot's start.
+        Node(pkg="map_server", type="map_server", name="map_server", output="screen", respawn="$(arg respawn)",
+             if_=MAPPED, params=[Param("yaml_filename", "$(arg map)")]),
+        *(Include(file=f"{LAUNCH_DIR}/amcl.py", if_=MAPPED, args={
+            "world": "$(arg world)", "namespace": namespace, "initial_pose": pose, "respawn": "$(arg respawn)"})
+          for namespace, pose in zip(namespaces, initial_poses(args, len(namespaces)))),
     ]

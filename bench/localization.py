@@ -1,0 +1,166 @@
+"""Localization on a map: amcl against ground truth on a long tour whose odometry drifts, and the kidnapped robot.
+
+    python bench/localization.py [--tours lab,forest:3] [--maps exact,noisy] [--seed 0] [--no-kidnap]
+
+Each tour runs in lockstep (``NavigationSession`` with ``map_name``: map_server, amcl, the global costmap in
+``map``, encoder noise on, as ``navigation map:=...`` starts them) and sends every goal of the world in ``map``
+(the lab: its six; a forest: the far goal, then back to the start). The maps: ``exact`` is the world's own
+(map_server exports it), ``noisy`` the SLAM-like variant (``sim/map_export.py --noisy``: thicker walls in places,
+some furniture missing). Per tour it prints:
+
+  goals        reached / sent, and the worst final position error against ground truth (what the goal
+               tolerance is about: goals in map must land where the map says, however far the odometry drifted)
+  amcl         position error RMS / p95 / max and yaw RMS over every amcl_pose of the tour, each against the
+               ground truth at its stamp
+  odometry     the wheel odometry's own error over the same tour (its pose mapped into the world by the start
+               pose): at the end and the largest
+  kidnap       (lab, exact map) the robot is carried to another room without telling anyone; global_localization
+               is called and the robot turns and creeps on the spot; the sim seconds of driving until amcl is
+               within 0.2 m and 10 deg of the truth and stays so for 2 s
+
+The forest tours use the round body (r 0.25) with the narrow-passage set, as the forest benchmark does.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+
+from std_srvs.srv import Empty  # noqa: E402
+
+from simplebot_navigation.maps.map_io import save_map  # noqa: E402
+from simplebot_navigation.scenarios.localization import errors_against_truth  # noqa: E402
+from simplebot_navigation.scenarios.runner import run_goal, time_budget  # noqa: E402
+from simplebot_navigation.scenarios.session import NavigationSession  # noqa: E402
+from simplebot_navigation.sim.map_export import export_map  # noqa: E402
+from simplebot_navigation.sim.world import Pose2D  # noqa: E402
+from simplebot_navigation.sim.world_loader import load_world  # noqa: E402
+from simplebot_navigation.testing.proc_stats import loadavg  # noqa: E402
+
+RESOLUTION = 0.05
+#: where the lab's robot is carried for the kidnapped-robot run (the north-west office)
+KIDNAP_POSE = Pose2D(-6.0, 5.0, -1.2)
+KIDNAP_LIMIT_S = 60.0
+LOCALIZED_M, LOCALIZED_RAD, LOCALIZED_FOR_S = 0.2, math.radians(10.0), 2.0
+
+
+def map_argument(world: str, variant: str, folder: str, seed: int) -> str:
+    if variant == "exact":
+        return world
+    path = os.path.join(folder, f"{world.replace(':', '_')}_noisy.yaml")
+    save_map(export_map(load_world(world), RESOLUTION, noisy_seed=seed), path)
+    return path
+
+
+def session_for(world: str, map_name: str, seed: int) -> NavigationSession:
+    if world.startswith("forest"):
+        return NavigationSession(world, robot="round", radius=0.25, tight=True, seed=seed, map_name=map_name)
+    return NavigationSession(world, seed=seed, map_name=map_name)
+
+
+def tour_goals(session: NavigationSession) -> list[Pose2D]:
+    world = session.world
+    if world.name.startswith("forest"):
+        return [world.goals[0], Pose2D(world.start.x, world.start.y, math.pi, "start")]
+    return list(world.goals)
+
+
+def odometry_errors(session: NavigationSession, odometry: list, truth: np.ndarray) -> tuple[float, float]:
+    """(error at the end, largest error) of the odometry mapped into the world by the start pose."""
+    s = session.world.start
+    c, si = math.cos(s.yaw), math.sin(s.yaw)
+    odom = np.array(odometry)
+    world_xy = np.column_stack([s.x + c * odom[:, 1] - si * odom[:, 2], s.y + si * odom[:, 1] + c * odom[:, 2]])
+    tx = np.interp(odom[:, 0], truth[:, 0], truth[:, 1])
+    ty = np.interp(odom[:, 0], truth[:, 0], truth[:, 2])
+    error = np.hypot(world_xy[:, 0] - tx, world_xy[:, 1] - ty)
+    return float(error[-1]), float(error.max())
+
+
+def run_tour(world: str, variant: str, seed: int, folder: str) -> dict:
+    wall = time.monotonic()
+    with session_for(world, map_argument(world, variant, folder, seed), seed) as session:
+        odometry: list = []
+        session.driver.on_step(lambda: odometry.append((session.time, *_odom(session))))
+        session.wait_ready(wall_timeout_s=120.0)
+        max_vel_x = session.controller_param("max_vel_x", 0.4)
+        results = [run_goal(session, goal, time_budget(session.world, session.pose(), goal, max_vel_x))
+                   for goal in tour_goals(session)]
+        truth = np.array(session.client.truth)
+        position, heading = errors_against_truth(session.client.localized, truth)
+        odom_end, odom_max = odometry_errors(session, odometry, truth)
+        kidnap = kidnapped(session) if world == "lab" and variant == "exact" else None
+    return {"world": world, "map": variant, "reached": sum(r.success for r in results), "goals": len(results),
+            "final_max": max(r.position_error for r in results), "samples": len(position),
+            "rms": float(np.sqrt(np.mean(position ** 2))), "p95": float(np.percentile(position, 95)),
+            "max": float(position.max()), "yaw_rms": float(np.degrees(np.sqrt(np.mean(heading ** 2)))),
+            "odom_end": odom_end, "odom_max": odom_max, "kidnap": kidnap, "wall": time.monotonic() - wall}
+
+
+def _odom(session: NavigationSession) -> tuple[float, float]:
+    odom = session.sim.sim.odometry()
+    return odom.x, odom.y
+
+
+def kidnapped(session: NavigationSession) -> float | None:
+    """Sim seconds of driving after global_localization until amcl holds the truth (None: not within the limit)."""
+    session.sim.sim.kidnap(KIDNAP_POSE)
+    client = session.client.create_client(Empty, "global_localization")
+    future = client.call_async(Empty.Request())
+    session.run_until(session.time + 2.0, future.done)
+    start, good_since = session.time, None
+    while session.time - start < KIDNAP_LIMIT_S:
+        turning = int((session.time - start) / 4.0) % 2 == 0      # turn on the spot, then creep, in turn
+        session.sim.sim.set_cmd_vel(0.0 if turning else 0.1, 0.6 if turning else -0.3)
+        session.run_until(session.time + 0.1)
+        if not session.client.localized:
+            continue
+        t, x, y, yaw = session.client.localized[-1]
+        truth = session.pose()
+        ok = (math.hypot(x - truth.x, y - truth.y) < LOCALIZED_M
+              and abs(math.remainder(yaw - truth.yaw, 2 * math.pi)) < LOCALIZED_RAD)
+        good_since = (good_since if good_since is not None else session.time) if ok else None
+        if good_since is not None and session.time - good_since >= LOCALIZED_FOR_S:
+            return good_since - start
+    return None
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--tours", default="lab,forest:3", help="worlds, comma-separated (default: lab,forest:3)")
+    parser.add_argument("--maps", default="exact,noisy", help="map variants: exact, noisy (default: both)")
+    parser.add_argument("--seed", type=int, default=0, help="simulation seed, and the noisy map's (default: 0)")
+    args = parser.parse_args()
+    os.environ.setdefault("ROS_DOMAIN_ID", "42")
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="simplebot_localization_") as folder:
+        for world in args.tours.split(","):
+            for variant in args.maps.split(","):
+                row = run_tour(world, variant, args.seed, folder)
+                rows.append(row)
+                print(f"{world} on the {variant} map: done in {row['wall']:.0f} s wall", flush=True)
+    header = (f"{'tour':10} {'map':6} {'goals':>5} {'final max m':>11} {'amcl RMS cm':>11} {'p95 cm':>7} "
+              f"{'max cm':>7} {'yaw RMS deg':>11} {'odom end m':>10} {'odom max m':>10} {'kidnap s':>8}")
+    print("\n" + header + "\n" + "-" * len(header))
+    for r in rows:
+        kidnap = "-" if r["kidnap"] is None and not (r["world"] == "lab" and r["map"] == "exact") else (
+            f"{r['kidnap']:.1f}" if r["kidnap"] is not None else f">{KIDNAP_LIMIT_S:.0f}")
+        print(f"{r['world']:10} {r['map']:6} {r['reached']:>2}/{r['goals']:<2} {r['final_max']:>11.3f} "
+              f"{100 * r['rms']:>11.1f} {100 * r['p95']:>7.1f} {100 * r['max']:>7.1f} {r['yaw_rms']:>11.2f} "
+              f"{r['odom_end']:>10.2f} {r['odom_max']:>10.2f} {kidnap:>8}")
+    print(f"load average (1 min) at the end: {loadavg()}")
+
+
+if __name__ == "__main__":
+    main()
