@@ -37,10 +37,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 
-from std_srvs.srv import Empty  # noqa: E402
-
 from simplebot_navigation.maps.map_io import save_map  # noqa: E402
-from simplebot_navigation.scenarios.localization import errors_against_truth  # noqa: E402
+from simplebot_navigation.scenarios.localization import errors_against_truth, relocalization_time  # noqa: E402
 from simplebot_navigation.scenarios.runner import run_goal, time_budget  # noqa: E402
 from simplebot_navigation.scenarios.session import NavigationSession  # noqa: E402
 from simplebot_navigation.sim.map_export import export_map  # noqa: E402
@@ -52,7 +50,6 @@ RESOLUTION = 0.05
 #: where the lab's robot is carried for the kidnapped-robot run (the north-west office)
 KIDNAP_POSE = Pose2D(-6.0, 5.0, -1.2)
 KIDNAP_LIMIT_S = 60.0
-LOCALIZED_M, LOCALIZED_RAD, LOCALIZED_FOR_S = 0.2, math.radians(10.0), 2.0
 
 
 def map_argument(world: str, variant: str, folder: str, seed: int) -> str:
@@ -114,26 +111,7 @@ def _odom(session: NavigationSession) -> tuple[float, float]:
 
 
 def kidnapped(session: NavigationSession) -> float | None:
-    """Sim seconds of driving after global_localization until amcl holds the truth (None: not within the limit)."""
-    session.sim.sim.kidnap(KIDNAP_POSE)
-    client = session.client.create_client(Empty, "global_localization")
-    future = client.call_async(Empty.Request())
-    session.run_until(session.time + 2.0, future.done)
-    start, good_since = session.time, None
-    while session.time - start < KIDNAP_LIMIT_S:
-        turning = int((session.time - start) / 4.0) % 2 == 0      # turn on the spot, then creep, in turn
-        session.sim.sim.set_cmd_vel(0.0 if turning else 0.1, 0.6 if turning else -0.3)
-        session.run_until(session.time + 0.1)
-        if not session.client.localized:
-            continue
-        t, x, y, yaw = session.client.localized[-1]
-        truth = session.pose()
-        ok = (math.hypot(x - truth.x, y - truth.y) < LOCALIZED_M
-              and abs(math.remainder(yaw - truth.yaw, 2 * math.pi)) < LOCALIZED_RAD)
-        good_since = (good_since if good_since is not None else session.time) if ok else None
-        if good_since is not None and session.time - good_since >= LOCALIZED_FOR_S:
-            return good_since - start
-    return None
+    return relocalization_time(session, KIDNAP_POSE, KIDNAP_LIMIT_S)
 
 
 def main() -> None:

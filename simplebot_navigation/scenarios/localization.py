@@ -11,6 +11,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from std_srvs.srv import Empty
 
 
 @dataclass(frozen=True)
@@ -49,3 +50,34 @@ def localization_error(estimates, truth) -> LocalizationError | None:
     return LocalizationError(samples=len(position), position_rms=float(np.sqrt(np.mean(position ** 2))),
                              position_p95=float(np.percentile(position, 95)), position_max=float(position.max()),
                              yaw_rms=float(np.sqrt(np.mean(heading ** 2))))
+
+
+#: re-localized: within these of the truth, and for this long
+LOCALIZED_M, LOCALIZED_RAD, LOCALIZED_FOR_S = 0.2, math.radians(10.0), 2.0
+#: how the robot moves while it searches: on the spot, then creeping in a curve, so every lidar sweeps the room
+SEARCH_TURN_S, SEARCH_TURN, SEARCH_CREEP = 4.0, (0.0, 0.6), (0.1, -0.3)
+
+
+def relocalization_time(session, pose, limit_s: float) -> float | None:
+    """The kidnapped robot: carry it to ``pose`` (world frame) without telling anyone, call amcl's
+    global_localization, and turn and creep on the spot; the sim seconds of driving until amcl holds the truth
+    (LOCALIZED_*), or None if not within ``limit_s``. ``session`` is a NavigationSession on a map."""
+    session.sim.sim.kidnap(pose)
+    client = session.client.create_client(Empty, "global_localization")
+    future = client.call_async(Empty.Request())
+    session.run_until(session.time + 2.0, future.done)
+    start, good_since = session.time, None
+    while session.time - start < limit_s:
+        turning = int((session.time - start) / SEARCH_TURN_S) % 2 == 0
+        session.sim.sim.set_cmd_vel(*(SEARCH_TURN if turning else SEARCH_CREEP))
+        session.run_until(session.time + 0.1)
+        if not session.client.localized:
+            continue
+        _, x, y, yaw = session.client.localized[-1]
+        truth = session.pose()
+        ok = (math.hypot(x - truth.x, y - truth.y) < LOCALIZED_M
+              and abs(math.remainder(yaw - truth.yaw, 2 * math.pi)) < LOCALIZED_RAD)
+        good_since = (good_since if good_since is not None else session.time) if ok else None
+        if good_since is not None and session.time - good_since >= LOCALIZED_FOR_S:
+            return good_since - start
+    return None
