@@ -1,15 +1,15 @@
 """amcl's sensor update and resampling time (docs/reference.md §8).
 
-    python bench/amcl.py [--repeats N] [--particles N] [--threads N]
+    python bench/amcl.py [--repeats N] [--particles N]
 
 The lab's occupancy grid at 5 cm (505 x 385 cells) and the robot's two lidars (683 beams each, 0.02 m noise)
 seen from a pose in the corridor. Each row weighs N particles (default 2000, spread around the true pose with
 sigma 0.3 m, 0.3 m, 0.2 rad, a filter still converging) against both scans: Amcl.sensor_update as the node calls
 it, with resample_interval high enough that it does not resample, so the row is the laser model alone. The
 resample row times ParticleFilter.resample on the same particles with max_particles = N (KLD sampling then keeps
-the number the row shows). "threads" is numba's thread count for the parallel weighting kernels (the machine's
-cores unless --threads says otherwise). The first-call line is a fresh process loading the compiled kernels
-from numba's cache (or compiling them when the cache is empty).
+the number the row shows). The kernels run on one thread (localization/amcl_kernels.py says why). The first-call
+time is a fresh process's first update with each model: loading the compiled kernels from numba's cache (or
+compiling them when the cache is empty).
 """
 
 from __future__ import annotations
@@ -20,7 +20,6 @@ import sys
 import time
 from pathlib import Path
 
-import numba
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -90,6 +89,10 @@ def time_resample(n: int, repeats: int) -> tuple[np.ndarray, int]:
     return np.array(times), int(np.median(counts))
 
 
+def load_average() -> str:
+    return " ".join(Path("/proc/loadavg").read_text().split()[:3])
+
+
 def first_call() -> str:
     out = subprocess.run([sys.executable, "-c", FIRST_CALL], cwd=ROOT, capture_output=True, text=True, check=True,
                          env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"})
@@ -100,24 +103,21 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=100)
     parser.add_argument("--particles", type=int, default=2000)
-    parser.add_argument("--threads", type=int, default=0, help="numba threads (0: all cores)")
     args = parser.parse_args()
-    if args.threads:
-        numba.set_num_threads(args.threads)
-    print(f"particles {args.particles}, numba threads {numba.get_num_threads()}, first call (3 models) "
-          f"{first_call()} s")
-    print(f"{'what':<32} {'beams/scan':>10} {'p50 ms':>8} {'p95 ms':>8} {'max ms':>8}")
+    print(f"particles {args.particles}, first call (3 models) {first_call()} s, load average {load_average()}")
+    print(f"{'what':<32} {'max_beams':>9} {'used/scan':>9} {'p50 ms':>8} {'p95 ms':>8} {'max ms':>8}")
     rows = [(m, b) for m in ("likelihood_field", "likelihood_field_prob", "beam") for b in (30, 683)]
     for model, beams in rows:
         times, used = time_update(model, beams, args.particles, args.repeats)
-        report(f"{model}, 2 scans", str(used), times)
+        report(f"{model}, 2 scans", str(beams), str(used), times)
     times, kept = time_resample(args.particles, args.repeats)
-    report(f"resample (KLD keeps {kept})", "", times)
+    report(f"resample (KLD keeps {kept})", "", "", times)
 
 
-def report(what: str, beams: str, times: np.ndarray) -> None:
+def report(what: str, max_beams: str, used: str, times: np.ndarray) -> None:
     ms = times * 1e3
-    print(f"{what:<32} {beams:>10} {np.median(ms):>8.2f} {np.percentile(ms, 95):>8.2f} {ms.max():>8.2f}")
+    print(f"{what:<32} {max_beams:>9} {used:>9} {np.median(ms):>8.2f} {np.percentile(ms, 95):>8.2f} "
+          f"{ms.max():>8.2f}")
 
 
 if __name__ == "__main__":

@@ -3,7 +3,7 @@
 Layers, lowest first; a module may import its own layer and the layers below, never one above:
   geometry, paths, parameters, web_host             shared math, file locations, the parameter layer, Host checks
   costmap, planning, teb, sim, move_base, safety,   the navigation core: plain Python, no ROS
-  perception, maps
+  perception, maps, localization
   ros                                               the nodes and their ROS shells
   launch, scenarios, viewer, testing                what a user runs (and what tests and benches share)
 Within a layer, two packages import each other one way at most (scenarios/ uses launch/, never back).
@@ -20,7 +20,7 @@ PACKAGE = "simplebot_navigation"
 ROOT = Path(__file__).resolve().parents[1] / PACKAGE
 LAYERS = [
     {"geometry", "geometry_kernels", "paths", "parameters", "kernel_cache", "web_host", ""},
-    {"costmap", "planning", "teb", "sim", "move_base", "safety", "perception", "maps"},
+    {"costmap", "planning", "teb", "sim", "move_base", "safety", "perception", "maps", "localization"},
     {"ros"},
     {"launch", "scenarios", "viewer", "testing"},
 ]

@@ -96,7 +96,7 @@ class Amcl:
     def odometry_update(self, odom_pose) -> bool:
         """Take the odometry pose (x, y, yaw) at the next scans' time; True if the particles moved and a sensor
         update is due. ValueError if a value is not finite."""
-        pose = np.asarray(odom_pose, dtype=float)
+        pose = np.array(odom_pose, dtype=float)           # a copy: the caller may reuse its array
         if pose.shape != (3,) or not np.all(np.isfinite(pose)):
             raise ValueError(f"odometry pose: expected finite (x, y, yaw), got {odom_pose!r}")
         if self._odom_reference is None:

@@ -4,9 +4,12 @@ Why numba: each model evaluates every particle against every beam (2000 particle
 map look-ups, or as many ray casts for the beam model) and KLD resampling decides after every drawn particle whether
 it has enough, by the number of histogram bins filled so far; vectorised numpy pays for temporaries of that size or
 cannot stop early. The plain numpy references the tests compare against are in testing/amcl_reference.py. Every
-kernel is compiled with ``cache=True`` and releases the GIL; the weighting kernels run their particles in
-parallel. They call nothing of other modules, so numba's per-file cache stays consistent by itself
-(kernel_cache.py is for kernels that inline other files).
+kernel is compiled with ``cache=True`` and releases the GIL. They call nothing of other modules, so numba's per-file
+cache stays consistent by itself (kernel_cache.py is for kernels that inline other files).
+
+They run on one thread. With numba's parallel loops on two threads the likelihood field with 2 x 683 beams took half
+the time on an idle core, but on cores shared with other processes (the simulator, move_base) every parallel loop
+waits for its slowest thread: an update of 2 x 30 beams went from 0.5 ms to 15 ms.
 
 Poses come in the grid frame in cell units (AmclMap.to_grid): a particle at (gx, gy, gyaw) lies in cell
 (floor(gx), floor(gy)), i.e. row floor(gy) and column floor(gx) of the [height, width] arrays.
@@ -17,7 +20,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 _INV_SQRT2 = 0.7071067811865476
 
@@ -34,14 +37,14 @@ def _end_cell(pose, c, s, end, width, height):
     return -1
 
 
-@njit(cache=True, nogil=True, parallel=True)
+@njit(cache=True, nogil=True)
 def likelihood_field_weights(poses, beam_ends, pz_table, pz_off_map, out):
     """amcl's likelihood_field model: out[j] = 1 + sum over beams of pz^3, pz read from ``pz_table`` at the
     cell of the beam's end point (``pz_off_map`` beyond the map). ``beam_ends`` (M, 2): end points in the base
     frame, in cells."""
     height, width = pz_table.shape
     flat = pz_table.ravel()
-    for j in prange(poses.shape[0]):
+    for j in range(poses.shape[0]):
         c, s = math.cos(poses[j, 2]), math.sin(poses[j, 2])
         p = 1.0
         for b in range(beam_ends.shape[0]):
@@ -51,7 +54,7 @@ def likelihood_field_weights(poses, beam_ends, pz_table, pz_off_map, out):
         out[j] = p
 
 
-@njit(cache=True, nogil=True, parallel=True)
+@njit(cache=True, nogil=True)
 def likelihood_field_prob_weights(poses, beam_ends, log_pz_table, log_pz_off_map, near_obstacle, beamskip, slots,
                                   skip_threshold, error_threshold, out):
     """amcl's likelihood_field_prob model: out[j] = the product of the beams' pz (``log_pz_table``: ln pz per
@@ -63,7 +66,7 @@ def likelihood_field_prob_weights(poses, beam_ends, log_pz_table, log_pz_off_map
     flat_log, flat_near = log_pz_table.ravel(), near_obstacle.ravel()
     use = np.ones(m, dtype=np.bool_)
     if beamskip:
-        for b in prange(m):
+        for b in range(m):
             agree = 0
             for j in range(n):
                 cell = _end_cell(poses[j], math.cos(poses[j, 2]), math.sin(poses[j, 2]), beam_ends[b], width, height)
@@ -72,7 +75,7 @@ def likelihood_field_prob_weights(poses, beam_ends, log_pz_table, log_pz_off_map
             use[b] = agree / n > skip_threshold
         if slots - use.sum() >= slots * error_threshold:
             use[:] = True
-    for j in prange(n):
+    for j in range(n):
         c, s = math.cos(poses[j, 2]), math.sin(poses[j, 2])
         log_p = 0.0
         for b in range(m):
@@ -126,7 +129,7 @@ def cast_range(ox, oy, angle, max_cells, blocked, clearance):
             error -= deltax
 
 
-@njit(cache=True, nogil=True, parallel=True)
+@njit(cache=True, nogil=True)
 def beam_model_weights(poses, sensor, bearings, ranges, range_max, resolution, blocked, clearance, z, out):
     """amcl's beam model: out[j] = 1 + sum over beams of pz^3, the expected range ray-cast in the map from the
     particle's sensor. ``sensor`` = (x, y in cells, yaw) in the base frame; ``bearings`` in the sensor frame;
@@ -135,7 +138,7 @@ def beam_model_weights(poses, sensor, bearings, ranges, range_max, resolution, b
     z_hit, z_short, z_max, z_rand, sigma_hit, lambda_short = z[0], z[1], z[2], z[3], z[4], z[5]
     denominator = 2.0 * sigma_hit * sigma_hit
     max_cells = range_max / resolution
-    for j in prange(poses.shape[0]):
+    for j in range(poses.shape[0]):
         c, s = math.cos(poses[j, 2]), math.sin(poses[j, 2])
         ox = poses[j, 0] + c * sensor[0] - s * sensor[1]
         oy = poses[j, 1] + s * sensor[0] + c * sensor[1]

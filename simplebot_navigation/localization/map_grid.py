@@ -73,8 +73,8 @@ class AmclMap:
         return (~self.free).astype(np.uint8)
 
     def clearance(self) -> np.ndarray:
-        """float32 per cell: distance in cells from its centre to the nearest blocked cell centre or to the first
-        cell beyond the map; a ray may skip this far minus one diagonal without meeting anything."""
+        """float32 per cell: distance in cells from its centre to the nearest blocked cell centre or cell beyond the
+        map. Every cell closer than that is free, so the beam model's ray casting may jump over them."""
         padded = np.zeros((self.height + 2, self.width + 2), dtype=bool)
         padded[1:-1, 1:-1] = self.free
         return ndimage.distance_transform_edt(padded)[1:-1, 1:-1].astype(np.float32)

@@ -15,7 +15,7 @@ import numpy as np
 from scipy import ndimage
 
 from simplebot_navigation.localization import RangeScan
-from simplebot_navigation.sim.world import Cylinder, World
+from simplebot_navigation.sim.world import Cylinder, World, world_from_dict
 from simplebot_navigation.sim.world_loader import load_world
 from simplebot_navigation.testing.lidar_scenes import lidars, ray_ranges
 
@@ -38,6 +38,25 @@ def occupancy_grid(world: World, resolution: float = LAB_RESOLUTION) -> tuple[np
     grid[components == components[start_row, start_col]] = 0
     grid[occupied] = 100
     return grid, resolution, (x0, y0, 0.0)
+
+
+#: an L-shaped flat with furniture of different shapes: no two places in it look alike to the lidars
+L_FLAT = {
+    "name": "l_flat",
+    "walls": [{"from": a, "to": b, "thickness": 0.15} for a, b in (
+        ([0, 0], [10, 0]), ([10, 0], [10, 5]), ([10, 5], [6, 5]), ([6, 5], [6, 9]), ([6, 9], [0, 9]), ([0, 9], [0, 0]),
+        ([3, 4], [5, 4]))],
+    "boxes": [{"center": [2.0, 2.0], "size": [1.5, 0.8]}, {"center": [8.0, 3.5], "size": [0.6, 1.8], "yaw": 0.4},
+              {"center": [4.5, 8.4], "size": [2.0, 0.6]}],
+    "cylinders": [{"center": [4.0, 6.5], "radius": 0.3}, {"center": [1.5, 7.5], "radius": 0.5},
+                  {"center": [7.5, 1.0], "radius": 0.2}],
+    "start": {"x": 5.0, "y": 2.0, "yaw": 0.0},
+}
+
+
+@functools.cache
+def l_flat() -> World:
+    return world_from_dict(L_FLAT, source="l_flat")
 
 
 @functools.cache
