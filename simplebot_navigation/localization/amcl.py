@@ -8,7 +8,8 @@ One cycle, as amcl's laserReceived runs it for every scan:
    particles move by the motion since the last filter update once it exceeds update_min_d along x or along y
    (each on its own, as amcl compares them) or update_min_a in yaw, or when an update is forced
    (``request_nomotion_update``); while an update is due every further odometry pose moves them too.
-2. ``sensor_update(scans)`` weighs the particles with each scan in turn, if an update is due; every scan counts
+2. ``sensor_update(scans, source)`` weighs the particles with each scan of one laser in turn, once per laser after
+   each motion update (amcl's per-laser update flags: the front and the back lidar both count); every scan counts
    towards resample_interval (amcl counts each laser's message), and resampling happens when the count reaches it.
 3. ``estimate()``: the heaviest cluster's mean with amcl's covariance; amcl publishes it after each resampling.
 
@@ -50,6 +51,7 @@ class Amcl:
         self.filter = ParticleFilter(p, self.map, np.random.default_rng(p.seed))
         self._odom_reference: np.ndarray | None = None
         self._update_due = True
+        self._sources_used: set[str] = set()     # the lasers weighed since the particles last moved
         self._force_update = False
         self._resample_count = 0
         self.filter.init_gaussian((p.initial_pose_x, p.initial_pose_y, p.initial_pose_a),
@@ -92,6 +94,7 @@ class Amcl:
     def _restarted(self) -> None:
         self._odom_reference = None
         self._update_due = True
+        self._sources_used = set()
 
     def odometry_update(self, odom_pose) -> bool:
         """Take the odometry pose (x, y, yaw) at the next scans' time; True if the particles moved and a sensor
@@ -102,6 +105,7 @@ class Amcl:
         if self._odom_reference is None:
             self._odom_reference = pose
             self._update_due = True
+            self._sources_used = set()
             self._resample_count = 0
             return False
         reference = self._odom_reference
@@ -117,14 +121,17 @@ class Amcl:
                                           self.filter.rng)
         self._odom_reference = pose
         self._update_due = True
+        self._sources_used = set()
         return True
 
-    def sensor_update(self, scans: list[RangeScan]) -> bool:
-        """Weigh the particles with the scans, if an update is due, and resample every resample_interval scans.
-        True if the scans were used. ValueError naming the field of a malformed scan (nothing changes then)."""
+    def sensor_update(self, scans: list[RangeScan], source: str = "") -> bool:
+        """Weigh the particles with the scans of one ``source`` (a laser), and resample every resample_interval
+        scans: once per source after each motion update, as amcl updates each of its lasers once (lidars are
+        seldom in step, so each one's next scan counts). True if the scans were used. ValueError naming the field
+        of a malformed scan (nothing changes then)."""
         for scan in scans:
             scan.check()
-        if not self._update_due:
+        if source in self._sources_used:
             return False
         grid_poses = self.map.to_grid(self.filter.poses)
         for scan in scans:
@@ -137,6 +144,7 @@ class Amcl:
                 self.filter.resample()
                 grid_poses = self.map.to_grid(self.filter.poses)
         self._update_due = False
+        self._sources_used.add(source)
         return True
 
     def reconfigure(self, params: AmclParams) -> None:

@@ -58,13 +58,14 @@ def test_bad_values_are_refused_naming_the_parameter(given, message):
 
 
 def test_what_has_no_effect_here_says_so():
-    p = AmclParams.from_params({"odom_model_type": "omni-corrected", "odom_alpha5": 0.1, "transform_tolerance": 0.5,
-                                "gui_publish_rate": 10.0, "laser_max_beam": 60})
+    p = AmclParams.from_params({"odom_model_type": "omni-corrected", "odom_alpha5": 0.1, "std_warn_level_x": 0.5,
+                                "gui_publish_rate": 10.0, "laser_max_beam": 60, "transform_tolerance": 0.5})
     assert p.motion_model == "diff-corrected"
     text = "\n".join(p.warnings)
     assert "amcl/odom_model_type has no effect: this robot is a differential drive" in text
     assert "amcl/odom_alpha5 has no effect: this robot is a differential drive" in text
-    assert "amcl/transform_tolerance is accepted but not implemented" in text
+    assert "amcl/std_warn_level_x is accepted but not implemented" in text
+    assert "transform_tolerance" not in text          # the node's: it post-dates map -> odom
     assert "amcl/gui_publish_rate is accepted but not implemented" in text
     assert "unknown parameter 'laser_max_beam' ignored (did you mean 'laser_max_beams'?)" in text
     assert fields_of(AmclParams)["odom_alpha5"].status is Status.NOT_FOR_THIS_ROBOT

@@ -49,7 +49,7 @@ def lab(context):
     amcl = AmclNode(context=context, parameter_overrides=[
         Parameter("use_sim_time", value=True), Parameter("odom_model_type", value="diff-corrected"),
         Parameter("update_min_d", value=0.05), Parameter("update_min_a", value=0.05),
-        Parameter("laser_sigma_hit", value=0.05), Parameter("laser_max_beams", value=60),
+        Parameter("laser_model_type", value="likelihood_field_prob"), Parameter("laser_max_beams", value=60),
         Parameter("min_particles", value=300), Parameter("max_particles", value=1500)])
     probe = Probe(context)
     driver = LockstepDriver(sim, [map_server, amcl, probe])

@@ -254,7 +254,7 @@ class AmclNode(SetUpNode):
         try:
             scan = messages.range_scan(msg, self._sensor_pose(strip_frame(msg.header.frame_id)))
             self.amcl.odometry_update(odom)
-            updated = self.amcl.sensor_update([scan])
+            updated = self.amcl.sensor_update([scan], source=topic)
         except (ValueError, TransformException) as err:
             self.get_logger().warn(f"{topic}: scan dropped: {err}", throttle_duration_sec=5.0)
             return True
