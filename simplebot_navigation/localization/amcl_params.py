@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from simplebot_navigation.parameters import ParameterError, build, param
+from simplebot_navigation.parameters import ParameterError, build, fields_of, param
 
 LASER_MODELS = ("likelihood_field", "beam", "likelihood_field_prob")
 ODOM_MODELS = ("diff", "diff-corrected", "omni", "omni-corrected")
@@ -138,7 +138,10 @@ class AmclParams:
         return params
 
     def check(self, where: str = "amcl") -> None:
-        """ParameterError for a value outside its choices or two values that contradict each other."""
+        """ParameterError for a value of the wrong type or out of range (a configuration built by hand), outside its
+        choices, or two values that contradict each other."""
+        for name, spec in fields_of(AmclParams).items():
+            setattr(self, name, spec.check(getattr(self, name), f"{where}/{name}"))
         if self.laser_model_type not in LASER_MODELS:
             raise ParameterError(f"{where}/laser_model_type: must be one of {', '.join(LASER_MODELS)}, "
                                  f"got {self.laser_model_type!r}")

@@ -37,7 +37,7 @@ def _packed(bins: np.ndarray) -> np.ndarray:
 def cluster_labels(poses: np.ndarray) -> tuple[np.ndarray, int]:
     """(cluster of each particle, number of clusters): connected components of the filled bins."""
     keys, inverse = np.unique(_packed(bins_of(poses)), return_inverse=True)
-    occupied = bins_of_keys(keys)
+    occupied = _bins_of_keys(keys)
     rows, cols = [], []
     for offset in _OFFSETS:
         neighbour = _packed(occupied + offset)
@@ -51,7 +51,7 @@ def cluster_labels(poses: np.ndarray) -> tuple[np.ndarray, int]:
     return bin_label[inverse.ravel()], count
 
 
-def bins_of_keys(keys: np.ndarray) -> np.ndarray:
+def _bins_of_keys(keys: np.ndarray) -> np.ndarray:
     """The (x, y, yaw) bins of packed keys."""
     mask = (1 << 21) - 1
     return np.column_stack(((keys >> 42) - (1 << 20), ((keys >> 21) & mask) - (1 << 20), keys & mask))

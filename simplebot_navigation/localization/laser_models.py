@@ -97,7 +97,7 @@ class LaserModel:
             max_dist = params.laser_likelihood_max_dist
             self._gauss_off_map = params.laser_z_hit * math.exp(-max_dist ** 2 / (2 * params.laser_sigma_hit ** 2))
             self._near = distance < params.beam_skip_distance
-        self._pz_tables: dict[float, np.ndarray] = {}
+        self._pz_tables: dict[float, tuple[np.ndarray, float]] = {}
 
     def weights(self, grid_poses: np.ndarray, scan: RangeScan, converged: bool = False) -> np.ndarray | None:
         """Each particle's weight factor for one scan (poses from AmclMap.to_grid), or None when amcl would not
@@ -125,8 +125,7 @@ class LaserModel:
             kernels.likelihood_field_weights(grid_poses, ends, table, off_map, out)
         else:
             p = self.params
-            log_off_map = math.log(off_map) if off_map > 0 else -math.inf
-            kernels.likelihood_field_prob_weights(grid_poses, ends, table, log_off_map, self._near,
+            kernels.likelihood_field_prob_weights(grid_poses, ends, table, off_map, self._near,
                                                   p.do_beamskip and converged, p.laser_max_beams,
                                                   p.beam_skip_threshold, p.beam_skip_error_threshold, out)
         return out
@@ -134,13 +133,13 @@ class LaserModel:
     def pz_table(self, range_max: float) -> tuple[np.ndarray, float]:
         """pz of a beam ending in each cell, and beyond the map, for scans of this range_max (ln pz for
         likelihood_field_prob, which multiplies them)."""
-        rand = self.params.laser_z_rand / range_max
         if range_max not in self._pz_tables:
             if len(self._pz_tables) >= 4:       # lasers of a few kinds, not a new table per scan
                 self._pz_tables.clear()
-            table = self._gauss + rand
+            rand = self.params.laser_z_rand / range_max
+            table, off_map = self._gauss + rand, np.float64(self._gauss_off_map + rand)
             if self.model == "likelihood_field_prob":
                 with np.errstate(divide="ignore"):
-                    table = np.log(table)
-            self._pz_tables[range_max] = table
-        return self._pz_tables[range_max], self._gauss_off_map + rand
+                    table, off_map = np.log(table), np.log(off_map)
+            self._pz_tables[range_max] = table, float(off_map)
+        return self._pz_tables[range_max]

@@ -77,6 +77,9 @@ def test_the_misspelt_beam_skip_error_threshold_wins_as_in_amcl():
     assert p.beam_skip_error_threshold == 0.4
 
 
-def test_amcl_checks_a_configuration_built_by_hand():
-    with pytest.raises(ParameterError, match="laser_model_type"):
-        Amcl(AmclParams(laser_model_type="beam_model"), [[0, 0], [0, 0]], 0.05)
+@pytest.mark.parametrize("params, message", [
+    (AmclParams(laser_model_type="beam_model"), "amcl/laser_model_type"), (AmclParams(kld_err=0.0), "amcl/kld_err"),
+    (AmclParams(max_particles=0), "amcl/max_particles"), (AmclParams(do_beamskip=1), "amcl/do_beamskip")])
+def test_amcl_checks_a_configuration_built_by_hand(params, message):
+    with pytest.raises(ParameterError, match=message):
+        Amcl(params, [[0, 0], [0, 0]], 0.05)
