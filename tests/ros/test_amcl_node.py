@@ -1,13 +1,15 @@
-"""The amcl node in lockstep with the simulator and map_server on the lab: it localizes a robot whose encoders
-drift, publishes map -> odom, takes initial poses and its services, refuses bad parameters, and shrugs off hostile
+"""The amcl node, with the shipped config/map/amcl.yaml, in lockstep with the simulator and map_server on the lab: it
+localizes a robot whose encoders drift, publishes map -> odom, takes initial poses and its services, refuses bad parameters, and shrugs off hostile
 messages."""
 
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped
 from rcl_interfaces.msg import Log
 from rclpy.node import Node
@@ -17,6 +19,7 @@ from rclpy.time import Time
 from sensor_msgs.msg import LaserScan
 from std_srvs.srv import Empty
 
+from simplebot_navigation.paths import package_share
 from simplebot_navigation.ros.amcl.amcl_node import LATCHED, AmclNode
 from simplebot_navigation.ros.conversions import yaw_of
 from simplebot_navigation.ros.map_server_node import MapServerNode
@@ -46,11 +49,9 @@ def lab(context):
         Parameter("world", value="lab"), Parameter("real_time_factor", value=0.0),
         Parameter("odom_scale_std", value=0.02), Parameter("seed", value=3)])
     map_server = MapServerNode(context=context, parameter_overrides=[Parameter("yaml_filename", value="lab")])
-    amcl = AmclNode(context=context, parameter_overrides=[
-        Parameter("use_sim_time", value=True), Parameter("odom_model_type", value="diff-corrected"),
-        Parameter("update_min_d", value=0.05), Parameter("update_min_a", value=0.05),
-        Parameter("laser_model_type", value="likelihood_field_prob"), Parameter("laser_max_beams", value=60),
-        Parameter("min_particles", value=300), Parameter("max_particles", value=1500)])
+    shipped = yaml.safe_load((Path(package_share("simplebot_navigation")) / "config/map/amcl.yaml").read_text())
+    amcl = AmclNode(context=context, parameter_overrides=[Parameter("use_sim_time", value=True)] + [
+        Parameter(name, value=value) for name, value in shipped.items()])
     probe = Probe(context)
     driver = LockstepDriver(sim, [map_server, amcl, probe])
     yield sim, amcl, probe, driver
@@ -106,9 +107,14 @@ def test_it_localizes_a_drifting_robot_and_publishes_map_to_odom(lab):
 def test_a_wrong_initial_pose_is_taken_and_driving_corrects_it(lab):
     sim, amcl, probe, driver = lab
     truth = sim.sim.ground_truth()
-    probe.initial_pose.publish(initial_pose_msg(truth.x + 0.4, truth.y - 0.3, truth.yaw + 0.25))
-    driver.run_until(driver.time + 0.3)
-    assert pose_error(sim, amcl)[0] > 0.3
+    wrong = (truth.x + 0.4, truth.y - 0.3)
+    probe.initial_pose.publish(initial_pose_msg(*wrong, truth.yaw + 0.25))     # RViz's spread: 0.5 m, 15 deg
+
+    def taken():
+        particles = amcl.amcl.particles[:, :2]
+        mean = particles.mean(axis=0)
+        return math.hypot(mean[0] - wrong[0], mean[1] - wrong[1]) < 0.1 and min(particles.std(axis=0)) > 0.3
+    assert driver.run_until(driver.time + 1.0, stop=taken), "the initial pose was not taken"
     drive(sim, driver, -0.3, -0.03, 11.0)   # back along the corridor, whose walls say little about x
     error, yaw_error = pose_error(sim, amcl)
     assert error < 0.1 and yaw_error < math.radians(3)
