@@ -4,8 +4,9 @@
 
 WORLD is anything ``--world`` takes (a built-in name, ``forest:N``, a world or map file). The map covers the
 world's obstacles, start and goals plus ``MARGIN_M``, its origin on a multiple of the resolution; a cell is
-occupied (100) when a wall, box or cylinder overlaps it with positive area, free (0) otherwise. Moving obstacles
-are never exported. The noisy rule is in ``export_map`` and docs/reference.md §7.
+occupied (100) when a wall, box or cylinder overlaps it with positive area, free (0) when the robot could reach it
+from the world's start, and unknown (-1) otherwise (beyond the outer walls, inside closed furniture), as a mapping
+run leaves what it never saw. Moving obstacles are never exported. The noisy rule is in ``export_map`` and docs/reference.md §7.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from scipy import ndimage
 
 from simplebot_navigation.maps.cli import OneLineParser
 from simplebot_navigation.maps.images import check_size
@@ -34,7 +36,8 @@ _EPS = 1e-9
 
 
 def export_map(world: World, resolution: float, noisy_seed: int | None = None) -> OccupancyMap:
-    """The world's static obstacles as an OccupancyMap (100 occupied, 0 free).
+    """The world's static obstacles as an OccupancyMap (100 occupied, 0 free where reachable from the start,
+    -1 unknown elsewhere).
 
     With ``noisy_seed`` the map is what a SLAM run might give, the same for the same seed: of the small
     free-standing obstacles (boxes and cylinders of footprint <= FURNITURE_AREA_M2) a fifth, rounded up, is
@@ -68,7 +71,19 @@ def export_map(world: World, resolution: float, noisy_seed: int | None = None) -
     if rng is not None:
         _thicken(walls.occupied, grid.occupied | walls.occupied, rng, max(1, round(WALL_TILE_M / resolution)))
     occupied = grid.occupied | walls.occupied
-    return OccupancyMap(np.where(occupied, 100, 0).astype(np.int8), float(resolution), (grid.x0, grid.y0, 0.0))
+    data = np.where(occupied, 100, 0).astype(np.int8)
+    data[~occupied & ~_reachable(~occupied, grid, world.start)] = -1
+    return OccupancyMap(data, float(resolution), (grid.x0, grid.y0, 0.0))
+
+
+def _reachable(free: np.ndarray, grid: "_Grid", start) -> np.ndarray:
+    """The free cells 4-connected to the start's cell (all free cells if the start's cell is not free)."""
+    labels, _ = ndimage.label(free)
+    row, col = int((start.y - grid.y0) / grid.resolution), int((start.x - grid.x0) / grid.resolution)
+    inside = 0 <= row < free.shape[0] and 0 <= col < free.shape[1]
+    if not inside or labels[row, col] == 0:
+        return free
+    return labels == labels[row, col]
 
 
 def _area(shape: Box | Cylinder) -> float:

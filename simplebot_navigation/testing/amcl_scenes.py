@@ -1,6 +1,6 @@
 """The lab as amcl's tests and bench see it: an occupancy grid of the lab world and the robot's two scans in it.
 
-The grid is what a mapping run would give: cells whose centre lies inside an obstacle are occupied (100), the free
+The grid is the world's exported map (sim/map_export.py): cells an obstacle overlaps are occupied (100), the free
 space reachable from the start is free (0), the rest (outside the outer walls) unknown (-1). Scans are ray-cast
 against the world's true shapes, not the grid, with Gaussian range noise, so the map is as imperfect as a real
 one: the grid's walls are whole cells.
@@ -12,32 +12,21 @@ import functools
 import math
 
 import numpy as np
-from scipy import ndimage
 
 from simplebot_navigation.localization import RangeScan
+from simplebot_navigation.sim.map_export import export_map
 from simplebot_navigation.sim.world import Cylinder, World, world_from_dict
 from simplebot_navigation.sim.world_loader import load_world
 from simplebot_navigation.testing.lidar_scenes import lidars, ray_ranges
 
 LAB_RESOLUTION = 0.05
-MARGIN = 0.5
 
 
 def occupancy_grid(world: World, resolution: float = LAB_RESOLUTION) -> tuple[np.ndarray, float, tuple]:
-    """(int8 grid [height, width], resolution, origin (x, y, 0)) of a world, row 0 at the bottom."""
-    x0, y0, x1, y1 = world.bounds()
-    x0, y0 = x0 - MARGIN, y0 - MARGIN
-    width = int(math.ceil((x1 + MARGIN - x0) / resolution))
-    height = int(math.ceil((y1 + MARGIN - y0) / resolution))
-    cols, rows = np.meshgrid(np.arange(width), np.arange(height))
-    centres = np.column_stack((x0 + (cols.ravel() + 0.5) * resolution, y0 + (rows.ravel() + 0.5) * resolution))
-    occupied = (world.distance(centres) <= 0.0).reshape(height, width)
-    components, _ = ndimage.label(~occupied)
-    start_row, start_col = int((world.start.y - y0) / resolution), int((world.start.x - x0) / resolution)
-    grid = np.full((height, width), -1, dtype=np.int8)
-    grid[components == components[start_row, start_col]] = 0
-    grid[occupied] = 100
-    return grid, resolution, (x0, y0, 0.0)
+    """(int8 grid [height, width], resolution, origin (x, y, yaw)) of a world, as map_server serves it
+    (sim/map_export.py: unknown where the robot cannot reach)."""
+    exported = export_map(world, resolution)
+    return exported.data, exported.resolution, exported.origin
 
 
 #: an L-shaped flat with furniture of different shapes: no two places in it look alike to the lidars

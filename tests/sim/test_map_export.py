@@ -48,16 +48,21 @@ def test_obstacles_are_occupied(lab_map, x, y, what):
 
 @pytest.mark.parametrize("x, y, what", [(0.0, 0.0, "corridor"), (-6.0, 0.3, "corridor"), (-8.0, 1.25, "door"),
                                         (8.55, -4.05, "beside the rack, inside its bounding box"),
-                                        (-12.9, -9.9, "margin")])
-def test_the_rest_is_free(lab_map, x, y, what):
+                                        (-10.0, 5.0, "an office"), (10.0, -6.0, "the lab room")])
+def test_what_the_robot_can_reach_is_free(lab_map, x, y, what):
     assert cell_of(lab_map, x, y) == 0, what
+
+
+def test_what_the_robot_cannot_reach_is_unknown_as_a_mapping_run_leaves_it(lab_map):
+    assert cell_of(lab_map, -12.9, -9.9) == -1          # the margin beyond the outer walls
+    assert cell_of(lab_map, 12.5, 0.0) == -1
 
 
 def test_a_cell_is_occupied_exactly_when_an_obstacle_overlaps_it(lab, lab_map):
     distance = lab.distance(cell_centres(lab_map)).reshape(lab_map.data.shape)
     assert np.all(lab_map.data[distance == 0.0] == 100)                       # centre inside: overlapped
-    assert np.all(lab_map.data[distance >= RESOLUTION / math.sqrt(2)] == 0)   # beyond the cell's corners: not
-    assert set(np.unique(lab_map.data).tolist()) == {0, 100}
+    assert np.all(lab_map.data[distance >= RESOLUTION / math.sqrt(2)] != 100)  # beyond the cell's corners: not
+    assert set(np.unique(lab_map.data).tolist()) == {-1, 0, 100}
 
 
 def test_the_map_covers_the_world_with_the_margin(lab, lab_map):
