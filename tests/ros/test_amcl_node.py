@@ -115,9 +115,12 @@ def test_a_wrong_initial_pose_is_taken_and_driving_corrects_it(lab):
         mean = particles.mean(axis=0)
         return math.hypot(mean[0] - wrong[0], mean[1] - wrong[1]) < 0.1 and min(particles.std(axis=0)) > 0.3
     assert driver.run_until(driver.time + 1.0, stop=taken), "the initial pose was not taken"
-    drive(sim, driver, -0.3, -0.03, 11.0)   # back along the corridor, whose walls say little about x
-    error, yaw_error = pose_error(sim, amcl)
-    assert error < 0.1 and yaw_error < math.radians(3)
+    errors = []
+    for _ in range(16):                     # back along the corridor, whose walls say little about x
+        drive(sim, driver, -0.3, -0.03, 0.5)
+        errors.append(pose_error(sim, amcl))
+    error, yaw_error = np.median(errors[-8:], axis=0)
+    assert error < 0.08 and yaw_error < math.radians(3)
 
 
 def test_hostile_initial_poses_scans_and_parameters_change_nothing(lab):
