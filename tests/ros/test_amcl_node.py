@@ -141,7 +141,7 @@ def test_hostile_initial_poses_scans_and_parameters_change_nothing(lab):
     assert "initialpose ignored:" in text and "nowhere" in text
     refused = amcl.set_parameters([Parameter("odom_model_type", value="diff")])[0]
     assert not refused.successful and "requires restart" in refused.reason
-    refused = amcl.set_parameters([Parameter("min_particles", value=5000)])[0]
+    refused = amcl.set_parameters([Parameter("min_particles", value=amcl.params.max_particles + 1)])[0]
     assert not refused.successful and "min_particles" in refused.reason
     assert amcl.set_parameters([Parameter("laser_max_beams", value=30)])[0].successful
     assert amcl.amcl.params.laser_max_beams == 30
