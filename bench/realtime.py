@@ -1,6 +1,7 @@
 """Real-time load: the lab tour through the launcher's processes at real time, with and without stress.
 
     .venv/bin/python bench/realtime.py [--goals nw_office,library] [--stress 2] [--baseline ../other-checkout]
+    .venv/bin/python bench/realtime.py --arg map:=lab --stress 0    # on a map: amcl's CPU too, goals in map
     .venv/bin/python bench/realtime.py --world crowd:2 --arg robot:=round --arg radius:=0.25 --arg tight:=true \
         --set TebLocalPlannerROS.max_vel_x=1.0 ... --stress 0      # a crowd world: 24 moving obstacles in view
 
@@ -8,7 +9,7 @@ Each run starts ``python -m simplebot_navigation.launch navigation world:=lab rt
 own process, as a user runs it; ``--world``, ``--arg`` and ``--set`` change what it starts), sends the tour's goals one after the other through the move_base
 action and measures, only while a goal is active ("while driving"):
 
-  CPU %       utime + stime of the move_base, simulator and collision_monitor processes
+  CPU %       utime + stime of the move_base, simulator, collision_monitor and (with map:=...) amcl processes
               (/proc/<pid>/stat, all threads), as a percentage of one core; "/sim s" is move_base's
               per simulated second, which stays comparable when a loaded machine makes the simulator
               fall behind; "-" for a process the version does not run.
@@ -66,7 +67,7 @@ from simplebot_navigation.sim.world_loader import load_world  # noqa: E402
 from simplebot_navigation.testing.proc_stats import cpu_seconds, loadavg  # noqa: E402
 
 WORLD = "lab"
-NODES = ("move_base", "simulator", "collision_monitor")
+NODES = ("move_base", "simulator", "collision_monitor", "amcl")
 LOOP_STATUS = "move_base: control loop"
 LATE_FACTOR = 1.5
 WARM_UP_S = 2.0          # sim seconds before the first goal, as the scenario runner waits
@@ -219,10 +220,13 @@ class Run:
                   f"(budget {budget:.0f} s)", flush=True)
 
     def send(self, goal: Pose2D, start: Pose2D, budget_s: float) -> int:
-        """Send a goal (world frame), wait for its result (cancel after budget_s); its final status."""
-        x, y, yaw = pose_in_frame((start.x, start.y, start.yaw), (goal.x, goal.y, goal.yaw))
+        """Send a goal (world frame), wait for its result (cancel after budget_s); its final status. On a map
+        (map:=...) the goal is in map, which is the world frame."""
+        on_map = any(arg.startswith("map:=") and arg != "map:=" for arg in self.version.launch_args)
+        x, y, yaw = (goal.x, goal.y, goal.yaw) if on_map else \
+            pose_in_frame((start.x, start.y, start.yaw), (goal.x, goal.y, goal.yaw))
         msg = MoveBase.Goal()
-        msg.target_pose.header.frame_id = "odom"
+        msg.target_pose.header.frame_id = "map" if on_map else "odom"
         msg.target_pose.header.stamp = self.client.get_clock().now().to_msg()
         msg.target_pose.pose.position.x, msg.target_pose.pose.position.y = x, y
         msg.target_pose.pose.orientation = quaternion_msg(yaw)
@@ -301,6 +305,7 @@ def percentiles(values: list[float]) -> str:
 
 def table(results: list[RunResult], period_ms: float) -> str:
     header = (f"{'version':40} {'load':9} {'goals':>5} {'mb CPU%':>7} {'/sim s':>6} {'sim CPU%':>8} {'cm CPU%':>7} "
+              f"{'amcl CPU%':>9} "
               f"{'cycle p50/p95/max ms':>21} "
               f"{'missed%':>7} {'cmd_vel p50/p95/max ms':>23} {'late%':>6} {'load1':>5}")
     lines = [header, "-" * len(header)]
@@ -312,7 +317,7 @@ def table(results: list[RunResult], period_ms: float) -> str:
         late = (f"{100 * np.mean(np.asarray(r.intervals_ms) > LATE_FACTOR * period_ms):.2f}"
                 if r.intervals_ms else "-")
         lines.append(f"{r.version:40} {r.load:9} {f'{r.goals_reached}/{r.goals}':>5} {cpu['move_base']:>7} "
-                     f"{per_sim:>6} {cpu['simulator']:>8} {cpu['collision_monitor']:>7} "
+                     f"{per_sim:>6} {cpu['simulator']:>8} {cpu['collision_monitor']:>7} {cpu['amcl']:>9} "
                      f"{percentiles(r.cycle_ms):>21} {missed:>7} "
                      f"{percentiles(r.intervals_ms):>23} {late:>6} {r.loadavg:>5}"
                      + (f"  ({r.error})" if r.error else ""))
