@@ -11,6 +11,10 @@ They run on one thread. With numba's parallel loops on two threads the likelihoo
 the time on an idle core, but on cores shared with other processes (the simulator, move_base) every parallel loop
 waits for its slowest thread: an update of 2 x 30 beams went from 0.5 ms to 15 ms.
 
+The likelihood-field loops are compiled with fastmath and numpy's error model (no division checks, free
+reassociation of the end point's sum): 15 % faster, and the end cell is the same but for end points within a
+rounding error of a cell edge.
+
 Poses come in the grid frame in cell units (AmclMap.to_grid): a particle at (gx, gy, gyaw) lies in cell
 (floor(gx), floor(gy)), i.e. row floor(gy) and column floor(gx) of the [height, width] arrays.
 """
@@ -25,7 +29,7 @@ from numba import njit
 _INV_SQRT2 = 0.7071067811865476
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, inline="always", fastmath=True, error_model="numpy")
 def _end_cell(pose, c, s, end, width, height):
     """Row-major index of the cell a beam end falls in, or -1 beyond the map."""
     hx = pose[0] + c * end[0] - s * end[1]
@@ -37,7 +41,7 @@ def _end_cell(pose, c, s, end, width, height):
     return -1
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, fastmath=True, error_model="numpy")
 def likelihood_field_weights(poses, beam_ends, pz_table, pz_off_map, out):
     """amcl's likelihood_field model: out[j] = 1 + sum over beams of pz^3, pz read from ``pz_table`` at the
     cell of the beam's end point (``pz_off_map`` beyond the map). ``beam_ends`` (M, 2): end points in the base
@@ -54,7 +58,7 @@ def likelihood_field_weights(poses, beam_ends, pz_table, pz_off_map, out):
         out[j] = p
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, fastmath=True, error_model="numpy")
 def likelihood_field_prob_weights(poses, beam_ends, log_pz_table, log_pz_off_map, near_obstacle, beamskip, slots,
                                   skip_threshold, error_threshold, out):
     """amcl's likelihood_field_prob model: out[j] = the product of the beams' pz (``log_pz_table``: ln pz per
@@ -75,13 +79,13 @@ def likelihood_field_prob_weights(poses, beam_ends, log_pz_table, log_pz_off_map
             use[b] = agree / n > skip_threshold
         if slots - use.sum() >= slots * error_threshold:
             use[:] = True
+    ends = beam_ends[use] if beamskip else beam_ends     # without beam skipping no beam is looked at twice
     for j in range(n):
         c, s = math.cos(poses[j, 2]), math.sin(poses[j, 2])
         log_p = 0.0
-        for b in range(m):
-            if use[b]:
-                cell = _end_cell(poses[j], c, s, beam_ends[b], width, height)
-                log_p += flat_log[cell] if cell >= 0 else log_pz_off_map
+        for b in range(ends.shape[0]):
+            cell = _end_cell(poses[j], c, s, ends[b], width, height)
+            log_p += flat_log[cell] if cell >= 0 else log_pz_off_map
         out[j] = math.exp(log_p)
     return use.sum()
 
