@@ -130,7 +130,9 @@ def test_hostile_initial_poses_scans_and_parameters_change_nothing(lab):
     probe.initial_pose.publish(initial_pose_msg(0.0, 0.0, 0.0, cov=covariance(xx=-1.0)))
     probe.initial_pose.publish(initial_pose_msg(0.0, 0.0, 0.0, frame="nowhere"))
     scan = LaserScan()
-    scan.header.frame_id, scan.header.stamp = "nowhere", sim.get_clock().now().to_msg()
+    scan.header.frame_id, scan.header.stamp = "nowhere", amcl.get_clock().now().to_msg()
+    probe.front.publish(scan)
+    scan.header.frame_id, scan.header.stamp = "front_laser_link", Time(seconds=1e9).to_msg()   # far ahead
     scan.angle_increment, scan.range_max, scan.ranges = 0.01, 5.6, [1.0] * 10
     probe.front.publish(scan)
     driver.run_until(driver.time + 0.05)
@@ -145,6 +147,20 @@ def test_hostile_initial_poses_scans_and_parameters_change_nothing(lab):
     assert not refused.successful and "min_particles" in refused.reason
     assert amcl.set_parameters([Parameter("laser_max_beams", value=30)])[0].successful
     assert amcl.amcl.params.laser_max_beams == 30
+
+
+def test_time_going_back_restarts_the_filter_round_its_estimate(lab):
+    sim, amcl, probe, driver = lab
+    scan = LaserScan()
+    scan.header.frame_id = "front_laser_link"
+    scan.header.stamp = Time(seconds=max(0.0, driver.time - 5.0)).to_msg()
+    scan.angle_min, scan.angle_increment, scan.range_min, scan.range_max = -1.0, 0.01, 0.2, 5.6
+    scan.ranges = [2.0] * 200
+    probe.front.publish(scan)
+    driver.run_until(driver.time + 0.3)
+    assert any("time went back" in line for line in probe.logs), probe.logs[-5:]
+    drive(sim, driver, 0.3, 0.0, 2.0)
+    assert pose_error(sim, amcl)[0] < 0.15
 
 
 def test_global_localization_spreads_the_particles_and_the_cloud_is_published(lab):

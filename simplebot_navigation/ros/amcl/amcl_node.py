@@ -52,6 +52,8 @@ MAX_SCAN_TOPICS = 8
 MAX_SCAN_WAIT_S = 0.5
 #: scans held while their transform is not known
 MAX_PENDING = 16
+#: a scan stamped this far ahead of the node's clock is dropped (it would wait for its transform for ever)
+MAX_SCAN_AHEAD_S = 1.0
 #: a scan stamped this much before the newest one means time went back
 TIME_JUMP_BACK_S = 1.0
 #: the largest map the filter takes (cells; map_server's own bound)
@@ -213,9 +215,11 @@ class AmclNode(SetUpNode):
 
     # -- scans ----------------------------------------------------------------------------------
     def _on_scan(self, topic: str, msg: LaserScan) -> None:
-        if msg.header.stamp.sec < 0:
-            self.get_logger().warn(f"{topic}: scan dropped: negative stamp {msg.header.stamp.sec} s",
-                                   throttle_duration_sec=5.0)
+        stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+        now = self.get_clock().now().nanoseconds * 1e-9
+        if msg.header.stamp.sec < 0 or stamp > now + MAX_SCAN_AHEAD_S:
+            self.get_logger().warn(f"{topic}: scan dropped: stamp {stamp:.3f} s is negative or more than "
+                                   f"{MAX_SCAN_AHEAD_S:g} s ahead of the clock ({now:.3f} s)", throttle_duration_sec=5.0)
             return
         self._pending.append((topic, msg))
         self._process_pending()
@@ -245,6 +249,11 @@ class AmclNode(SetUpNode):
         if t < self._newest - TIME_JUMP_BACK_S:
             self._restart_after_time_jump(topic, t)
         try:
+            scan = messages.range_scan(msg, self._sensor_pose(strip_frame(msg.header.frame_id)))
+        except (ValueError, TransformException) as err:
+            self.get_logger().warn(f"{topic}: scan dropped: {err}", throttle_duration_sec=5.0)
+            return True
+        try:
             odom = messages.transform_to_xyyaw(self.tf.lookup_transform(self.odom_frame, self.base_frame, stamp))
         except ExtrapolationException:
             return False
@@ -252,10 +261,9 @@ class AmclNode(SetUpNode):
             self.get_logger().warn(f"{topic}: scan dropped: {err}", throttle_duration_sec=5.0)
             return True
         try:
-            scan = messages.range_scan(msg, self._sensor_pose(strip_frame(msg.header.frame_id)))
             self.amcl.odometry_update(odom)
             updated = self.amcl.sensor_update([scan], source=topic)
-        except (ValueError, TransformException) as err:
+        except ValueError as err:
             self.get_logger().warn(f"{topic}: scan dropped: {err}", throttle_duration_sec=5.0)
             return True
         self._newest = max(self._newest, t)
