@@ -144,7 +144,8 @@ def main() -> None:
               f"{r['odom_end']:>10.2f} {r['odom_max']:>10.2f} {kidnap:>7}")
     for r in rows:
         if r["kidnap"] is not None:
-            times = ", ".join(f"{t:.1f} s" if t is not None else f"not within {KIDNAP_LIMIT_S:.0f} s" for t in r["kidnap"])
+            times = ", ".join(f"{t:.1f} s" if t is not None else f"not within {KIDNAP_LIMIT_S:.0f} s"
+                              for t in r["kidnap"])
             print(f"kidnapped ({r['world']}, {r['map']} map; found within {KIDNAP_TARGET_S:.0f} s of driving / "
                   f"carried): {times}")
     print(f"load average (1 min) at the end: {loadavg()}")

@@ -219,7 +219,8 @@ class AmclNode(SetUpNode):
         now = self.get_clock().now().nanoseconds * 1e-9
         if msg.header.stamp.sec < 0 or stamp > now + MAX_SCAN_AHEAD_S:
             self.get_logger().warn(f"{topic}: scan dropped: stamp {stamp:.3f} s is negative or more than "
-                                   f"{MAX_SCAN_AHEAD_S:g} s ahead of the clock ({now:.3f} s)", throttle_duration_sec=5.0)
+                                   f"{MAX_SCAN_AHEAD_S:g} s ahead of the clock ({now:.3f} s)",
+                                   throttle_duration_sec=5.0)
             return
         self._pending.append((topic, msg))
         self._process_pending()
