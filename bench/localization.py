@@ -1,6 +1,7 @@
 """Localization on a map: amcl against ground truth on a long tour whose odometry drifts, and the kidnapped robot.
 
     python bench/localization.py [--tours lab,forest:3] [--maps exact,noisy] [--seed 0]
+    python bench/localization.py --two-robots       # multi_navigation robots:=2 map:=lab, an amcl per robot
 
 Each tour runs in lockstep (``NavigationSession`` with ``map_name``: map_server, amcl, the global costmap in
 ``map``, encoder noise on, as ``navigation map:=...`` starts them) and sends every goal of the world in ``map``
@@ -38,10 +39,13 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 
+from move_base_msgs.action import MoveBase  # noqa: E402
 from simplebot_navigation.maps.map_io import save_map  # noqa: E402
+from simplebot_navigation.ros.conversions import quaternion_msg  # noqa: E402
+from simplebot_navigation.scenarios.process_session import ProcessSession  # noqa: E402
 from simplebot_navigation.scenarios.localization import errors_against_truth, relocalization_time  # noqa: E402
 from simplebot_navigation.scenarios.runner import run_goal, time_budget  # noqa: E402
-from simplebot_navigation.scenarios.session import NavigationSession  # noqa: E402
+from simplebot_navigation.scenarios.session import NavigationSession, ScenarioClient  # noqa: E402
 from simplebot_navigation.sim.map_export import export_map  # noqa: E402
 from simplebot_navigation.sim.world import Pose2D  # noqa: E402
 from simplebot_navigation.sim.world_loader import load_world  # noqa: E402
@@ -118,12 +122,52 @@ def kidnapped(session: NavigationSession) -> list[float | None]:
     return [relocalization_time(session, pose, KIDNAP_LIMIT_S) for pose in KIDNAP_POSES]
 
 
+def multi_robot_run() -> list[str]:
+    """Two robots on one map (multi_navigation robots:=2 map:=lab, the launcher's processes at real time), each
+    localized by its own amcl: one goal each in map; per robot its status, where it stopped against the goal, and
+    its amcl's error against the truth over the drive."""
+    goals = (Pose2D(-6.0, 0.0, 0.0), Pose2D(3.5, 0.0, math.pi))
+    lines = []
+    with ProcessSession("lab", rtf=1.0, launch_file="multi_navigation", map_name="lab") as session:
+        clients = [ScenarioClient(session.context, f"robot{i}") for i in (1, 2)]
+        for client in clients:
+            session.executor.add_node(client)
+        if not session.spin_wall(240.0, lambda: all(c.action.server_is_ready() and c.localized for c in clients)):
+            return ["two robots: the robots never became ready"]
+        sent = [client.action.send_goal_async(goal_message_in_map(goal)) for client, goal in zip(clients, goals)]
+        session.spin_wall(30.0, lambda: all(f.done() for f in sent))
+        results = [f.result().get_result_async() for f in sent]
+        session.spin_wall(240.0, lambda: all(r.done() for r in results))
+        for client, goal, result in zip(clients, goals, results):
+            truth = np.array(client.truth)
+            position, heading = errors_against_truth(client.localized, truth)
+            status = result.result().status if result.done() else "none"
+            lines.append(f"{client.get_namespace()}: status {status}, stopped "
+                         f"{math.hypot(truth[-1, 1] - goal.x, truth[-1, 2] - goal.y):.3f} m from the goal, amcl "
+                         f"{100 * np.sqrt(np.mean(position ** 2)):.1f} cm RMS / {100 * position.max():.1f} cm max, "
+                         f"yaw {np.degrees(np.sqrt(np.mean(heading ** 2))):.2f} deg RMS ({len(position)} poses)")
+    return lines
+
+
+def goal_message_in_map(pose: Pose2D) -> MoveBase.Goal:
+    goal = MoveBase.Goal()
+    goal.target_pose.header.frame_id = "map"
+    goal.target_pose.pose.position.x, goal.target_pose.pose.position.y = pose.x, pose.y
+    goal.target_pose.pose.orientation = quaternion_msg(pose.yaw)
+    return goal
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--tours", default="lab,forest:3", help="worlds, comma-separated (default: lab,forest:3)")
     parser.add_argument("--maps", default="exact,noisy", help="map variants: exact, noisy (default: both)")
     parser.add_argument("--seed", type=int, default=0, help="simulation seed, and the noisy map's (default: 0)")
+    parser.add_argument("--two-robots", action="store_true",
+                        help="only the two-robot run: multi_navigation robots:=2 map:=lab at real time")
     args = parser.parse_args()
+    if args.two_robots:
+        print("\n".join(multi_robot_run()))
+        return
     os.environ.setdefault("ROS_DOMAIN_ID", "42")
     rows = []
     with tempfile.TemporaryDirectory(prefix="simplebot_localization_") as folder:

@@ -178,25 +178,3 @@ def test_one_robot_in_a_namespace_takes_goals_there():
         assert math.hypot(final.x - goal.x, final.y - goal.y) < 0.5, final
         assert session.client.collisions == 0
 
-
-def test_two_robots_on_one_map_each_localized_by_its_own_amcl():
-    """multi_navigation map:=lab: one map_server, an amcl per robot (map -> robotK/odom), goals in map."""
-    goals = (Pose2D(-6.0, 0.0, 0.0), Pose2D(3.5, 0.0, math.pi))
-    with ProcessSession("lab", rtf=RTF, launch_file="multi_navigation", map_name="lab") as session:
-        clients = [ScenarioClient(session.context, namespace) for namespace in NAMESPACES[:2]]
-        for client in clients:
-            session.executor.add_node(client)
-        assert session.spin_wall(240.0, lambda: all(c.action.server_is_ready() and c.truth and c.localized
-                                                    for c in clients)), "the robots never became ready"
-        sent = [client.action.send_goal_async(goal_in_map(goal)) for client, goal in zip(clients, goals)]
-        assert session.spin_wall(30.0, lambda: all(f.done() for f in sent))
-        results = [f.result().get_result_async() for f in sent]
-        assert session.spin_wall(240.0, lambda: all(r.done() for r in results))
-        for client, goal, result in zip(clients, goals, results):
-            name = client.get_namespace()
-            assert result.result().status == 4, f"{name}: status {result.result().status}"  # SUCCEEDED
-            _, x, y, _ = client.truth[-1]
-            assert math.hypot(x - goal.x, y - goal.y) < 0.25, (name, x, y, goal)
-            stamp, ax, ay, _ = client.localized[-1]
-            tx, ty = next((tx, ty) for t, tx, ty, _ in reversed(client.truth) if t <= stamp)
-            assert math.hypot(ax - tx, ay - ty) < 0.1, (name, ax, ay, tx, ty)
