@@ -22,6 +22,8 @@ ODOM_MODELS = ("diff", "diff-corrected", "omni", "omni-corrected")
 #: the differential-drive model used when an omnidirectional one is configured
 DIFF_FOR_OMNI = {"omni": "diff", "omni-corrected": "diff-corrected"}
 
+#: ours: the most particles a configuration may ask for (each costs memory and time at every update)
+MAX_PARTICLES = 1_000_000
 _NODE = "amcl's ROS node offers no diagnostics and no set_map service"
 _UNUSED_IN_ROS1 = "ROS 1's amcl reads it but never uses it either"
 _OMNI = "odom_alpha5 is the strafe noise of the omni models; a differential drive does not strafe"
@@ -30,9 +32,9 @@ _OMNI = "odom_alpha5 is the strafe noise of the omni models; a differential driv
 @dataclass
 class AmclParams:
     # Overall filter
-    min_particles: int = param(100, "", "fewest particles KLD sampling keeps", ge=1, rounds=True)
+    min_particles: int = param(100, "", "fewest particles KLD sampling keeps", ge=1, le=MAX_PARTICLES, rounds=True)
     max_particles: int = param(5000, "", "most particles; global localization spreads this many", ge=1,
-                               rounds=True)
+                               le=MAX_PARTICLES, rounds=True)
     kld_err: float = param(0.01, "", "KLD sampling: largest error between the true and the sampled distribution",
                            gt=0.0, le=1.0)
     kld_z: float = param(0.99, "", "KLD sampling: the upper standard normal quantile z itself (amcl uses the "

@@ -16,6 +16,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import qos_profile_sensor_data
 from rclpy.time import Time
+from nav_msgs.msg import OccupancyGrid
 from sensor_msgs.msg import LaserScan
 from std_srvs.srv import Empty
 
@@ -41,6 +42,7 @@ class Probe(Node):
         self.create_subscription(Log, "/rosout", lambda m: self.logs.append(m.msg), 100)
         self.initial_pose = self.create_publisher(PoseWithCovarianceStamped, "/initialpose", 10)
         self.front = self.create_publisher(LaserScan, "/front_laser/front_scan", qos_profile_sensor_data)
+        self.map = self.create_publisher(OccupancyGrid, "/map", LATCHED)
 
 
 @pytest.fixture(scope="module")
@@ -129,6 +131,12 @@ def test_hostile_initial_poses_scans_and_parameters_change_nothing(lab):
     probe.initial_pose.publish(initial_pose_msg(float("nan"), 0.0, 0.0))
     probe.initial_pose.publish(initial_pose_msg(0.0, 0.0, 0.0, cov=covariance(xx=-1.0)))
     probe.initial_pose.publish(initial_pose_msg(0.0, 0.0, 0.0, frame="nowhere"))
+    probe.initial_pose.publish(initial_pose_msg(1e308, 0.0, 0.0))
+    probe.initial_pose.publish(initial_pose_msg(0.0, 0.0, 0.0, cov=covariance(xx=1e308, yy=1e308)))
+    bad_map = OccupancyGrid()
+    bad_map.info.width, bad_map.info.height, bad_map.info.resolution = 2, 2, 0.05
+    bad_map.info.origin.position.x, bad_map.data = float("nan"), [0, 0, 0, 0]
+    probe.map.publish(bad_map)
     scan = LaserScan()
     scan.header.frame_id, scan.header.stamp = "nowhere", amcl.get_clock().now().to_msg()
     probe.front.publish(scan)
@@ -141,6 +149,11 @@ def test_hostile_initial_poses_scans_and_parameters_change_nothing(lab):
     assert "initialpose ignored: pose.position.x is nan" in text
     assert "initialpose ignored: initial pose covariance: must be positive definite" in text
     assert "initialpose ignored:" in text and "nowhere" in text
+    assert "initialpose ignored: (1e+308, 0) is outside the map" in text
+    assert "initialpose ignored: pose.covariance is wider than the map" in text
+    assert "map ignored:" in text
+    refused = amcl.set_parameters([Parameter("max_particles", value=10 ** 12)])[0]
+    assert not refused.successful and "max_particles" in refused.reason
     refused = amcl.set_parameters([Parameter("odom_model_type", value="diff")])[0]
     assert not refused.successful and "requires restart" in refused.reason
     refused = amcl.set_parameters([Parameter("min_particles", value=amcl.params.max_particles + 1)])[0]

@@ -138,9 +138,12 @@ class AmclNode(SetUpNode):
             return SetParametersResult(successful=False, reason=str(err))
         except Exception as err:   # noqa: BLE001 -- any failure of a check is a refusal with its reason
             return SetParametersResult(successful=False, reason=f"{type(err).__name__}: {err}")
-        self.params = new
         if self.amcl is not None:
-            self.amcl.reconfigure(new)
+            try:
+                self.amcl.reconfigure(new)
+            except (ParameterError, ValueError, MemoryError) as err:
+                return SetParametersResult(successful=False, reason=f"{type(err).__name__}: {err}")
+        self.params = new
         return SetParametersResult(successful=True)
 
     # -- the map and the initial pose -----------------------------------------------------------
@@ -165,7 +168,11 @@ class AmclNode(SetUpNode):
         if self.amcl is not None:    # a new map: start again around the last estimate
             last = self.amcl.estimate()
             params = dataclasses.replace(params, initial_pose_x=last.x, initial_pose_y=last.y, initial_pose_a=last.yaw)
-        self.amcl = Amcl(params, grid.data, grid.resolution, grid.origin)
+        try:
+            self.amcl = Amcl(params, grid.data, grid.resolution, grid.origin)
+        except ValueError as err:      # a non-finite origin, no free cell: the filter stays as it was
+            self.get_logger().warn(f"map ignored: {err}")
+            return
         self.get_logger().info(f"map of {grid.width} x {grid.height} cells; {len(self.amcl.particles)} particles "
                                f"around ({params.initial_pose_x:.2f}, {params.initial_pose_y:.2f}, "
                                f"{params.initial_pose_a:.2f})")
@@ -193,6 +200,16 @@ class AmclNode(SetUpNode):
         self._set_pose(x, y, yaw, covariance)
 
     def _set_pose(self, x: float, y: float, yaw: float, covariance) -> None:
+        """A pose on the map with a spread no wider than it, or a warning and nothing changes."""
+        amap = self.amcl.map
+        col, row = amap.to_grid(np.array([[x, y, 0.0]]))[0, :2]
+        extent = amap.resolution * math.hypot(amap.width, amap.height)
+        if not (0 <= col < amap.width and 0 <= row < amap.height):
+            self.get_logger().warn(f"initialpose ignored: ({x:.3g}, {y:.3g}) is outside the map")
+            return
+        if max(covariance[0][0], covariance[1][1]) > extent ** 2 or covariance[2][2] > (2 * math.pi) ** 2:
+            self.get_logger().warn("initialpose ignored: pose.covariance is wider than the map (or than a turn)")
+            return
         try:
             self.amcl.set_initial_pose(x, y, yaw, covariance)
         except ValueError as err:
