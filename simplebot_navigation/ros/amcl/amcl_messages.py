@@ -1,24 +1,20 @@
-"""amcl's messages as the filter's plain values and back: scans, initial poses, the estimate and the particles."""
+"""amcl's messages as the filter's plain values and back: scans, initial poses and the estimate."""
 
 from __future__ import annotations
 
 import math
 
 import numpy as np
-from geometry_msgs.msg import Pose, PoseArray, PoseWithCovarianceStamped, TransformStamped
+from geometry_msgs.msg import PoseWithCovarianceStamped
 from sensor_msgs.msg import LaserScan
 
-from simplebot_navigation.geometry import quaternion_to_yaw, yaw_to_quaternion
+from simplebot_navigation.geometry import quaternion_to_yaw
 from simplebot_navigation.localization.clusters import PoseEstimate, covariance_from_ros
 from simplebot_navigation.localization.laser_models import RangeScan
+from simplebot_navigation.ros.conversions import xyyaw_to_pose
 
 #: the most beams a scan may have (a LaserScan of more is refused, not allocated)
 MAX_BEAMS = 100_000
-
-
-def transform_to_xyyaw(tf: TransformStamped) -> tuple[float, float, float]:
-    t, q = tf.transform.translation, tf.transform.rotation
-    return t.x, t.y, quaternion_to_yaw(q.x, q.y, q.z, q.w)
 
 
 def range_scan(msg: LaserScan, sensor_pose: tuple[float, float, float]) -> RangeScan:
@@ -48,23 +44,9 @@ def initial_pose(msg: PoseWithCovarianceStamped) -> tuple[float, float, float, n
     return p.x, p.y, quaternion_to_yaw(q.x, q.y, q.z, q.w), covariance_from_ros(msg.pose.covariance)
 
 
-def pose_msg(x: float, y: float, yaw: float) -> Pose:
-    pose = Pose()
-    pose.position.x, pose.position.y = float(x), float(y)
-    _, _, pose.orientation.z, pose.orientation.w = yaw_to_quaternion(float(yaw))
-    return pose
-
-
 def estimate_msg(estimate: PoseEstimate, frame_id: str, stamp) -> PoseWithCovarianceStamped:
     msg = PoseWithCovarianceStamped()
     msg.header.frame_id, msg.header.stamp = frame_id, stamp
-    msg.pose.pose = pose_msg(estimate.x, estimate.y, estimate.yaw)
+    msg.pose.pose = xyyaw_to_pose(estimate.x, estimate.y, estimate.yaw)
     msg.pose.covariance = estimate.ros_covariance()
-    return msg
-
-
-def particle_cloud_msg(particles: np.ndarray, frame_id: str, stamp) -> PoseArray:
-    msg = PoseArray()
-    msg.header.frame_id, msg.header.stamp = frame_id, stamp
-    msg.poses = [pose_msg(x, y, yaw) for x, y, yaw in particles.tolist()]
     return msg

@@ -35,7 +35,7 @@ from simplebot_navigation.localization.amcl_params import AmclParams
 from simplebot_navigation.parameters import ParameterError, fields_of
 from simplebot_navigation.parameters.spec import Param
 from simplebot_navigation.ros.amcl import amcl_messages as messages
-from simplebot_navigation.ros.conversions import occupancy_map_from_msg
+from simplebot_navigation.ros.conversions import occupancy_map_from_msg, pose_array_msg, transform_to_xyyaw
 from simplebot_navigation.ros.node_main import SetUpNode, run_node
 from simplebot_navigation.ros.params import declare_defaults, descriptor, given_parameter_tree
 from simplebot_navigation.ros.publishers import create_publisher
@@ -186,7 +186,7 @@ class AmclNode(SetUpNode):
             frame = strip_frame(msg.header.frame_id) or self.global_frame
             if frame != self.global_frame:      # e.g. a tool whose fixed frame is odom
                 tf = self.tf.lookup_transform(self.global_frame, frame, Time())
-                frame_pose = messages.transform_to_xyyaw(tf)
+                frame_pose = transform_to_xyyaw(tf)
                 x, y, yaw = compose2(frame_pose, (x, y, yaw))
                 c, s = math.cos(frame_pose[2]), math.sin(frame_pose[2])
                 rotation = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
@@ -272,7 +272,7 @@ class AmclNode(SetUpNode):
             self.get_logger().warn(f"{topic}: scan dropped: {err}", throttle_duration_sec=5.0)
             return True
         try:
-            odom = messages.transform_to_xyyaw(self.tf.lookup_transform(self.odom_frame, self.base_frame, stamp))
+            odom = transform_to_xyyaw(self.tf.lookup_transform(self.odom_frame, self.base_frame, stamp))
         except ExtrapolationException:
             return False
         except TransformException as err:
@@ -293,7 +293,7 @@ class AmclNode(SetUpNode):
     def _sensor_pose(self, frame: str) -> tuple[float, float, float]:
         if frame not in self._sensor_poses:
             tf = self.tf.lookup_transform(self.base_frame, frame, Time())
-            self._sensor_poses[frame] = messages.transform_to_xyyaw(tf)
+            self._sensor_poses[frame] = transform_to_xyyaw(tf)
         return self._sensor_poses[frame]
 
     def _restart_after_time_jump(self, topic: str, t: float) -> None:
@@ -313,7 +313,7 @@ class AmclNode(SetUpNode):
         self._map_to_odom = compose2((estimate.x, estimate.y, estimate.yaw), inverse2(odom))
         self.pose_pub.publish(messages.estimate_msg(estimate, self.global_frame, stamp))
         if self.cloud_pub.get_subscription_count():
-            self.cloud_pub.publish(messages.particle_cloud_msg(self.amcl.particles, self.global_frame, stamp))
+            self.cloud_pub.publish(pose_array_msg(self.amcl.particles, self.global_frame, stamp))
 
     def _save_pose(self, estimate) -> None:
         """save_pose_rate: the estimate becomes the initial_pose_* and initial_cov_* parameters, so that a restart
