@@ -7,7 +7,9 @@ and robot3 meet in the corridor and at the lab's door: they must see each other 
 keep apart. robot2 reaches the lab's door just as robot3 comes out of it; before the obstacle
 tracker cleared the marks a passing robot leaves, robot2 stood about 30 s in front of robot3's
 stale marks. With the obstacle tracker on (obstacle_tracking.enabled, for every robot's move_base) no robot
-may stand still for more than STANDING_LIMIT_S while its goal is active.
+may stand still for more than STANDING_LIMIT_S while its goal is active: long enough for one robot to wait while
+another comes through a door on a loaded machine (6.4 s seen in CI beside the rest of the suite, 2 s alone), far
+below the 30 s of waiting on stale marks.
 Which topics each move_base uses is checked from a separate process.
 """
 
@@ -33,7 +35,7 @@ pytestmark = [pytest.mark.timeout(900), pytest.mark.e2e]
 RTF = 1.0
 NAMESPACES = ("robot1", "robot2", "robot3")
 DRIVE_WALL_S = 480.0
-STANDING_LIMIT_S = 5.0
+STANDING_LIMIT_S = 10.0
 #: slower than this (m/s, over a ground-truth sample) is standing
 STANDING_SPEED = 0.02
 #: names every node may share: the clock, TF, diagnostics and ROS's own
