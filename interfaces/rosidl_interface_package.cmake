@@ -25,16 +25,21 @@ endif()
 if(NOT ROS_WHEEL_PREFIXES)
   message(FATAL_ERROR "no ROS wheel prefix found on sys.path of ${Python3_EXECUTABLE}")
 endif()
+# A package may add prefixes it built itself (ROS_EXTRA_PREFIXES): nav2_msgs its geographic_msgs.
+list(APPEND ROS_WHEEL_PREFIXES ${ROS_EXTRA_PREFIXES})
 message(STATUS "ROS wheel prefixes: ${ROS_WHEEL_PREFIXES}")
 list(PREPEND CMAKE_PREFIX_PATH ${ROS_WHEEL_PREFIXES})
 string(REPLACE ";" ":" _ament_prefix_path "${ROS_WHEEL_PREFIXES}")
 set(ENV{AMENT_PREFIX_PATH} "${_ament_prefix_path}")
 
 find_package(ament_cmake REQUIRED)
+# Only what rclpy uses: the C structs and the C type supports (FastDDS and introspection) under the Python
+# bindings. The C++ generators, about half of the build time, are left out: nothing here is C++.
 find_package(rosidl_default_generators REQUIRED)
 foreach(_d IN LISTS _deps)
   find_package(${_d} REQUIRED)
 endforeach()
+list(FILTER AMENT_EXTENSIONS_rosidl_generate_idl_interfaces EXCLUDE REGEX "^rosidl_(generator|typesupport[a-z_]*)_cpp:")
 file(GLOB _ifaces RELATIVE "${CMAKE_CURRENT_SOURCE_DIR}"
   msg/*.msg srv/*.srv action/*.action)
 rosidl_generate_interfaces(${PROJECT_NAME} ${_ifaces} DEPENDENCIES ${_deps})
