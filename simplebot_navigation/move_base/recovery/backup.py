@@ -10,7 +10,8 @@ import numpy as np
 
 from simplebot_navigation.geometry import normalize_theta
 from simplebot_navigation.parameters import param
-from simplebot_navigation.move_base.recovery import ParameterisedRecovery, PoseTrail, RecoveryContext, RecoveryStep
+from simplebot_navigation.move_base.recovery import (ParameterisedRecovery, PoseTrail, RecoveryContext, RecoveryStep,
+                                                      unicycle_poses)
 
 @dataclass
 class BackUpParams:
@@ -20,18 +21,6 @@ class BackUpParams:
     max_rotational_vel: float = param(1.0, "rad/s", "turn rate limit while following the recent path", gt=0)
     simulate_ahead_time: float = param(2.0, "s", "motion checked for collisions ahead of each step", ge=0)
     time_allowance: float = param(10.0, "s", "time after which the behaviour gives up", gt=0)
-
-
-def _unicycle_poses(pose, v: float, omega: float, duration: float, step: float) -> np.ndarray:
-    """Poses of a diff-drive robot holding (v, omega) from ``pose``, one per ``step`` seconds, the start excluded."""
-    t = np.arange(1, max(1, int(math.ceil(duration / step))) + 1) * step
-    yaw = pose[2] + omega * t
-    if abs(omega) < 1e-9:
-        x, y = pose[0] + v * t * math.cos(pose[2]), pose[1] + v * t * math.sin(pose[2])
-    else:
-        x = pose[0] + v / omega * (np.sin(yaw) - math.sin(pose[2]))
-        y = pose[1] - v / omega * (np.cos(yaw) - math.cos(pose[2]))
-    return np.column_stack([x, y, yaw])
 
 
 class BackUpRecovery(ParameterisedRecovery):
@@ -80,7 +69,7 @@ class BackUpRecovery(ParameterisedRecovery):
         omega = self._steer(x, y, yaw)
         step = self.CHECK_STEP_M / self.backup_speed
         duration = min(self.simulate_ahead_time, left / self.backup_speed)
-        blocked = np.nonzero(~np.asarray(self._clear(_unicycle_poses(pose, -self.backup_speed, omega, duration,
+        blocked = np.nonzero(~np.asarray(self._clear(unicycle_poses(pose, -self.backup_speed, omega, duration,
                                                                       step)), dtype=bool))[0]
         if len(blocked) and (blocked[0] + 1) * step < self.STOP_MARGIN_S:
             return RecoveryStep((0.0, 0.0), True, f"{self.name}: stopped after {self._driven:.2f} m, "

@@ -10,7 +10,7 @@ import numpy as np
 
 from simplebot_navigation.geometry import normalize_theta
 from simplebot_navigation.parameters import param
-from simplebot_navigation.move_base.recovery import ParameterisedRecovery, RecoveryContext, RecoveryStep
+from simplebot_navigation.move_base.recovery import ParameterisedRecovery, RecoveryContext, RecoveryStep, turn_rate
 
 #: read from the (ROS 1 default) local planner's namespace when the behaviour's own has none
 BORROWED = ("acc_lim_theta", "max_vel_theta", "min_in_place_vel_theta", "yaw_goal_tolerance")
@@ -58,8 +58,7 @@ class RotateRecovery(ParameterisedRecovery):
         if not np.all(self._clear(np.column_stack([np.full_like(yaws, x), np.full_like(yaws, y), yaws]))):
             return RecoveryStep((0.0, 0.0), True,
                                 f"{self.name}: can't rotate in place because there is a potential collision")
-        speed = min(self.max_vel_theta, max(self.min_in_place_vel_theta,
-                                            math.sqrt(2.0 * self.acc_lim_theta * dist_left)))
+        speed = turn_rate(dist_left, self.max_vel_theta, self.min_in_place_vel_theta, self.acc_lim_theta)
         return RecoveryStep((0.0, speed), False)
 
 

@@ -11,7 +11,8 @@ import numpy as np
 from simplebot_navigation.costmap.cost_values import INSCRIBED_INFLATED_OBSTACLE
 from simplebot_navigation.geometry import normalize_theta
 from simplebot_navigation.parameters import param
-from simplebot_navigation.move_base.recovery import ParameterisedRecovery, RecoveryContext, RecoveryStep
+from simplebot_navigation.move_base.recovery import (ParameterisedRecovery, RecoveryContext, RecoveryStep, turn_poses,
+                                                      turn_rate)
 
 #: the free area is weighed within this many circumscribed radii on either side
 FREE_SPACE_RADII = 2.0
@@ -66,14 +67,11 @@ class SpinRecovery(ParameterisedRecovery):
 
     def _reachable(self, pose, direction: float) -> float:
         """How far (rad, up to spin_dist) the footprint turns in ``direction`` before a collision."""
-        steps = np.arange(1, int(self.spin_dist / self.sim_granularity) + 1) * self.sim_granularity
-        steps = np.append(steps, self.spin_dist) if not len(steps) or steps[-1] < self.spin_dist else steps
-        poses = np.column_stack([np.full_like(steps, pose[0]), np.full_like(steps, pose[1]),
-                                 pose[2] + direction * steps])
+        poses = turn_poses(pose, direction, self.spin_dist, self.sim_granularity)
         blocked = np.nonzero(~np.asarray(self._clear(poses), dtype=bool))[0]
         if not len(blocked):
             return self.spin_dist
-        return float(steps[blocked[0] - 1]) if blocked[0] > 0 else 0.0
+        return float(abs(poses[blocked[0] - 1, 2] - pose[2])) if blocked[0] > 0 else 0.0
 
     def start(self, now: float, pose) -> None:
         left_free, right_free = self._free_space(pose)
@@ -98,14 +96,10 @@ class SpinRecovery(ParameterisedRecovery):
         if now - self._start > self.time_allowance:
             return RecoveryStep((0.0, 0.0), True, f"{self.name}: gave up after {self.time_allowance:g} s")
         direction = math.copysign(1.0, self._target)
-        sweep = np.arange(1, max(1, int(left / self.sim_granularity)) + 1) * self.sim_granularity
-        poses = np.column_stack([np.full_like(sweep, pose[0]), np.full_like(sweep, pose[1]),
-                                 pose[2] + direction * sweep])
-        if not np.all(self._clear(poses)):
+        if not np.all(self._clear(turn_poses(pose, direction, left, self.sim_granularity))):
             return RecoveryStep((0.0, 0.0), True, f"{self.name}: stopped after {abs(self._turned):.2f} rad "
                                                   f"to the {side}, a collision lies further")
-        speed = min(self.max_rotational_vel, max(self.min_rotational_vel,
-                                                 math.sqrt(2.0 * self.rotational_acc_lim * left)))
+        speed = turn_rate(left, self.max_rotational_vel, self.min_rotational_vel, self.rotational_acc_lim)
         return RecoveryStep((0.0, direction * speed), False)
 
 
