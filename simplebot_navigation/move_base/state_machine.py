@@ -75,6 +75,7 @@ class CycleOutput:
     outcome: str | None = None        # "succeeded" or "aborted" when the goal ends this cycle
     message: str = ""                 # why it ended, or a warning for this cycle
     event: str = ""                   # something worth an info log (new plan, recovery started ...)
+    cause: str = ""                   # why a goal was aborted: the recovery trigger, or "controller"
 
 
 class MoveBaseCore:
@@ -185,7 +186,7 @@ class MoveBaseCore:
         if blocked:
             event = f"{blocked}: replanning" + (f"; {event}" if event else "")
         if self.goal is None:  # the controller refused the plan
-            return CycleOutput((0.0, 0.0), outcome="aborted", message=event)
+            return CycleOutput((0.0, 0.0), outcome="aborted", message=event, cause="controller")
         if self.state == State.PLANNING:
             return CycleOutput((0.0, 0.0), event=event)
         if self.state == State.CONTROLLING:
@@ -207,6 +208,15 @@ class MoveBaseCore:
         nearest = self._nearest_on_plan(pose)
         off = math.hypot(self.plan[nearest, 0] - pose[0], self.plan[nearest, 1] - pose[1])
         return float(self._plan_to_go[nearest]) if off <= self.cfg.oscillation_distance else math.inf
+
+    def plan_remaining(self, pose) -> float | None:
+        """Length still to drive along the current plan, from the robot to its nearest plan pose and on to the
+        plan's end; None without a plan."""
+        if self.plan is None:
+            return None
+        nearest = self._nearest_on_plan(pose)
+        return float(self._plan_to_go[nearest] + math.hypot(self.plan[nearest, 0] - pose[0],
+                                                            self.plan[nearest, 1] - pose[1]))
 
     def _check_plan(self, now: float, pose) -> str | None:
         """Send move_base back to PLANNING when the rest of the plan runs into a new obstacle."""
@@ -312,8 +322,9 @@ class MoveBaseCore:
                 message = ABORT_MESSAGES[self.trigger]
                 if self.trigger == Trigger.PLANNING_R and self.last_plan_failure:
                     message += f" Last planner failure: {self.last_plan_failure}"
+                cause = self.trigger.value
                 self.reset()
-                return CycleOutput((0.0, 0.0), outcome="aborted", message=message)
+                return CycleOutput((0.0, 0.0), outcome="aborted", message=message, cause=cause)
             if self.recovery_index == 0:
                 self._progress_mark = self._closest
             self._active_recovery = self.recoveries[self.recovery_index]

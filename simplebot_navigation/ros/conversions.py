@@ -2,14 +2,27 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
-from builtin_interfaces.msg import Time as TimeMsg
+from builtin_interfaces.msg import Duration as DurationMsg, Time as TimeMsg
 from geometry_msgs.msg import Point32, PolygonStamped, Pose, PoseArray, PoseStamped, Quaternion, TransformStamped
 from nav_msgs.msg import OccupancyGrid, Path
 
 from simplebot_navigation.costmap.cost_values import OCCUPANCY_GRID_TABLE
 from simplebot_navigation.geometry import quaternion_to_yaw, yaw_to_quaternion
 from simplebot_navigation.maps.map_io import OccupancyMap
+
+
+def duration_msg(seconds: float) -> DurationMsg:
+    """A Duration of ``seconds``, clamped to what the message can hold (int32 seconds); NaN is 0."""
+    seconds = min(max(seconds, 0.0), 2.0 ** 31 - 1) if not math.isnan(seconds) else 0.0
+    whole = math.floor(seconds)
+    return DurationMsg(sec=int(whole), nanosec=min(int(round((seconds - whole) * 1e9)), 999_999_999))
+
+
+def duration_s(msg: DurationMsg) -> float:
+    return msg.sec + msg.nanosec * 1e-9
 
 
 def quaternion_msg(yaw: float) -> Quaternion:

@@ -38,6 +38,7 @@ from simplebot_navigation.ros.amcl import amcl_messages as messages
 from simplebot_navigation.ros.conversions import occupancy_map_from_msg, pose_array_msg, transform_to_xyyaw
 from simplebot_navigation.ros.node_main import SetUpNode, run_node
 from simplebot_navigation.ros.params import declare_defaults, descriptor, given_parameter_tree
+from simplebot_navigation.ros.lifecycle_state import serve_lifecycle_state
 from simplebot_navigation.ros.publishers import create_publisher
 from simplebot_navigation.ros.tf import (Buffer, ExtrapolationException, TransformBroadcaster, TransformException,
                                          TransformListener, strip_frame)
@@ -112,6 +113,8 @@ class AmclNode(SetUpNode):
                                      qos_profile_sensor_data)
         self.create_service(Empty, "global_localization", self._on_global_localization)
         self.create_service(Empty, "request_nomotion_update", self._on_nomotion_update)
+        # Nav2's scripts wait for amcl/get_state to say active: so it does once it has a map and places the robot.
+        serve_lifecycle_state(self, "~", lambda: self.amcl is not None and self._map_to_odom is not None)
         self._retry = self.create_timer(RETRY_PERIOD_S, self._process_pending)
         self._retry.cancel()
         self.add_on_set_parameters_callback(self._on_set_parameters)

@@ -17,16 +17,25 @@ from simplebot_navigation.ros.tf import TransformException, strip_frame
 
 
 class MoveBaseGoal:
-    """One goal, from the action server or from /move_base_simple/goal."""
+    """One goal, from an action server (move_base's or Nav2's) or from /move_base_simple/goal.
 
-    def __init__(self, pose: PoseStamped, handle=None):
+    What the control cycle does with it besides driving to ``pose`` comes with it: ``feedback(pose)`` is called
+    every cycle with the robot's (x, y, yaw, stamp) in the global frame; ``advance(pose)`` may return the next
+    (x, y, yaw) to drive to without stopping (NavigateThroughPoses); a ``behavior`` (behaviors.py) is stepped
+    instead of planning and driving to a pose."""
+
+    def __init__(self, pose: PoseStamped, handle=None, feedback=None, advance=None, behavior=None):
         self.pose = pose
         self.handle = handle
+        self.feedback = feedback
+        self.advance = advance
+        self.behavior = behavior
         self.id = str(uuid.UUID(bytes=bytes(handle.goal_id.uuid))) if handle is not None else uuid.uuid4().hex
         self.stamp = pose.header.stamp
         self.done: Future | None = None
         self.status = ActionlibStatus.PENDING
         self.text = ""
+        self.cause = ""          # why it was aborted, for Nav2's error codes (nav2_requests.ERROR_CODES)
         self.finished_wall = None
 
 

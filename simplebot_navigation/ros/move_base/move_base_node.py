@@ -10,17 +10,14 @@ import math
 import sys
 import time
 
-from actionlib_msgs.msg import GoalID, GoalStatus as ActionlibStatus, GoalStatusArray
-from diagnostic_msgs.msg import DiagnosticArray
+from actionlib_msgs.msg import GoalID, GoalStatus as ActionlibStatus
 from geometry_msgs.msg import PoseStamped, Twist
-from nav_msgs.srv import GetPlan
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
-from std_srvs.srv import Empty
 
 from move_base_msgs.action import MoveBase
 from simplebot_navigation.move_base.config import MoveBaseConfig
@@ -30,13 +27,15 @@ from simplebot_navigation.move_base.plugins import GLOBAL_PLANNERS, LOCAL_PLANNE
 from simplebot_navigation.move_base.recovery import PoseTrail
 from simplebot_navigation.move_base.state_machine import MoveBaseCore
 from simplebot_navigation.parameters import fields_of
-from simplebot_navigation.ros.conversions import path_msg, pose_to_xyyaw, xyyaw_to_pose
+from simplebot_navigation.ros.conversions import pose_to_xyyaw, xyyaw_to_pose
 from simplebot_navigation.ros.costmap.costmap_ros import Costmap2DROS
-from simplebot_navigation.ros.move_base.move_base_goal import MoveBaseGoal, in_frame, plan_request, validate_pose
+from simplebot_navigation.ros.move_base.move_base_goal import MoveBaseGoal, in_frame, validate_pose
 from simplebot_navigation.ros.move_base.move_base_parameters import MoveBaseLiveParameters
 from simplebot_navigation.ros.move_base.move_base_recoveries import MoveBaseRecoveryContext
-from simplebot_navigation.ros.move_base.move_base_stats import OUTCOMES, control_loop_status, navigation_status
+from simplebot_navigation.ros.move_base.move_base_services import serve_move_base_services
+from simplebot_navigation.ros.move_base.move_base_stats import OUTCOMES, MoveBaseReports
 from simplebot_navigation.ros.move_base.move_base_supervision import MoveBaseSupervisor
+from simplebot_navigation.ros.move_base.nav2_front_door import Nav2FrontDoor
 from simplebot_navigation.ros.move_base.obstacle_tracking import ObstacleTracking
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
 from simplebot_navigation.ros.publishers import create_publisher, drop_event_handlers_of_best_effort_subscriptions
@@ -49,7 +48,6 @@ HOUSEKEEPING_PERIOD_S = 0.1
 STATUS_TICKS = 2
 DIAGNOSTICS_TICKS = 10
 MISSED_RATE_WARNING_PERIOD_S = 5.0
-FINISHED_STATUS_KEEP_S = 5.0
 #: requests a burst may queue on the action's goal, cancel and result services before the middleware drops
 #: them (the services' default keeps 10); ROS 1 actionlib queued 50 goals
 ACTION_SERVICE_QOS = QoSProfile(depth=50, history=HistoryPolicy.KEEP_LAST, reliability=ReliabilityPolicy.RELIABLE,
@@ -84,7 +82,6 @@ class MoveBaseNode(Node):
 
         self.cmd_vel_pub = create_publisher(self, Twist, "cmd_vel", 1)
         self.current_goal_pub = create_publisher(self, PoseStamped, "~/current_goal", 1)
-        self.status_pub = create_publisher(self, GoalStatusArray, "~/status", 1)
         group = ReentrantCallbackGroup()
         self.action_server = ActionServer(self, MoveBase, "move_base", execute_callback=self._execute,
                                           goal_callback=lambda _req: GoalResponse.ACCEPT,
@@ -94,8 +91,7 @@ class MoveBaseNode(Node):
                                           cancel_service_qos_profile=ACTION_SERVICE_QOS)
         self.create_subscription(PoseStamped, "move_base_simple/goal", self._on_simple_goal, 1)
         self.create_subscription(GoalID, "~/cancel", self._on_cancel, 1)
-        self.create_service(GetPlan, "~/make_plan", self._on_make_plan)
-        self.create_service(Empty, "~/clear_costmaps", self._on_clear_costmaps)
+        serve_move_base_services(self)
 
         self.goal: MoveBaseGoal | None = None
         self.finished: list[MoveBaseGoal] = []
@@ -104,13 +100,13 @@ class MoveBaseNode(Node):
         self._last_missed_warning = -math.inf
         self._control_timer = self.create_timer(self.period, self._control_cycle)
         self.supervisor = MoveBaseSupervisor(self)
-        self.diagnostics_pub = create_publisher(self, DiagnosticArray, "/diagnostics", 10)
-        self._diagnostics_snapshot = self.cycle_stats.snapshot()
+        self.reports = MoveBaseReports(self)
         # On the steady clock: the watchdog, status and diagnostics must keep going when /clock stops.
         self._housekeeping_ticks = 0
         self.create_timer(HOUSEKEEPING_PERIOD_S, self._housekeeping, clock=Clock(clock_type=ClockType.STEADY_TIME))
         drop_event_handlers_of_best_effort_subscriptions(self)
         self.live_parameters = MoveBaseLiveParameters(self)
+        self.nav2 = Nav2FrontDoor(self)
         self.get_logger().info(f"move_base ready: {self.cfg.base_global_planner} + {self.cfg.base_local_planner}, "
                                f"controller {self.cfg.controller_frequency:g} Hz, "
                                f"{len(self.core.recoveries)} recovery behaviours "
@@ -145,7 +141,7 @@ class MoveBaseNode(Node):
         tree = given_parameter_tree(self)
         behaviors, instances = [], {}
         self.recovery_instances = instances
-        context = MoveBaseRecoveryContext(self, self.trail)
+        context = self.recovery_context = MoveBaseRecoveryContext(self, self.trail)
         for entry in self.cfg.recovery_behaviors:
             name = entry["name"]
             if name not in instances:
@@ -175,7 +171,8 @@ class MoveBaseNode(Node):
         self._accept_goal(MoveBaseGoal(msg))
 
     async def _execute(self, handle):
-        goal = MoveBaseGoal(handle.request.target_pose, handle)
+        goal = MoveBaseGoal(handle.request.target_pose, handle,
+                            feedback=lambda pose: handle.publish_feedback(self._move_base_feedback(pose)))
         goal.done = Future()
         self._accept_goal(goal)
         status = await goal.done
@@ -187,76 +184,101 @@ class MoveBaseNode(Node):
             handle.abort()
         return MoveBase.Result()
 
-    def _accept_goal(self, goal: MoveBaseGoal) -> None:
+    def _move_base_feedback(self, pose) -> MoveBase.Feedback:
+        feedback = MoveBase.Feedback()
+        feedback.base_position.header.frame_id = self.global_costmap.global_frame
+        feedback.base_position.header.stamp = pose.stamp.to_msg()
+        feedback.base_position.pose = xyyaw_to_pose(*pose[:3])
+        return feedback
+
+    def take_over(self, goal: MoveBaseGoal) -> None:
+        """``goal`` becomes the active one: the one before it, from whichever interface, is preempted."""
         if self.goal is not None:
             self._finish(self.goal, ActionlibStatus.PREEMPTED, "preempted by a new goal")
         goal.status = ActionlibStatus.ACTIVE
         self.goal = goal
-        self.core.events.goal(self._now(), goal.id)
+        self.core.events.goal(self.now_s(), goal.id)
         self.supervisor.goal_accepted()
-        reason = validate_pose(goal.pose)
+
+    def _accept_goal(self, goal: MoveBaseGoal) -> None:
+        self.take_over(goal)
+        reason, cause = validate_pose(goal.pose), "invalid_goal"
         target = None
         if reason is None:
-            target, reason = self._goal_in_global_frame(goal.pose)
+            target, reason, cause = self.goal_in_global_frame(goal.pose)
         if reason is not None:
             self.get_logger().error(f"Aborting on goal because it was sent with an invalid goal: {reason}")
-            self.end_goal(goal, ActionlibStatus.ABORTED, reason)
+            self.end_goal(goal, ActionlibStatus.ABORTED, reason, cause)
             return
         self.current_goal_pub.publish(target)
         xyyaw = pose_to_xyyaw(target.pose)
         self.get_logger().info(f"new goal ({xyyaw[0]:.2f}, {xyyaw[1]:.2f}, yaw {xyyaw[2]:.2f}) "
                                f"in {target.header.frame_id}")
         self.publish_zero()
-        self.core.set_goal(xyyaw, self._now())
+        self.core.set_goal(xyyaw, self.now_s())
 
-    def _goal_in_global_frame(self, pose: PoseStamped):
+    def goal_in_global_frame(self, pose: PoseStamped, role: str = "goal"):
+        """(the pose in the global frame, None, "") or (None, why not, the cause for Nav2's error code)."""
         frame = self.global_costmap.global_frame
-        target, reason = in_frame(pose, frame, self.tf)
+        target, reason = in_frame(pose, frame, self.tf, role)
         if target is None:
-            return None, reason
+            return None, reason, "transform"
         x, y = target.pose.position.x, target.pose.position.y
         master = self.global_costmap.costmap
         if master.world_to_map(x, y) is None:
             x1, y1 = master.origin_x + master.size_x * master.resolution, \
                 master.origin_y + master.size_y * master.resolution
-            return None, (f"goal ({x:.6g}, {y:.6g}) is outside the global costmap "
-                          f"[{master.origin_x:.2f}, {x1:.2f}] x [{master.origin_y:.2f}, {y1:.2f}] in {frame}")
-        return target, None
+            return None, (f"{role} ({x:.6g}, {y:.6g}) is outside the global costmap "
+                          f"[{master.origin_x:.2f}, {x1:.2f}] x [{master.origin_y:.2f}, {y1:.2f}] in {frame}"), \
+                "goal_outside_map"
+        return target, None, ""
+
+    def start_behavior(self, goal: MoveBaseGoal) -> None:
+        """A Nav2 behaviour (goal.behavior) becomes the active goal, from the robot's pose now."""
+        self.take_over(goal)
+        self.core.reset()
+        self.publish_zero()
+        pose = self._robot_pose_global()
+        if pose is None:
+            self.end_goal(goal, ActionlibStatus.ABORTED, f"no robot pose in {self.global_costmap.global_frame}: "
+                                                         f"{self.global_costmap.last_pose_error}", "TF_ERROR")
+            return
+        goal.behavior.start(self.now_s(), pose[:3])
 
     def _on_cancel(self, msg: GoalID) -> None:
         if self.goal is not None and (not msg.id or msg.id == self.goal.id):
             self.get_logger().info("goal canceled")
             self.end_goal(self.goal, ActionlibStatus.PREEMPTED, "canceled")
 
-    def end_goal(self, goal: MoveBaseGoal, status: int, text: str) -> None:
+    def end_goal(self, goal: MoveBaseGoal, status: int, text: str, cause: str = "") -> None:
         """End a goal from outside the state machine (cancel, preemption, an error): stop the robot, drop the
         goal from the state machine, and report the end."""
         self.core.reset()
         self.publish_zero()
-        self._finish(goal, status, text)
+        self._finish(goal, status, text, cause)
 
-    def _finish(self, goal: MoveBaseGoal, status: int, text: str) -> None:
-        goal.status, goal.text = status, text
+    def _finish(self, goal: MoveBaseGoal, status: int, text: str, cause: str = "") -> None:
+        goal.status, goal.text, goal.cause = status, text, cause
         goal.finished_wall = time.monotonic()
-        self.core.events.outcome(self._now(), OUTCOMES.get(status, f"status {status}"), text)
+        self.core.events.outcome(self.now_s(), OUTCOMES.get(status, f"status {status}"), text)
         if goal is self.goal:
             self.goal = None
         self.finished.append(goal)
         if goal.done is not None and not goal.done.done():
             goal.done.set_result(status)
-        self._publish_status()
+        self.reports.publish_status()
 
     # -- the control cycle --------------------------------------------------------------------------
-    def _now(self) -> float:
+    def now_s(self) -> float:
         return self.get_clock().now().nanoseconds / 1e9
 
     def _housekeeping(self) -> None:
         self._housekeeping_ticks += 1
         self.supervisor.check_watchdog()
         if self._housekeeping_ticks % STATUS_TICKS == 0:
-            self._publish_status()
+            self.reports.publish_status()
         if self._housekeeping_ticks % DIAGNOSTICS_TICKS == 0:
-            self._publish_diagnostics()
+            self.reports.publish_diagnostics()
 
     def _control_cycle(self) -> None:
         self.supervisor.loop_ran()
@@ -275,12 +297,15 @@ class MoveBaseNode(Node):
                                    throttle_duration_sec=5.0)
             self.supervisor.wait_for_data(f"no robot pose: {self.global_costmap.last_pose_error}")
             return
-        if goal.handle is not None:
-            feedback = MoveBase.Feedback()
-            feedback.base_position.header.frame_id = self.global_costmap.global_frame
-            feedback.base_position.header.stamp = pose.stamp.to_msg()
-            feedback.base_position.pose = xyyaw_to_pose(*pose[:3])
-            goal.handle.publish_feedback(feedback)
+        if goal.behavior is not None:
+            self._behavior_cycle(goal, pose)
+            return
+        if goal.advance is not None:
+            target = goal.advance(pose)
+            if target is not None:
+                self.core.set_goal(target, self.now_s())
+        if goal.feedback is not None:
+            goal.feedback(pose)
         stale = self.local_costmap.stale_sources()
         if stale:
             self.supervisor.wait_for_data(f"sensor data out of date: {', '.join(f'local_costmap/{s}' for s in stale)}")
@@ -289,7 +314,7 @@ class MoveBaseNode(Node):
         else:
             self.supervisor.data_ok()
         try:
-            out = self.core.cycle(self._now(), pose[:3], self.local_costmap.is_current(),
+            out = self.core.cycle(self.now_s(), pose[:3], self.local_costmap.is_current(),
                                   ", ".join(f"local_costmap/{s}" for s in stale))
         except Exception as exc:  # noqa: BLE001 - a bug in a planner must stop the robot, not the node
             self.supervisor.abort_on_internal_error(goal, exc)
@@ -303,7 +328,7 @@ class MoveBaseNode(Node):
             self._finish(goal, ActionlibStatus.SUCCEEDED, out.message)
         elif out.outcome == "aborted":
             self.get_logger().error(out.message)
-            self._finish(goal, ActionlibStatus.ABORTED, out.message)
+            self._finish(goal, ActionlibStatus.ABORTED, out.message, out.cause)
         elif out.message:
             self.get_logger().warn(out.message, throttle_duration_sec=2.0)
         elapsed = time.perf_counter() - started
@@ -311,6 +336,25 @@ class MoveBaseNode(Node):
             self._last_missed_warning = time.monotonic()
             self.get_logger().warn(f"Control loop missed its desired rate of {self.cfg.controller_frequency:.4f}Hz"
                                    f"... the loop actually took {elapsed:.4f} seconds")
+
+    def _behavior_cycle(self, goal: MoveBaseGoal, pose) -> None:
+        """One step of a Nav2 behaviour (Spin, BackUp, ...): it drives while the local costmap is current."""
+        stale = self.local_costmap.stale_sources()
+        if stale:
+            self.publish_zero()
+            self.supervisor.wait_for_data(f"sensor data out of date: {', '.join(f'local_costmap/{s}' for s in stale)}")
+            return
+        self.supervisor.data_ok()
+        step = goal.behavior.tick(self.now_s(), pose[:3])
+        self._publish_cmd(*step.cmd)
+        if goal.feedback is not None:
+            goal.feedback(pose)
+        if step.outcome == "":
+            self.get_logger().info(step.message)
+            self._finish(goal, ActionlibStatus.SUCCEEDED, step.message)
+        elif step.outcome is not None:
+            self.get_logger().error(step.message)
+            self._finish(goal, ActionlibStatus.ABORTED, step.message, step.outcome)
 
     def destroy_node(self) -> None:
         self.supervisor.stop()
@@ -331,56 +375,6 @@ class MoveBaseNode(Node):
 
     def publish_zero(self) -> None:
         self._publish_cmd(0.0, 0.0)
-
-    # -- status, services -----------------------------------------------------------------------
-    def _publish_status(self) -> None:
-        now = time.monotonic()
-        self.finished = [g for g in self.finished if now - g.finished_wall < FINISHED_STATUS_KEEP_S]
-        msg = GoalStatusArray()
-        msg.header.stamp = self.get_clock().now().to_msg()
-        for goal in self.finished + ([self.goal] if self.goal is not None else []):
-            status = ActionlibStatus(status=goal.status, text=goal.text)
-            status.goal_id.id = goal.id
-            status.goal_id.stamp = goal.stamp
-            msg.status_list.append(status)
-        self.status_pub.publish(msg)
-
-    def _publish_diagnostics(self) -> None:
-        """Control-loop timing and navigation counters once a second (steady clock, so it reports even when
-        /clock stops)."""
-        snapshot = self.cycle_stats.snapshot()
-        window, self._diagnostics_snapshot = snapshot.since(self._diagnostics_snapshot), snapshot
-        msg = DiagnosticArray(status=[
-            control_loop_status(window, snapshot, self.cycle_stats.take_recent(), self.cfg.controller_frequency,
-                                self.get_name()),
-            navigation_status(self.core.events.snapshot(), self.get_name())])
-        msg.header.stamp = self.get_clock().now().to_msg()
-        self.diagnostics_pub.publish(msg)
-
-    def _on_make_plan(self, request: GetPlan.Request, response: GetPlan.Response) -> GetPlan.Response:
-        """move_base's planService: refused while a goal is active; the request is read by plan_request, the
-        rule of the planner's own make_plan."""
-        frame = self.global_costmap.global_frame
-        response.plan.header.frame_id = frame
-        if self.goal is not None:
-            self.get_logger().error("move_base must be in an inactive state to make a plan for an external user")
-            return response
-        try:
-            start, goal, tolerance = plan_request(request, self.global_costmap)
-        except ValueError as err:
-            self.get_logger().error(f"make_plan: {err}")
-            return response
-        result = self.planner.make_plan(start, goal, tolerance)
-        if result.ok:
-            response.plan = path_msg(result.poses, frame, self.get_clock().now().to_msg())
-        return response
-
-    def _on_clear_costmaps(self, _request, response):
-        for costmap in (self.global_costmap, self.local_costmap):
-            with costmap.lock:
-                costmap.reset_layers()
-        self.get_logger().info("costmaps cleared")
-        return response
 
 
 def main(args=None) -> int:

@@ -4,13 +4,18 @@ them, bench/realtime.py the cycle times)."""
 
 from __future__ import annotations
 
-from actionlib_msgs.msg import GoalStatus as ActionlibStatus
-from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+import time
+
+from actionlib_msgs.msg import GoalStatus as ActionlibStatus, GoalStatusArray
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 from simplebot_navigation.move_base.cycle_stats import CycleSnapshot
 from simplebot_navigation.move_base.events import MoveBaseStats
+from simplebot_navigation.ros.publishers import create_publisher
 
 NAVIGATION_STATUS = "move_base: navigation"
+#: a finished goal stays in /move_base/status this long (wall seconds)
+FINISHED_STATUS_KEEP_S = 5.0
 #: the goal outcomes move_base counts, by actionlib status
 OUTCOMES = {ActionlibStatus.SUCCEEDED: "succeeded", ActionlibStatus.ABORTED: "aborted",
             ActionlibStatus.PREEMPTED: "preempted"}
@@ -45,3 +50,40 @@ def control_loop_status(window: CycleSnapshot, total: CycleSnapshot, recent, fre
               "cycle_times_ms": " ".join(f"{t * 1e3:.2f}" for t in recent)}
     status.values = [KeyValue(key=k, value=v) for k, v in values.items()]
     return status
+
+
+class MoveBaseReports:
+    """``~/status`` (the active goal and those finished lately, for users of the simple goal topic) and
+    ``/diagnostics`` of a move_base node, published by its housekeeping timer."""
+
+    def __init__(self, node):
+        self.node = node
+        self.status_pub = create_publisher(node, GoalStatusArray, "~/status", 1)
+        self.diagnostics_pub = create_publisher(node, DiagnosticArray, "/diagnostics", 10)
+        self._diagnostics_snapshot = node.cycle_stats.snapshot()
+
+    def publish_status(self) -> None:
+        node = self.node
+        now = time.monotonic()
+        node.finished = [g for g in node.finished if now - g.finished_wall < FINISHED_STATUS_KEEP_S]
+        msg = GoalStatusArray()
+        msg.header.stamp = node.get_clock().now().to_msg()
+        for goal in node.finished + ([node.goal] if node.goal is not None else []):
+            status = ActionlibStatus(status=goal.status, text=goal.text)
+            status.goal_id.id = goal.id
+            status.goal_id.stamp = goal.stamp
+            msg.status_list.append(status)
+        self.status_pub.publish(msg)
+
+    def publish_diagnostics(self) -> None:
+        """Control-loop timing and navigation counters once a second (steady clock, so it reports even when
+        /clock stops)."""
+        node = self.node
+        snapshot = node.cycle_stats.snapshot()
+        window, self._diagnostics_snapshot = snapshot.since(self._diagnostics_snapshot), snapshot
+        msg = DiagnosticArray(status=[
+            control_loop_status(window, snapshot, node.cycle_stats.take_recent(), node.cfg.controller_frequency,
+                                node.get_name()),
+            navigation_status(node.core.events.snapshot(), node.get_name())])
+        msg.header.stamp = node.get_clock().now().to_msg()
+        self.diagnostics_pub.publish(msg)
