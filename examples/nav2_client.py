@@ -54,8 +54,7 @@ class Nav2Client(Node):
 
     def pose(self, x: float, y: float, yaw: float) -> PoseStamped:
         msg = PoseStamped()
-        msg.header.frame_id = self.frame
-        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.header.frame_id = self.frame    # stamp 0: the latest transform (the stack runs on simulated time)
         msg.pose.position.x, msg.pose.position.y = x, y
         msg.pose.orientation.z, msg.pose.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
         return msg
@@ -99,8 +98,13 @@ class Nav2Client(Node):
         return True
 
     def navigate_to(self, x: float, y: float, yaw: float) -> bool:
-        def show(msg):
+        shown = [-math.inf]      # navigation_time of the last line printed
+
+        def show(msg):           # feedback comes every control cycle: a line a second
             f = msg.feedback
+            if seconds(f.navigation_time) < shown[0] + 1.0:
+                return
+            shown[0] = seconds(f.navigation_time)
             p = f.current_pose.pose.position
             print(f"  at ({p.x:5.2f}, {p.y:5.2f})  {f.distance_remaining:5.2f} m to go, "
                   f"about {seconds(f.estimated_time_remaining):4.1f} s left, "
@@ -119,8 +123,7 @@ class Nav2Client(Node):
         goal = BackUp.Goal(speed=speed, time_allowance=Duration(sec=10))
         goal.target.x = distance
         self.backup.wait_for_server()
-        status, result = self.run(self.backup, goal,
-                                  lambda msg: print(f"  backed up {msg.feedback.distance_traveled:.2f} m"))
+        status, result = self.run(self.backup, goal)
         if status != GoalStatus.STATUS_SUCCEEDED:
             print(f"back-up failed: {result.error_msg if result else 'goal not accepted'}")
             return False
