@@ -347,6 +347,7 @@ def test_bad_input_is_aborted_naming_the_field_and_nothing_moves(lab, case):
     assert not refused.rejected, "bad input should be accepted, then aborted"
     assert refused.status == GoalStatus.STATUS_ABORTED, refused.status
     assert word in refused.result.error_msg, refused.result.error_msg
+    assert refused.result.error_code != 0, "a refusal must not read as success"
     print(f"{case}: {action} aborted, error {refused.result.error_code}: {refused.result.error_msg}")
     lab.run_for(1.0, wall_timeout_s=WALL_GUARD_S)
     assert moved(lab, start) < 0.02, f"the robot moved: {start} -> {lab.pose()}"

@@ -162,7 +162,7 @@ class Nav2FrontDoor:
         self._warn_behavior_tree(request.behavior_tree)
         reason = check_pose_count(len(request.poses))
         if reason is not None:
-            return self._refuse(handle, result, "navigate_through_poses", reason)
+            return self._refuse(handle, result, "navigate_through_poses", reason, navigation_code("invalid_goal"))
         targets = []
         for i, pose in enumerate(request.poses):
             target, reason, cause = self._check_pose(pose, f"poses[{i}]")
@@ -204,7 +204,7 @@ class Nav2FrontDoor:
         for i, pose in enumerate(poses):
             reason = reason or validate_pose(pose, f"poses[{i}]")
         if reason is not None:
-            return self._refuse(handle, result, "follow_waypoints", reason)
+            return self._refuse(handle, result, "follow_waypoints", reason, FollowWaypoints.Result.UNKNOWN)
         missed = []
         for loop in range(request.number_of_loops + 1):
             for i in range(request.goal_index if loop == 0 else 0, len(poses)):
