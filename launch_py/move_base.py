@@ -8,7 +8,7 @@ overridden below.
 """
 
 from simplebot_navigation.launch.description import Arg, Group, Include, Node, Param, Remap, RosParam
-from simplebot_navigation.launch.simplebot_args import COLLISION_MONITOR, MAP, MAPPED, NAMESPACE
+from simplebot_navigation.launch.simplebot_args import COLLISION_MONITOR, MAP, MAPPED, MAX_SPEED, NAMESPACE
 from simplebot_navigation.launch.simplebot_args import TIGHT as TIGHT_ARG
 
 CONFIG = "$(find simplebot_navigation)/config"
@@ -35,6 +35,7 @@ LAUNCH = [
     NAMESPACE,
     COLLISION_MONITOR,
     MAP,
+    MAX_SPEED,
 
     Param("/use_sim_time", True),
 

@@ -10,8 +10,8 @@ The number of robots is an argument, so the items come from ``generate(args)``.
 """
 
 from simplebot_navigation.launch.description import Arg, Include, Node, Param
-from simplebot_navigation.launch.simplebot_args import (COLLISION_MONITOR, ENCODER_NOISE, MAP, MAPPED, RADIUS, ROBOT,
-                                                        RTF, TIGHT, WITH_ENCODER_NOISE, WORLD)
+from simplebot_navigation.launch.simplebot_args import (COLLISION_MONITOR, ENCODER_NOISE, MAP, MAPPED, MAX_SPEED,
+                                                        RADIUS, ROBOT, RTF, TIGHT, WITH_ENCODER_NOISE, WORLD)
 from simplebot_navigation.sim.starts import parse_starts
 from simplebot_navigation.sim.world_loader import load_world
 
@@ -34,6 +34,7 @@ ARGS = [
         doc="restart the simulator and each move_base when they exit (roslaunch's respawn)"),
     MAP,
     ENCODER_NOISE,
+    MAX_SPEED,
 ]
 
 
@@ -56,10 +57,12 @@ def generate(args: dict[str, str]) -> list:
         Include(file=f"{LAUNCH_DIR}/simulator.py", args={
             "world": "$(arg world)", "robot": "$(arg robot)", "radius": "$(arg radius)", "rtf": "$(arg rtf)",
             "respawn": "$(arg respawn)", "namespaces": " ".join(namespaces), "starts": "$(arg starts)",
-            "encoder_noise": WITH_ENCODER_NOISE, "map_to_odom": "$(eval map == '')"}),
+            "encoder_noise": WITH_ENCODER_NOISE, "map_to_odom": "$(eval map == '')",
+            "max_speed": "$(arg max_speed)"}),
         *(Include(file=f"{LAUNCH_DIR}/move_base.py", args={
             "robot": "$(arg robot)", "radius": "$(arg radius)", "tight": "$(arg tight)", "respawn": "$(arg respawn)",
-            "namespace": namespace, "collision_monitor": "$(arg collision_monitor)", "map": "$(arg map)"})
+            "namespace": namespace, "collision_monitor": "$(arg collision_monitor)", "map": "$(arg map)",
+            "max_speed": "$(arg max_speed)"})
           for namespace in namespaces),
         # On a map: one map_server for all, an amcl per robot starting at the robot's start.
         Node(pkg="map_server", type="map_server", name="map_server", output="screen", respawn="$(arg respawn)",

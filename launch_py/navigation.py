@@ -6,7 +6,7 @@ start, the global costmap is in ``map`` with the map as its static layer, and th
 
 from simplebot_navigation.launch.description import Arg, Include, Node, Param
 from simplebot_navigation.launch.simplebot_args import (COLLISION_MONITOR, ENCODER_NOISE, INITIAL_POSE, MAP,
-                                                        MAPPED, NAMESPACE, RADIUS, ROBOT, RTF, TIGHT,
+                                                        MAPPED, MAX_SPEED, NAMESPACE, RADIUS, ROBOT, RTF, TIGHT,
                                                         WITH_ENCODER_NOISE, WORLD)
 from simplebot_navigation.web_host import FOXGLOVE_ALLOWED_ORIGINS
 
@@ -33,14 +33,16 @@ LAUNCH = [
     MAP,
     INITIAL_POSE,
     ENCODER_NOISE,
+    MAX_SPEED,
 
     Include(file=f"{LAUNCH_DIR}/simulator.py", args={
         "world": "$(arg world)", "robot": "$(arg robot)", "radius": "$(arg radius)", "rtf": "$(arg rtf)",
         "respawn": "$(arg respawn)", "namespaces": "$(arg namespace)", "encoder_noise": WITH_ENCODER_NOISE,
-        "map_to_odom": "$(eval map == '')"}),
+        "map_to_odom": "$(eval map == '')", "max_speed": "$(arg max_speed)"}),
     Include(file=f"{LAUNCH_DIR}/move_base.py", args={
         "robot": "$(arg robot)", "radius": "$(arg radius)", "tight": "$(arg tight)", "respawn": "$(arg respawn)",
-        "namespace": "$(arg namespace)", "collision_monitor": "$(arg collision_monitor)", "map": "$(arg map)"}),
+        "namespace": "$(arg namespace)", "collision_monitor": "$(arg collision_monitor)", "map": "$(arg map)",
+        "max_speed": "$(arg max_speed)"}),
 
     # Navigation on a map: the map_server's map and amcl on it.
     Node(pkg="map_server", type="map_server", name="map_server", output="screen", respawn="$(arg respawn)",

@@ -6,7 +6,7 @@ it simulates one robot per name in the same world (``multi_navigation``).
 """
 
 from simplebot_navigation.launch.description import Arg, Node, Param
-from simplebot_navigation.launch.simplebot_args import RADIUS, ROBOT, RTF, WORLD
+from simplebot_navigation.launch.simplebot_args import MAX_SPEED, RADIUS, ROBOT, RTF, WORLD
 
 #: encoder errors with encoder_noise:=true (relative standard deviations, sim/diff_drive.py OdomNoise): a wheel
 #: 1 % off in scale turns a 2 m straight line by about 2 degrees, so a lab tour drifts by metres
@@ -26,6 +26,7 @@ LAUNCH = [
     Arg("encoder_noise", default="false",
         doc="wheel encoder errors (1 % scale per wheel, 2 % per-step speed noise), so that odometry drifts as a "
             "real robot's does"),
+    MAX_SPEED,
     Arg("map_to_odom", default="true",
         doc="place namespaced robots' odom frames in map at their starts; false where amcl publishes map -> odom"),
 
