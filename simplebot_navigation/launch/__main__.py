@@ -7,7 +7,7 @@ import sys
 
 from simplebot_navigation import paths
 from simplebot_navigation.launch.loader import LaunchError, declared_args, load_launch
-from simplebot_navigation.launch.overrides import apply_set
+from simplebot_navigation.launch.overrides import apply_set, speed_assignments
 from simplebot_navigation.launch.rosparam import ParamError
 
 USAGE = """python -m simplebot_navigation.launch <launch-file> [options] [arg:=value ...]
@@ -89,7 +89,11 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"  {arg.name}:=VALUE  {arg.doc}{default}")
             return 0
         config = load_launch(path, _split_launch_args(rest, {a.name for a in declared}))
-        apply_set(config, opts.set)
+        derived, speed_report = speed_assignments(config, opts.set)
+        apply_set(config, derived + opts.set)      # an explicit --set wins over what max_speed derived
+        if not opts.print_params:
+            for line in speed_report:
+                print(f"[launch] {line}", file=sys.stderr)
         if opts.record:
             from simplebot_navigation.launch.record import recorder_spec
             config.nodes.insert(0, recorder_spec(opts.record))  # first up, so it misses the least
@@ -97,6 +101,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"[launch] error: {err}", file=sys.stderr)
         return 2
     if opts.print_params:
+        for line in speed_report:
+            print(f"# {line}")
         if opts.set:
             print("# --set " + " --set ".join(opts.set))
         _print_params(config)

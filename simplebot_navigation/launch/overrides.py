@@ -1,4 +1,5 @@
-"""``--set NAME=VALUE``: move_base parameters from the command line, checked as the parameter files are.
+"""``--set NAME=VALUE``: move_base parameters from the command line, checked as the parameter files are; and
+``max_speed:=V``, which derives the speed-dependent ones (move_base/speed_profile.py) before them.
 
 NAME is a move_base parameter by its ROS 2 name (``TebLocalPlannerROS.max_vel_x``,
 ``local_costmap.inflation_layer.inflation_radius``); VALUE is read as YAML. Each assignment goes
@@ -9,6 +10,7 @@ tree is checked as move_base would build it. Later assignments win.
 from __future__ import annotations
 
 from simplebot_navigation.move_base.parameter_tree import apply_move_base_overrides
+from simplebot_navigation.move_base.speed_profile import speed_parameters
 from simplebot_navigation.parameters import ParameterError
 from simplebot_navigation.parameters.ros2 import to_ros2_overrides
 from simplebot_navigation.launch.loader import LaunchConfig, LaunchError
@@ -33,3 +35,34 @@ def apply_set(config: LaunchConfig, assignments: list[str]) -> None:
             raise LaunchError(f"--set: {err}") from None
         config.params.set(spec.full_name, tree)
         spec.parameters = {**flat, **{k: v for k, v in spec.parameters.items() if k == "use_sim_time"}}
+
+
+def speed_assignments(config: LaunchConfig, explicit: list[str]) -> tuple[list[str], list[str]]:
+    """The --set assignments ``max_speed:=V`` stands for (none without it), and the report: what it derived, and
+    which explicit --set replaces a derived value. LaunchError for a value that is not a speed it takes."""
+    value = config.args.get("max_speed", "")
+    if not value:
+        return [], []
+    specs = [node for node in config.nodes if node.name == NODE]
+    if not specs:
+        return [], []          # the simulator alone: only its drive follows max_speed
+    try:
+        speed = float(value)
+    except ValueError:
+        raise LaunchError(f"max_speed:={value!r} is not a number of m/s") from None
+    tree = config.params.get(specs[0].full_name, {})
+    teb = tree.get("TebLocalPlannerROS", {}) if isinstance(tree, dict) else {}
+    viapoints_on = isinstance(teb, dict) and float(teb.get("global_plan_viapoint_sep", -0.1) or -0.1) > 0
+    try:
+        derived = speed_parameters(speed, viapoints_on)
+    except ValueError as err:
+        raise LaunchError(str(err)) from None
+    replaced = {a.partition("=")[0].strip(): a.partition("=")[2].strip() for a in explicit}
+    report = [f"max_speed {speed:g} m/s: " + ", ".join(f"{name}={_shown(v)}" for name, v in derived.items())]
+    report += [f"--set {name}={replaced[name]} replaces max_speed's {_shown(derived[name])}"
+               for name in derived if name in replaced]
+    return [f"{name}={v!r}" for name, v in derived.items()], report
+
+
+def _shown(value) -> str:
+    return f"{value:.4g}" if isinstance(value, float) else str(value)

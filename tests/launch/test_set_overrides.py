@@ -57,3 +57,24 @@ def test_a_lower_max_vel_x_slows_the_robot_down():
         top = float(np.percentile(speeds, 99))
         assert 0.1 < top <= 0.2 * 1.1, f"99th-percentile speed {top:.3f} m/s with max_vel_x 0.2"
         assert math.isclose(session.pose().x, start.x + 2.5, abs_tol=0.3)
+
+
+def test_max_speed_derives_the_speed_parameters_and_an_explicit_set_wins():
+    done = subprocess.run([sys.executable, "-m", "simplebot_navigation.launch", "navigation", "robot:=round",
+                           "--max-speed", "2.0", "--set=TebLocalPlannerROS.max_vel_theta=1.5", "--print-params"],
+                          cwd=REPO, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert "TebLocalPlannerROS.max_vel_x: 2.0" in lines and "TebLocalPlannerROS.dt_ref: 0.075" in lines
+    assert "local_costmap.width: 6" in lines and "controller_frequency: 20.0" in lines
+    assert "TebLocalPlannerROS.max_vel_theta: 1.5" in lines                   # the explicit --set, not 2.0
+    assert "# --set TebLocalPlannerROS.max_vel_theta=1.5 replaces max_speed's 2" in lines
+    assert any(line.startswith("# max_speed 2 m/s: TebLocalPlannerROS.max_vel_x=2") for line in lines)
+
+
+@pytest.mark.parametrize("value, message", [("3", "max_speed must be a number of m/s in [0.1, 2]"),
+                                            ("fast", "max_speed:='fast' is not a number")])
+def test_a_bad_max_speed_is_one_line(value, message):
+    done = subprocess.run([sys.executable, "-m", "simplebot_navigation.launch", "navigation", f"max_speed:={value}",
+                           "--print-params"], cwd=REPO, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and message in done.stderr and len(done.stderr.strip().splitlines()) == 1
