@@ -17,6 +17,7 @@ from simplebot_description import builtin_worlds, robot_description
 from simplebot_navigation.launch.loader import LaunchError
 from simplebot_navigation.launch.nodes import ExecutableNotFound
 from simplebot_navigation.sim.world_loader import load_world
+from simplebot_navigation.move_base.speed_profile import check_speed
 from simplebot_navigation.scenarios.report import plot, table, write_json
 from simplebot_navigation.scenarios.runner import ScenarioOptions, parse_goals, run_scenarios
 
@@ -44,6 +45,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="standard deviation of the lidar range noise in metres (default: 0)")
     p.add_argument("--time-budget", type=float,
                    help="sim seconds per goal (default: 20 s + 2 x shortest path / max_vel_x)")
+    p.add_argument("--max-speed", type=float, metavar="V",
+                   help="top speed in m/s, from which every speed-dependent move_base parameter is derived, and the "
+                        "drive (docs/reference.md §10; --set wins over what it derives)")
     p.add_argument("--wall-timeout", type=float, help="wall-clock seconds per goal before giving up on a hang")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="a move_base parameter by its ROS 2 name, e.g. TebLocalPlannerROS.max_vel_x=1.0 (repeatable)")
@@ -92,12 +96,15 @@ def _check(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Scenari
         parser.error(str(err))
     for warning in world.warnings:
         print(f"scenario: warning: {warning}", file=sys.stderr)
+    if args.max_speed is not None and check_speed(args.max_speed):
+        parser.error(check_speed(args.max_speed))
     return ScenarioOptions(world=args.world, robot=args.robot, radius=args.radius, goals=args.goals, rtf=args.rtf,
                            repeat=args.repeat, seed=args.seed, range_noise=args.range_noise,
                            time_budget=args.time_budget, processes=args.processes, tight=args.tight,
                            wall_timeout_s=args.wall_timeout, overrides=tuple(args.set),
                            foxglove_port=args.foxglove_port if args.foxglove else None,
-                           collision_monitor=not args.no_collision_monitor, map_name=args.map or "")
+                           collision_monitor=not args.no_collision_monitor, map_name=args.map or "",
+                           max_speed=args.max_speed)
 
 
 def main(argv: list[str] | None = None) -> int:

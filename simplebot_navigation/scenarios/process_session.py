@@ -21,7 +21,7 @@ from rclpy.executors import SingleThreadedExecutor
 
 from simplebot_description import robot_description
 from simplebot_navigation.launch.loader import LaunchConfig, load_launch
-from simplebot_navigation.launch.overrides import apply_set
+from simplebot_navigation.launch.overrides import apply_set, speed_assignments
 from simplebot_navigation.move_base.plugins import TEB_LOCAL_PLANNER, plugin_namespace
 from simplebot_navigation.sim.world import Pose2D
 from simplebot_navigation.sim.world_loader import load_world
@@ -94,14 +94,19 @@ class ProcessSession(RemoteSession):
     def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, rtf: float = 1.0,
                  seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation", tight: bool = False,
                  respawn: bool = False, overrides: tuple[str, ...] = (), foxglove_port: int | None = None,
-                 namespace: str = "", collision_monitor: bool = True, map_name: str = ""):
+                 namespace: str = "", collision_monitor: bool = True, map_name: str = "",
+                 max_speed: float | None = None):
         if not (math.isfinite(rtf) and rtf > 0):
             raise ValueError(f"separate processes need rtf > 0 (lockstep is single-process), got {rtf!r}")
         self.map_name = map_name
-        args = launch_args(world, robot, radius, rtf, tight, respawn, foxglove_port, collision_monitor, map_name)
+        args = launch_args(world, robot, radius, rtf, tight, respawn, foxglove_port, collision_monitor, map_name,
+                           max_speed)
         if namespace:  # the launch file's namespace argument: the robot's topics and frames under it
             args["namespace"] = namespace
         launch = load_launch(launch_file, args)
+        # What max_speed derives goes to the launcher as --set before the explicit ones: the wrapper launch file
+        # below is its top-level file, and it declares no max_speed of its own.
+        overrides = tuple(speed_assignments(launch, list(overrides))[0]) + tuple(overrides)
         apply_set(launch, list(overrides))     # checked here, and read by controller_param
         super().__init__(world, robot, radius, launch, namespace)
         self.run_dir = run_dir = tempfile.mkdtemp(prefix="simplebot_scenario_")

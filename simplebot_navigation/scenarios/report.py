@@ -44,6 +44,7 @@ def summary(results: list[GoalResult]) -> dict:
         "struck_standing": sum(r.struck_standing for r in results),
         "min_clearance": min((r.min_clearance for r in results), default=math.nan),
         "recoveries": sum(r.recoveries or 0 for r in results),
+        "challenge_score": float(np.mean([r.challenge_score for r in results])) if results else math.nan,
     }
 
 
@@ -58,7 +59,8 @@ def table(results: list[GoalResult]) -> str:
     lines.append(f"success {s['succeeded']}/{s['goals']} ({100 * s['success_rate']:.0f} %), "
                  f"mean time to goal {s['mean_time_s']:.1f} s sim ({s['mean_time_ratio']:.2f} x path / max_vel_x), "
                  f"collisions while moving {s['collisions']}, struck while standing {s['struck_standing']}, "
-                 f"min clearance {s['min_clearance']:.2f} m, recoveries {s['recoveries']}")
+                 f"min clearance {s['min_clearance']:.2f} m, recoveries {s['recoveries']}, "
+                 f"BARN challenge score {s['challenge_score']:.3f}")
     located = [r.localization for r in results if r.localization]
     if located:
         samples = sum(e.samples for e in located)

@@ -28,6 +28,8 @@ GRID_RESOLUTION = 0.1     # of the shortest-path estimate
 PATH_CLEARANCE = 0.2      # free space for that estimate (less than any body's half width: doors stay open)
 FOOTPRINT_SPACING = 0.02  # sampling of the box outline for the clearance
 TRAJECTORY_PERIOD_S = 0.1  # sampling of the trajectories kept in the results
+#: the BARN challenge's reference speed (m/s): its optimal time is the reference path at this speed
+CHALLENGE_SPEED = 2.0
 
 
 @dataclass
@@ -59,6 +61,7 @@ class GoalResult:
     trajectory: list[tuple[float, float, float, float]] = field(repr=False)
     struck_standing: int = 0     # a moving obstacle ran into the standing robot: reported, not a failure
     localization: LocalizationError | None = None   # on a map: amcl's pose against ground truth during the goal
+    reference_length: float = math.nan   # the shortest C-space path from the start to the goal (m)
 
     @property
     def time_ratio(self) -> float:
@@ -67,8 +70,12 @@ class GoalResult:
             return math.nan
         return self.time_s / (self.path_length / self.max_vel_x)
 
+    @property
+    def challenge_score(self) -> float:
+        return challenge_score(self.success, self.time_s, self.reference_length)
+
     def to_dict(self) -> dict:
-        return asdict(self)
+        return {**asdict(self), "challenge_score": self.challenge_score}
 
 
 @dataclass(frozen=True)
@@ -89,6 +96,7 @@ class ScenarioOptions:
     foxglove_port: int | None = None     # serve the run to the Foxglove app on this port (0: a free one)
     collision_monitor: bool = True       # False: move_base drives the base directly
     map_name: str = ""             # navigate on this map (a map YAML; "world": the run's world's), amcl localizing
+    max_speed: float | None = None  # the one speed setting (docs/reference.md §10); None: the parameter files'
 
 
 # -- goals -----------------------------------------------------------------------------------------
@@ -170,6 +178,27 @@ def shortest_path_length(world: World, start: Pose2D, goal: Pose2D) -> float:
 
     length = float(dijkstra(graph, indices=cell(start))[cell(goal)])
     return length if math.isfinite(length) else straight
+
+
+def reference_length(world: World, start: Pose2D, goal: Pose2D) -> float:
+    """The shortest C-space path from start to goal: a generated world's own (sim/cspace.py, on the grid of
+    its robot's radius and margin) for its start and goal, else shortest_path_length."""
+    cspace = world.extra.get("cspace")
+    if cspace and world.goals and math.hypot(start.x - world.start.x, start.y - world.start.y) < 0.05 \
+            and math.hypot(goal.x - world.goals[0].x, goal.y - world.goals[0].y) < 0.05:
+        return float(cspace["path_length"])
+    return shortest_path_length(world, start, goal)
+
+
+def challenge_score(success: bool, time_s: float, reference: float) -> float:
+    """The BARN challenge's score of one run (2024 on): success x OT / clip(AT, 2 OT, 8 OT), OT the reference
+    path at CHALLENGE_SPEED; at most 0.5, reached at half that speed along the reference path. Success is this
+    project's (within the goal tolerance, no collision, within the time budget), which is stricter than the
+    challenge's 1 m of the goal."""
+    if not success or not (math.isfinite(reference) and reference > 0 and math.isfinite(time_s)):
+        return 0.0
+    optimal = reference / CHALLENGE_SPEED
+    return optimal / min(max(time_s, 2.0 * optimal), 8.0 * optimal)
 
 
 def time_budget(world: World, start: Pose2D, goal: Pose2D, max_vel_x: float) -> float:
@@ -284,7 +313,8 @@ def run_goal(session: NavigationSession | RemoteSession, goal: Pose2D, budget_s:
         final=final, position_error=position_error, yaw_error=yaw_error,
         wall_s=time.monotonic() - wall_start, max_vel_x=session.controller_param("max_vel_x", 0.4),
         trajectory=_thinned(truth), struck_standing=struck_standing,
-        localization=localization_error(session.client.localized, truth) if session.map_name else None)
+        localization=localization_error(session.client.localized, truth) if session.map_name else None,
+        reference_length=reference_length(session.world, start, goal))
 
 
 def _pose_failures(position_error, yaw_error, success_radius, xy_tol, yaw_tol) -> list[str]:
@@ -332,7 +362,7 @@ def run_scenarios(options: ScenarioOptions, progress: Callable[[str], None] = pr
             with session_class(world, options.robot, options.radius, options.rtf, seed, options.range_noise,
                                tight=options.tight, overrides=options.overrides, foxglove_port=options.foxglove_port,
                                collision_monitor=options.collision_monitor,
-                               map_name=map_for_run(options.map_name, world)) as session:
+                               map_name=map_for_run(options.map_name, world), max_speed=options.max_speed) as session:
                 worlds.append(session.world)
                 results += _run_goals(session, options, index, seed, progress)
     return results, worlds

@@ -122,7 +122,8 @@ def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m simplebot_navigation.scenarios campaign",
                                 description=__doc__.split("\n\n")[1].replace("\n", " "))
     p.add_argument("spec", nargs="?", metavar="SPEC.yaml",
-                   help="campaign spec (keys: worlds, seeds, robots, params, goals, run_timeout); flags override it")
+                   help="campaign spec (keys: worlds, seeds, robots, params, goals, run_timeout, time_budget); flags "
+                        "override it")
     p.add_argument("--worlds", help="comma-separated built-in worlds, world files, or families 'forest:0-199'")
     p.add_argument("--seeds", help="seeds, e.g. 0-9 or 0,3,5 (default: 0)")
     p.add_argument("--robots", help="comma-separated bodies: box, round, round:R (radius R m; default: box)")
@@ -130,6 +131,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="a parameter set: K=V overrides and/or 'tight' (the shipped narrow-passage set) and/or "
                         "'no_collision_monitor' (move_base drives the base directly); "
                         "repeat for more sets, 'default' for none (default: none)")
+    p.add_argument("--time-budget", type=float, metavar="S",
+                   help="sim seconds per goal for every world (the BARN challenge's 100); default: from the shortest "
+                        "path and max_vel_x. A spec file may give one per world family: {forest: 100}")
     p.add_argument("--goals", help="goal names 'a,b' and/or 'x,y,yaw;x,y,yaw' (default: every goal of each world)")
     p.add_argument("--run-timeout", type=float, help="wall seconds a run may take before it counts as hung "
                                                      "(default: 900)")
@@ -148,7 +152,7 @@ def _parser() -> argparse.ArgumentParser:
 def spec_from_args(parser: argparse.ArgumentParser, args: argparse.Namespace) -> CampaignSpec:
     """The spec file's keys, each replaced by its flag when given; errors name the key or flag."""
     flags = {"worlds": args.worlds, "seeds": args.seeds, "robots": args.robots, "goals": args.goals,
-             "run_timeout": args.run_timeout, "params": args.set}
+             "run_timeout": args.run_timeout, "params": args.set, "time_budget": args.time_budget}
     try:
         data = {}
         if args.spec:

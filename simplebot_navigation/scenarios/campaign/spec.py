@@ -4,8 +4,10 @@ A run is a plain dict ``{world, seed, robot, params, goal}``; in lockstep it det
 so any record of a results file can be repeated exactly. A body is ``box``, ``round`` (radius 0.3 m)
 or ``round:R``; a parameter set is ``K=V`` overrides and, optionally, the name of a parameter set the
 navigation launch ships (``tight``: config/tight/ over the lab's files), so ``tight
-TebLocalPlannerROS.max_vel_x=1.0`` is the narrow-passage set at 1 m/s. The spec comes from a YAML file or from the
-command line flags; every error names the key (or flag) it is about.
+TebLocalPlannerROS.max_vel_x=1.0`` is the narrow-passage set at 1 m/s; ``max_speed=V`` is the one speed setting
+(docs/reference.md §10), from which the other K=V of the set may still differ. ``time_budget`` (sim seconds per goal,
+for the campaign or per world family) replaces the budget from the shortest path. The spec comes from a YAML file or
+from the command line flags; every error names the key (or flag) it is about.
 """
 
 from __future__ import annotations
@@ -18,7 +20,8 @@ from dataclasses import asdict, dataclass, field
 
 from simplebot_description import robot_description
 from simplebot_navigation.launch.loader import LaunchError, load_launch
-from simplebot_navigation.launch.overrides import apply_set
+from simplebot_navigation.launch.overrides import apply_set, speed_assignments
+from simplebot_navigation.move_base.speed_profile import check_speed
 from simplebot_navigation.sim.crowd import crowd_level
 from simplebot_navigation.sim.world_loader import load_world
 from simplebot_navigation.scenarios.runner import parse_goals
@@ -27,7 +30,10 @@ from simplebot_navigation.scenarios.session import launch_args
 ROBOT_BODY = re.compile(r"^(?P<name>box|round)(?::(?P<radius>\d+(?:\.\d+)?))?$")
 ROUND_RADIUS_RANGE = (0.1, 1.0)
 SHIPPED_SETS = ("tight", "no_collision_monitor")   # launch arguments of the navigation launch (tight: config/tight/)
-SPEC_KEYS = ("worlds", "seeds", "robots", "params", "goals", "run_timeout")
+SPEC_KEYS = ("worlds", "seeds", "robots", "params", "goals", "run_timeout", "time_budget")
+SPEED_KEY = "max_speed"
+#: a time_budget (sim seconds per goal) is at most this
+MAX_TIME_BUDGET_S = 3600.0
 FAMILY_RANGE = re.compile(r"^(?P<family>[A-Za-z_][\w-]*):(?P<a>\d+)-(?P<b>\d+)$")
 DEFAULT_RUN_TIMEOUT_S = 900.0
 #: bounds of what a spec may ask for (README, "Campaigns"): values in one range (seeds, a world family), and
@@ -48,6 +54,7 @@ class CampaignSpec:
     params: tuple[tuple[str, ...], ...] = ((),)   # parameter sets, each a tuple of "K=V" overrides
     goals: tuple[str, ...] | None = None          # goal items (names or "x,y,yaw"); None: every goal of the world
     run_timeout: float = DEFAULT_RUN_TIMEOUT_S    # wall seconds one run may take before it counts as hung
+    time_budget: tuple[tuple[str, float], ...] = ()   # (family, sim s per goal); family "": every other world
 
     def to_dict(self) -> dict:
         return json.loads(json.dumps(asdict(self)))
@@ -104,8 +111,34 @@ def robot_body(robot: str, key: str = "robots") -> tuple[str, float]:
 
 
 def split_parameter_set(params) -> tuple[tuple[str, ...], list[str]]:
-    """(shipped sets named in it, its K=V overrides)."""
-    return tuple(p for p in params if p in SHIPPED_SETS), [p for p in params if p not in SHIPPED_SETS]
+    """(shipped sets named in it, its K=V overrides of move_base's parameters)."""
+    return (tuple(p for p in params if p in SHIPPED_SETS),
+            [p for p in params if p not in SHIPPED_SETS and p.partition("=")[0].strip() != SPEED_KEY])
+
+
+def speed_of(params) -> float | None:
+    """The set's max_speed=V, or None."""
+    values = [p.partition("=")[2] for p in params if p.partition("=")[0].strip() == SPEED_KEY]
+    return float(values[-1]) if values else None
+
+
+def budget_for(spec: CampaignSpec, world: str) -> float | None:
+    """The time budget of a world's family, else the campaign's, else None (from the shortest path)."""
+    budgets = dict(spec.time_budget)
+    return budgets.get(world_family(world), budgets.get(""))
+
+
+def time_budgets(value, key: str = "time_budget") -> tuple[tuple[str, float], ...]:
+    """A number (every world) or a mapping {family: seconds} ('' or 'default': every other world)."""
+    items = value.items() if isinstance(value, dict) else [("", value)]
+    out = []
+    for family, seconds in items:
+        if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not math.isfinite(seconds) \
+                or not 0 < seconds <= MAX_TIME_BUDGET_S:
+            raise SpecError(f"{key}: expected sim seconds in (0, {MAX_TIME_BUDGET_S:g}]"
+                            + (f" for {family!r}" if family else "") + f", got {seconds!r}")
+        out.append(("" if family == "default" else str(family), float(seconds)))
+    return tuple(out)
 
 
 def parameter_set(value, key: str) -> tuple[str, ...]:
@@ -122,9 +155,16 @@ def parameter_set(value, key: str) -> tuple[str, ...]:
     else:
         raise SpecError(f"{key}: expected K=V overrides, got {value!r}")
     for item in items:
-        name, sep, _ = item.partition("=")
+        name, sep, value = item.partition("=")
         if item not in SHIPPED_SETS and (not sep or not name.strip()):
             raise SpecError(f"{key}: {item!r} is not K=V nor a shipped parameter set ({', '.join(SHIPPED_SETS)})")
+        if name.strip() == SPEED_KEY:
+            try:
+                problem = check_speed(float(value))
+            except ValueError:
+                problem = f"max_speed must be a number of m/s, got {value!r}"
+            if problem:
+                raise SpecError(f"{key}: {problem}")
     return tuple(items)
 
 
@@ -202,8 +242,9 @@ def spec_from_dict(data, source: str = "spec") -> CampaignSpec:
     if runs > MAX_RUNS:
         raise SpecError(f"{len(worlds)} worlds x {len(seeds)} seeds x {len(robots)} robots x {len(params)} parameter "
                         f"sets is {runs} runs, more than {MAX_RUNS}")
+    budgets = time_budgets(data["time_budget"]) if data.get("time_budget") is not None else ()
     return CampaignSpec(tuple(worlds), tuple(seeds), tuple(robots), tuple(params),
-                        None if goals in (None, "all") else tuple(goals), float(timeout))
+                        None if goals in (None, "all") else tuple(goals), float(timeout), budgets)
 
 
 # -- runs ------------------------------------------------------------------------------------------
@@ -214,19 +255,24 @@ class Run:
     robot: str
     params: tuple[str, ...] = field(default=())
     goal: str = ""
+    time_budget: float | None = None     # sim seconds for the goal; None: from the shortest path
 
     @property
     def key(self) -> str:
-        """Identifies the run in a results file (resume, retries, comparisons)."""
-        return json.dumps([self.world, self.seed, self.robot, list(self.params), self.goal])
+        """Identifies the run in a results file (resume, retries, comparisons); a budget only when it has one,
+        so the keys of campaigns without one stay as they were."""
+        fields = [self.world, self.seed, self.robot, list(self.params), self.goal]
+        return json.dumps(fields + ([self.time_budget] if self.time_budget is not None else []))
 
     def to_dict(self) -> dict:
-        return {"world": self.world, "seed": self.seed, "robot": self.robot, "params": list(self.params),
-                "goal": self.goal}
+        out = {"world": self.world, "seed": self.seed, "robot": self.robot, "params": list(self.params),
+               "goal": self.goal}
+        return out | ({"time_budget": self.time_budget} if self.time_budget is not None else {})
 
     @classmethod
     def from_dict(cls, data: dict) -> Run:
-        return cls(data["world"], int(data["seed"]), data["robot"], tuple(data["params"]), data["goal"])
+        return cls(data["world"], int(data["seed"]), data["robot"], tuple(data["params"]), data["goal"],
+                   data.get("time_budget"))
 
 
 def plan(spec: CampaignSpec) -> list[Run]:
@@ -235,8 +281,9 @@ def plan(spec: CampaignSpec) -> list[Run]:
         shipped, overrides = split_parameter_set(params)
         try:
             args = launch_args("lab", "box", 0.3, 0.0, "tight" in shipped,
-                               collision_monitor="no_collision_monitor" not in shipped)
-            apply_set(load_launch("navigation", args), overrides)
+                               collision_monitor="no_collision_monitor" not in shipped, max_speed=speed_of(params))
+            config = load_launch("navigation", args)
+            apply_set(config, speed_assignments(config, overrides)[0] + overrides)
         except LaunchError as err:
             raise SpecError(f"params: {params_label(params)!r}: {err}") from err
     runs = []
@@ -252,6 +299,6 @@ def plan(spec: CampaignSpec) -> list[Run]:
                 goals = list(spec.goals) if spec.goals else [g.name for g in parse_goals(None, loaded)]
             except ValueError as err:
                 raise SpecError(f"goals: world {world}: {err}") from err
-            runs += [Run(world, seed, robot, params, goal)
+            runs += [Run(world, seed, robot, params, goal, budget_for(spec, world))
                      for params, goal, seed in itertools.product(spec.params, goals, spec.seeds)]
     return runs

@@ -60,6 +60,7 @@ class GroupSummary:
     p95_time_s: float
     time_ratio: float        # mean of time / (path length / max speed) over successful runs
     failures: Counter
+    challenge_score: float = math.nan   # the BARN challenge's mean score over every run (runner.challenge_score)
 
     @property
     def rate(self) -> float:
@@ -90,20 +91,21 @@ def summarize(records: list[dict]) -> list[GroupSummary]:
             sum(r.get("struck_standing") or 0 for r in members),
             float(np.mean(times)) if times else math.nan, float(np.percentile(times, 95)) if times else math.nan,
             float(np.mean(ratios)) if ratios else math.nan,
-            Counter(failure_kind(f) for r in members for f in r.get("failures") or [])))
+            Counter(failure_kind(f) for r in members for f in r.get("failures") or []),
+            float(np.mean([r.get("challenge_score") or 0.0 for r in members]))))
     return summaries
 
 
 def summary_table(summaries: list[GroupSummary]) -> str:
     header = (f"{'family':<12} {'robot':<10} {'params':<34} {'runs':>5} {'success':>8} {'Wilson 95 %':>13} "
-              f"{'coll':>5} {'struck':>6} {'mean s':>7} {'p95 s':>7} {'t/(L/v)':>7}  failures")
+              f"{'coll':>5} {'struck':>6} {'mean s':>7} {'p95 s':>7} {'t/(L/v)':>7} {'score':>6}  failures")
     lines = [header, "-" * len(header)]
     for s in summaries:
         low, high = s.interval
         reasons = ", ".join(f"{kind} x{n}" for kind, n in s.failures.most_common()) or "-"
         lines.append(f"{s.family[:12]:<12} {s.robot[:10]:<10} {s.params[:34]:<34} {s.runs:>5} {100 * s.rate:>7.0f}% "
                      f"{100 * low:>5.0f}-{100 * high:>3.0f} % {s.collisions:>5} {s.struck_standing:>6} {s.mean_time_s:>7.1f} "
-                     f"{s.p95_time_s:>7.1f} {s.time_ratio:>7.2f}  {reasons}")
+                     f"{s.p95_time_s:>7.1f} {s.time_ratio:>7.2f} {s.challenge_score:>6.3f}  {reasons}")
     return "\n".join(lines)
 
 

@@ -12,7 +12,7 @@ import os
 import sys
 import tempfile
 
-from simplebot_navigation.scenarios.campaign.spec import Run, robot_body, split_parameter_set
+from simplebot_navigation.scenarios.campaign.spec import Run, robot_body, speed_of, split_parameter_set
 from simplebot_navigation.scenarios.report import finite
 from simplebot_navigation.scenarios.runner import parse_goals, run_goal, time_budget, world_for_run
 from simplebot_navigation.scenarios.session import NavigationSession
@@ -27,11 +27,13 @@ def execute(run: Run) -> dict:
     with tempfile.TemporaryDirectory(prefix="simplebot_campaign_") as folder, \
             NavigationSession(world_for_run(run.world, run.seed, folder), body, radius, rtf=0.0, seed=run.seed,
                               tight="tight" in shipped, overrides=overrides,
-                              collision_monitor="no_collision_monitor" not in shipped) as session:
+                              collision_monitor="no_collision_monitor" not in shipped,
+                              max_speed=speed_of(run.params)) as session:
         (goal,) = parse_goals(run.goal, session.world)
         session.wait_ready(wall_timeout_s=READY_TIMEOUT_S)
         max_vel_x = session.controller_param("max_vel_x", 0.4)
-        result = run_goal(session, goal, time_budget(session.world, session.pose(), goal, max_vel_x))
+        budget = run.time_budget or time_budget(session.world, session.pose(), goal, max_vel_x)
+        result = run_goal(session, goal, budget)
     record = result.to_dict()
     del record["run"]
     return record
