@@ -37,6 +37,7 @@ LAUNCH = [
         Param("world", "$(arg world)"),
         Param("robot", "$(arg robot)"),
         Param("radius", "$(arg radius)"),
+        Param("max_speed", "$(arg max_speed)"),
         Param("real_time_factor", "$(arg rtf)"),
         Param("namespaces", "$(arg namespaces)"),
         Param("starts", "$(arg starts)"),

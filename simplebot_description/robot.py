@@ -64,6 +64,7 @@ class RobotDescription:
     Poses are in base_link, which lies on the floor midway between the driven wheels.
     ``footprint`` is the chassis polygon (box body) and ``radius`` the chassis radius (round body);
     the other one is None, matching the costmap's choice between ``footprint`` and ``robot_radius``.
+    ``mass`` is the whole robot's (kg, every link's): what the drive's wheel torque has to accelerate.
     """
 
     urdf: str
@@ -75,6 +76,7 @@ class RobotDescription:
     wheel_separation: float
     wheel_radius: float
     fixed_joints: tuple[FixedJoint, ...]
+    mass: float
     base_frame: str = BASE_FRAME
 
     @property
@@ -145,6 +147,7 @@ def _described(body: str, radius: float) -> RobotDescription:
         wheel_separation=wheel_separation,
         wheel_radius=wheel_radius,
         fixed_joints=fixed,
+        mass=sum(link.inertial.mass for link in robot.robot.links if link.inertial is not None),
     )
 
 

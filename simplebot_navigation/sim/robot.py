@@ -96,6 +96,9 @@ class SimRobot:
         self.description = description
         self.start = start
         self.drive = drive
+        # The yaw acceleration limit as a bound on the wheels' speed difference, per second.
+        self._turn_accel = None if drive.max_yaw_accel is None \
+            else drive.max_yaw_accel * description.wheel_separation / description.wheel_radius
         self.hull_group = groups.hull
         self._client = client
         odom_rng, lidar_rng = (np.random.default_rng(s) for s in seed.spawn(2))
@@ -167,7 +170,8 @@ class SimRobot:
         """Ramp the wheel speeds towards the current command."""
         target = self._wheel_target(now)
         if target is not self._wheel_cmd:
-            wheel_cmd = ramp(self._wheel_cmd, target, self.drive.max_wheel_accel * dt)
+            wheel_cmd = ramp(self._wheel_cmd, target, self.drive.max_wheel_accel * dt,
+                             None if self._turn_accel is None else self._turn_accel * dt)
             changed = not np.array_equal(wheel_cmd, self._wheel_cmd)
             # Once the ramp reaches the target, the target itself is kept: the identity test above
             # then skips the ramp while the wheels hold their speed.
@@ -206,7 +210,8 @@ class SimRobot:
             return self._stopped
         if self._target_of is None or self._target_of[0] is not cmd:
             self._target_of = (cmd, wheel_targets(cmd[0], cmd[1], self.description.wheel_separation,
-                                                  self.description.wheel_radius, self.drive.max_wheel_speed))
+                                                  self.description.wheel_radius, self.drive.max_wheel_speed,
+                                                  self.drive.max_yaw_rate))
         return self._target_of[1]
 
     def _apply_wheel_cmd(self) -> None:

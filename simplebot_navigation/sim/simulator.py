@@ -5,11 +5,12 @@ or more robots (sim/robot.py), which see and bump into each other. Time
 advances only through step()/step_until(); with the same world, commands and seed every run is
 identical.
 
-Physics runs at 100 Hz by default: the robot is slow (about 1 m/s, so 1 cm per step, no tunnelling
-through 0.1 m walls) and rests on rigid wheels and casters, which Bullet's solver keeps stable at
-10 ms steps (odometry and ground truth agree to a millimetre over metres of driving); 100 Hz divides
-the 10 Hz lidars and the usual 20/50 Hz controller and odometry rates, and is cheaper than Bullet's
-customary 240 Hz, though not 2.4x: the lidar rays dominate the cost (bench/sim_speed.py).
+Physics runs at 100 Hz by default: the robot is slow (1.05 m/s; 2 m/s with the round body's Jackal
+drive: at most 2 cm per step, no tunnelling through 0.1 m walls) and rests on rigid wheels and casters,
+which Bullet's solver keeps stable at 10 ms steps (odometry and ground truth agree to a millimetre over
+metres of driving); 100 Hz divides the 10 Hz lidars and the usual 20/50 Hz controller and odometry rates,
+and is cheaper than Bullet's customary 240 Hz, though not 2.4x: the lidar rays dominate the cost
+(bench/sim_speed.py).
 
 Obstacles exist twice: as primitives (boxes, cylinders) for contacts, and merged into one static
 triangle mesh that only the lidar rays see (collision filter groups keep the two apart). Ray casts

@@ -63,6 +63,12 @@ def test_round_body_radius_arg_moves_lidars_and_wheels():
     assert d.wheel_separation == pytest.approx(2 * (0.5 - 0.07))
 
 
+def test_mass_is_every_links():
+    # Chassis, two 1 kg wheels, two 0.3 kg casters, two 0.16 kg lidars; the round chassis grows with the radius squared.
+    assert robot_description("box").mass == pytest.approx(15.0 + 2.0 + 0.6 + 0.32)
+    assert robot_description("round", radius=0.6).mass == pytest.approx(40.0 + 2.0 + 0.6 + 0.32)
+
+
 @pytest.mark.parametrize("body", ["box", "round"])
 def test_wheels_fit_inside_the_footprint(body):
     d = robot_description(body)

@@ -77,6 +77,13 @@ def test_the_round_body_radius_reaches_both_costmaps_and_teb():
         box.get("/move_base/local_costmap/robot_radius")
 
 
+def test_max_speed_reaches_the_simulator():
+    assert load_launch("navigation", {}).params.get("/simulator/max_speed") == ""   # the lab's drive
+    assert load_launch("navigation", {"robot": "round", "max_speed": "2.0"}).params.get("/simulator/max_speed") == 2.0
+    robots = load_launch("multi_navigation", {"robots": "2", "robot": "round", "max_speed": "1.5"}).params
+    assert robots.get("/simulator/max_speed") == 1.5
+
+
 def test_tight_set_goes_under_the_round_body():
     box = load_launch("navigation", {"tight": "true"}).params
     assert box.get("/move_base/global_costmap/resolution") == 0.05

@@ -22,6 +22,7 @@ from std_msgs.msg import String
 from simplebot_description import robot_description
 from simplebot_navigation.ros.simulator.simulator_node import SimulatorNode, main as simulator_main
 from simplebot_navigation.ros.tf import Buffer, TransformListener
+from simplebot_navigation.sim.diff_drive import drive_for
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 BOX = robot_description("box")
@@ -342,15 +343,33 @@ def test_the_simulator_does_not_follow_its_own_clock(context):
     ("real_time_factor", float("nan"), r"'real_time_factor': expected a number \(finite\), got nan"),
     ("physics_rate", 0.0, r"'physics_rate': must be > 0, got 0.0"),
     ("odom_scale_std", -0.01, r"parameter 'odom_scale_std' must be >= 0 \(a relative standard deviation\)"),
+    ("max_speed", 1.5, r"^parameter 'max_speed': 1.5 m/s is above the box's top speed of 1.05 m/s "),
+    ("max_speed", float("nan"), r"^parameter 'max_speed': expected a positive number of m/s, got nan$"),
+    ("max_speed", "fast", r"^parameter 'max_speed': expected a positive number of m/s, got 'fast'$"),
 ])
 def test_bad_parameters_fail_with_a_clear_message(context, name, value, message):
     with pytest.raises(ValueError, match=message):
         SimulatorNode(context=context, parameter_overrides=[Parameter(name, value=value)])
 
 
+@pytest.mark.parametrize("robot, max_speed, top_speed", [("box", "", 1.05), ("round", "", 1.05), ("box", 1, 1.05),
+                                                         ("round", 2, 2.0), ("round", 1.5, 2.0)])
+def test_max_speed_picks_the_drive(context, robot, max_speed, top_speed):
+    """The launcher gives "" when max_speed is not set, and a whole number as an int."""
+    sim = SimulatorNode(context=context, parameter_overrides=[
+        Parameter("robot", value=robot), Parameter("max_speed", value=max_speed),
+        Parameter("real_time_factor", value=0.0)])
+    try:
+        assert sim.sim.drive == drive_for(sim.description, max_speed or None)
+        assert sim.sim.drive.max_wheel_speed * sim.description.wheel_radius == pytest.approx(top_speed)
+    finally:
+        sim.destroy_node()
+
+
 @pytest.mark.parametrize("param, message", [
     ("real_time_factor:=0.0", "nothing steps the simulator: run the nodes in one process"),
     ("world:=atlantis", "parameter 'world': unknown world 'atlantis'"),
+    ("max_speed:=1.5", "parameter 'max_speed': 1.5 m/s is above the box's top speed of 1.05 m/s"),
 ])
 def test_own_process_refuses_what_it_cannot_run(capfd, param, message):
     assert simulator_main(["simulator", "--ros-args", "-p", param]) == 2
@@ -359,7 +378,7 @@ def test_own_process_refuses_what_it_cannot_run(capfd, param, message):
 
 @pytest.mark.parametrize("name, value", [("real_time_factor", -1.0), ("real_time_factor", math.nan),
                                          ("physics_rate", 0.0), ("world", "doors"), ("seed", 3),
-                                         ("use_sim_time", True)])
+                                         ("max_speed", 2.0), ("use_sim_time", True)])
 def test_start_up_parameters_are_refused_while_running_as_requiring_a_restart(lockstep, name, value):
     before = lockstep.sim.get_parameter(name).value
     result = lockstep.sim.set_parameters([Parameter(name, value=value)])[0]

@@ -24,7 +24,7 @@ import time
 import numpy as np
 import yourdfpy
 from rclpy.clock import Clock, ClockType
-from rcl_interfaces.msg import SetParametersResult
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock as ClockMsg
 
@@ -35,7 +35,7 @@ from simplebot_navigation.ros.simulator.moving_markers import MovingObstacleMark
 from simplebot_navigation.ros.simulator.simulator_faults import SimulatorFaults
 from simplebot_navigation.ros.simulator.simulator_robot import SimulatedRobotIO, set_stamp
 from simplebot_navigation.ros.tf import StaticTransformBroadcaster, TransformBroadcaster
-from simplebot_navigation.sim.diff_drive import OdomNoise
+from simplebot_navigation.sim.diff_drive import OdomNoise, drive_for
 from simplebot_navigation.sim.simulator import SimplebotSim
 from simplebot_navigation.sim.starts import robot_starts
 from simplebot_navigation.sim.world_loader import load_world
@@ -52,6 +52,8 @@ MARKER_RATE_HZ = 10.0
 # ``odom_scale_std``/``odom_speed_std``: encoder errors (relative, sim/diff_drive.py OdomNoise), off by default.
 # ``map_to_odom``: namespaced robots' odom frames hang from a static ``map`` at their starts; false where a
 # localizer (amcl) publishes map -> odom itself.
+# ``max_speed`` (declared apart: a number, or "", the launch argument's default): the top speed asked of the
+# drive in m/s (sim/diff_drive.py drive_for); "" keeps the lab's drive.
 PARAMETERS = {"world": "lab", "robot": "box", "radius": 0.3, "real_time_factor": 1.0, "physics_rate": 100.0,
               "odom_rate": 50.0, "seed": 0, "range_noise_std": 0.0, "namespaces": "", "starts": "",
               "odom_scale_std": 0.0, "odom_speed_std": 0.0, "map_to_odom": True}
@@ -75,6 +77,10 @@ class SimulatorNode(SetUpNode):
         p = self._checked_parameters()
         self.description = robot_description(p["robot"], p["radius"])
         try:
+            drive = drive_for(self.description, None if p["max_speed"] == "" else p["max_speed"])
+        except ValueError as err:
+            raise ValueError(f"parameter 'max_speed': {err}") from err
+        try:
             self.world = load_world(p["world"], robot_radius=self.description.inscribed_radius)
         except (ValueError, FileNotFoundError) as err:
             raise ValueError(f"parameter 'world': {err}") from err
@@ -88,7 +94,8 @@ class SimulatorNode(SetUpNode):
             raise ValueError(f"parameter 'starts': {err}") from err
         odom_noise = OdomNoise(scale_std=p["odom_scale_std"], speed_std=p["odom_speed_std"])
         self.sim = SimplebotSim(self.world, self.description, physics_rate=p["physics_rate"], seed=p["seed"],
-                                range_noise_std=p["range_noise_std"], odom_noise=odom_noise, starts=starts)
+                                drive=drive, range_noise_std=p["range_noise_std"], odom_noise=odom_noise,
+                                starts=starts)
         self.rtf = p["real_time_factor"]
         self._odom_every = max(1, round(p["physics_rate"] / p["odom_rate"]))
         self._markers_every = max(1, round(p["physics_rate"] / MARKER_RATE_HZ))
@@ -115,14 +122,17 @@ class SimulatorNode(SetUpNode):
                                                   clock=Clock(clock_type=ClockType.STEADY_TIME))
         robots = ", ".join(f"{'/' + ns + ' ' if ns else ''}at ({start.x:.2f}, {start.y:.2f}, yaw {start.yaw:.2f})"
                            for ns, start in zip(namespaces, starts))
+        top_speed = drive.max_wheel_speed * self.description.wheel_radius
         self.get_logger().info(
-            f"world '{self.world.name}', {self.description.body} robot {robots}, physics {p['physics_rate']:g} Hz, "
+            f"world '{self.world.name}', {self.description.body} robot {robots}, top speed {top_speed:g} m/s, "
+            f"physics {p['physics_rate']:g} Hz, "
             + (f"real-time factor {self.rtf:g}" if self.rtf > 0 else "lockstep (stepped by its driver)"))
 
     def _refuse_restart_only(self, params: list[Parameter]) -> SetParametersResult:
         """The world, the robots and the stepping are built from these at start-up: a change would answer
         "successful" and do nothing. Only the faults change while running."""
-        fixed = [param.name for param in params if param.name in PARAMETERS or param.name == "use_sim_time"]
+        fixed = [param.name for param in params
+                 if param.name in PARAMETERS or param.name in ("max_speed", "use_sim_time")]
         if fixed:
             return SetParametersResult(successful=False, reason=f"{', '.join(fixed)}: requires restart (the simulator "
                                                                 f"reads {'it' if len(fixed) == 1 else 'them'} at start-up only)")
@@ -131,6 +141,7 @@ class SimulatorNode(SetUpNode):
     def _checked_parameters(self) -> dict:
         """Declared parameters, checked before anything is built (pybullet, publishers)."""
         values = declare_checked(self, PARAMETERS, positive=("physics_rate", "odom_rate"))
+        values["max_speed"] = self.declare_parameter("max_speed", "", ParameterDescriptor(dynamic_typing=True)).value
         if not (math.isfinite(values["real_time_factor"]) and values["real_time_factor"] >= 0):
             raise ValueError(f"parameter 'real_time_factor' must be >= 0 (0: stepped by a driver), "
                              f"got {values['real_time_factor']!r}")
