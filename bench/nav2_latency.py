@@ -77,6 +77,7 @@ def measure(session, goals: int, clock) -> dict[str, list[float]]:
             raise RuntimeError(f"goal {i} ({name}) did not succeed: "
                                f"{result.result().status if result.done() else 'no result'}")
         out[name].append((moving[0] - sent) * 1e3)
+        print(f"goal {i} ({name}): {out[name][-1]:.0f} ms", flush=True)
     return out
 
 
