@@ -94,14 +94,16 @@ def result(goal="library", success=True, clearance=0.4, **kw) -> GoalResult:
 
 
 def test_table_json_and_plot(tmp_path):
-    results = [result(struck_standing=1), result("lab", success=False, clearance=math.inf, time_s=10.0)]
+    results = [result(struck_standing=1, reference_length=12.0),
+               result("lab", success=False, clearance=math.inf, time_s=10.0)]
     text = table(results)
     # 31.5 s for 12.6 m at 0.4 m/s: 1.0 would be top speed all the way; struck once while standing, still a success
     assert "library  SUCCEEDED   yes     31.5      80    12.6     9.9   1.27     1.00     0       1     0.40" in text
     assert "-> aborted: no plan" in text
     assert text.splitlines()[-1] == ("success 1/2 (50 %), mean time to goal 31.5 s sim (1.00 x path / max_vel_x), "
                                      "collisions while moving 0, struck while standing 1, min clearance 0.40 m, "
-                                     "recoveries 0")
+                                     # the challenge's score: OT 6 s (12 m at 2 m/s) / 31.5 s, and 0 for the failure
+                                     "recoveries 0, BARN challenge score 0.095")
     write_json(tmp_path / "out.json", ScenarioOptions(), results)
     data = json.loads((tmp_path / "out.json").read_text())
     assert data["summary"]["success_rate"] == 0.5
