@@ -31,9 +31,10 @@ from simplebot_navigation.sim.world_loader import load_world
 pytestmark = [pytest.mark.timeout(900), pytest.mark.e2e]
 
 #: three move_bases and the simulator need about 1.4 cores at real time (bench/realtime.py: 29 % of a core per
-#: move_base); the suite runs another test module beside this one on CI's two cores: at real time and at 0.85 of
-#: it robot1 and robot2 touched in CI (closest approach 0.96 m, twice), at 0.7 the suite passed
-RTF = 0.7
+#: move_base), and the suite runs another test module beside this one on CI's two cores. Slower did not help: at
+#: 0.85 robot1 and robot2 touched in CI, at 0.7 robot2 gave up in the corridor and the swap's six minutes beside the
+#: rest made the watchdog test late; at real time it passed in CI three times before and touched once
+RTF = 1.0
 NAMESPACES = ("robot1", "robot2", "robot3")
 DRIVE_WALL_S = 480.0
 STANDING_LIMIT_S = 10.0
