@@ -12,7 +12,8 @@ mode). ``p`` is the mean of a pixel's colour channels, 0..255, and ``occ`` is ``
   ``rint(100 * (occ - free_thresh) / (occupied_thresh - free_thresh))``;
 - raw: ``round(p)`` when it is 0..100, else -1; negate does not apply.
 
-Anything wrong raises MapError with one line naming the file and the key.
+Anything wrong raises MapError with one line naming the file and the key; a bad image is named after the YAML
+file and its ``image`` key, so the user knows which map's image it is.
 """
 
 from __future__ import annotations
@@ -61,7 +62,8 @@ class OccupancyMap:
 
 @dataclass(frozen=True)
 class MapYaml:
-    """A map YAML file's keys, checked."""
+    """A map YAML file's keys, checked, and the file itself (``path``), which an error in the image names first."""
+    path: Path
     image: Path
     resolution: float
     origin: tuple[float, float, float]
@@ -134,7 +136,7 @@ def parse_map_yaml(data: object, yaml_path: str | Path, extra_keys: tuple[str, .
     image_path = Path(yaml_path).parent / image
     if not image_path.is_file():
         fail("image", f"no such file {image_path}")
-    return MapYaml(image_path, resolution, tuple(number("origin", v) for v in origin), bool(negate),
+    return MapYaml(Path(yaml_path), image_path, resolution, tuple(number("origin", v) for v in origin), bool(negate),
                    *thresholds, mode)
 
 
@@ -150,7 +152,10 @@ def threshold_problem(occupied_thresh: float, free_thresh: float) -> tuple[str, 
 
 def decode_map(meta: MapYaml) -> OccupancyMap:
     """Read the image and turn its pixels into cells, bottom row first."""
-    image = read_image(meta.image)
+    try:
+        image = read_image(meta.image)
+    except MapError as err:     # the image's own message, led by the file and key a user would edit
+        raise MapError(f"{meta.path}: image: {err}") from None
     levels, white = image.levels, image.white
     if meta.mode == "trinary" and image.alpha is not None:
         levels, white = levels + image.alpha, white + 255      # the opacity as one more channel

@@ -213,11 +213,11 @@ def test_a_missing_yaml_file(tmp_path):
     (b"P2\n2 2\n255\n1 2 300 4\n", "pixel value 300 above maxval 255"),
     (b"P5\n2 1\n100\n\x05\xff", "pixel value 255 above maxval 100"),
 ])
-def test_bad_pgm_is_one_line_naming_the_image(tmp_path, content, problem):
+def test_bad_pgm_is_one_line_naming_the_yaml_its_image_key_and_the_image(tmp_path, content, problem):
     (tmp_path / "map.pgm").write_bytes(content)
     with pytest.raises(MapError) as err:
         load_map(write_yaml(tmp_path, "map.pgm"))
-    assert_one_line(err, "map.pgm", problem)
+    assert_one_line(err, f"map.yaml: image: {tmp_path / 'map.pgm'}: ", problem)
 
 
 def png_header_only(width, height):
@@ -245,7 +245,7 @@ def test_an_oversized_image_is_refused_from_its_header(tmp_path, name, content, 
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
-    assert_one_line(err, name, problem)
+    assert_one_line(err, f"map.yaml: image: {tmp_path / name}: ", problem)
     assert peak < 2_000_000, f"{peak} bytes allocated before the refusal"
 
 

@@ -1,5 +1,6 @@
 """map_server and map_saver over real topics: the map latched for late subscribers, GetMap, a saved map that loads
-back the same, a bad file at start (exit 2, one line) and a bad file set live (refused, the old map stays)."""
+back the same, a bad file at start (exit 2, one line naming the YAML file and the key) and the same file set live
+(refused, the old map stays)."""
 
 from __future__ import annotations
 
@@ -31,14 +32,33 @@ REPO = Path(__file__).resolve().parents[2]
 WAIT_S = 15.0
 
 
+#: bad maps: YAML file -> (its image, the image's bytes or None for none, the key named, the problem stated)
+BAD_MAPS = {
+    "bad.yaml": ("office.pgm", None, "resolution", "must be positive, got -0.1"),
+    "no_image.yaml": ("none.pgm", None, "image", "no such file"),
+    "bad_mode.yaml": ("office.pgm", None, "mode", "expected trinary, scale or raw, got 'fancy'"),
+    "truncated.yaml": ("truncated.pgm", b"P5\n20 20\n255\n" + bytes(10), "image",
+                       "truncated.pgm: PGM has fewer than 20 x 20 pixels (truncated)"),
+    "garbage.yaml": ("garbage.pgm", b"P5\n" + bytes(range(256)) * 4, "image",
+                     "garbage.pgm: garbage PGM header: width b'\\x00\\x01"),
+    "huge.yaml": ("huge.pgm", b"P5\n50000 50000\n255\n" + bytes(100), "image",
+                  "huge.pgm: image is 50000 x 50000 pixels"),
+}
+
+
 @pytest.fixture(scope="module")
 def maps(tmp_path_factory):
-    """The lab exported exactly and noisily, and a map whose resolution is negative."""
+    """The lab exported exactly and noisily, and the BAD_MAPS."""
     folder = tmp_path_factory.mktemp("maps")
     lab = load_world("lab")
     save_map(export_map(lab, 0.1), folder / "office.yaml")
     save_map(export_map(lab, 0.1, noisy_seed=1), folder / "noisy.yaml")
-    (folder / "bad.yaml").write_text("image: office.pgm\nresolution: -0.1\norigin: [0, 0, 0]\n")
+    for name, (image, content, _, _) in BAD_MAPS.items():
+        if content is not None:
+            (folder / image).write_bytes(content)
+        resolution = -0.1 if name == "bad.yaml" else 0.1
+        mode = "fancy" if name == "bad_mode.yaml" else "trinary"
+        (folder / name).write_text(f"image: {image}\nresolution: {resolution}\norigin: [0, 0, 0]\nmode: {mode}\n")
     return folder
 
 
@@ -147,11 +167,14 @@ def test_map_saver_writes_a_map_that_loads_back_the_same(graph, maps, tmp_path):
     assert saved.resolution == original.resolution and saved.origin == pytest.approx(original.origin)
 
 
-def test_map_server_exits_2_with_one_line_on_a_bad_file(maps):
-    result = subprocess.run([sys.executable, "-m", "simplebot_navigation.ros.map_server_node", str(maps / "bad.yaml")],
+@pytest.mark.parametrize("name", BAD_MAPS)
+def test_map_server_exits_2_with_one_line_naming_the_file_and_the_key(maps, name):
+    _, _, key, problem = BAD_MAPS[name]
+    result = subprocess.run([sys.executable, "-m", "simplebot_navigation.ros.map_server_node", str(maps / name)],
                             cwd=REPO, capture_output=True, text=True, timeout=WAIT_S * 2)
-    assert result.returncode == 2
-    assert result.stderr.strip() == f"map_server: {maps / 'bad.yaml'}: resolution: must be positive, got -0.1"
+    assert result.returncode == 2, result.stderr
+    assert result.stderr.count("\n") == 1, result.stderr                   # one line, no traceback
+    assert result.stderr.startswith(f"map_server: {maps / name}: {key}: ") and problem in result.stderr
 
 
 def test_a_bad_file_set_live_is_refused_and_the_old_map_stays(graph, maps):
@@ -170,10 +193,10 @@ def test_a_bad_file_set_live_is_refused_and_the_old_map_stays(graph, maps):
         return parameter_value_to_python(values[0])
 
     assert graph.spin_until(lambda: grids)
-    for bad, reason in ((maps / "bad.yaml", "bad.yaml: resolution: must be positive"),
-                        (maps / "missing.yaml", "missing.yaml: no such file")):
-        result = set_file(bad)
-        assert not result.successful and reason in result.reason
+    refusals = {name: (f"{maps / name}: {key}: ", problem) for name, (_, _, key, problem) in BAD_MAPS.items()}
+    for name, (prefix, problem) in {**refusals, "missing.yaml": (f"{maps / 'missing.yaml'}: ", "no such file")}.items():
+        result = set_file(maps / name)
+        assert not result.successful and result.reason.startswith(prefix) and problem in result.reason, result.reason
     assert current_file() == str(maps / "office.yaml")
     late = graph.client("late_listener")
     late_grids = subscribe(late, OccupancyGrid, "/map")
