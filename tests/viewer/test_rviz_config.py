@@ -44,7 +44,15 @@ def test_lab_display_list_in_the_odom_frame():
         assert by_topic[scan]["Topic"]["Reliability Policy"] == "Best Effort"
 
 
-def test_2d_goal_tool_publishes_to_move_base_simple():
+def test_2d_pose_estimate_and_2d_goal_tools_publish_to_amcl_and_move_base_simple():
+    """RViz2 keeps only the tools its config lists: without SetInitialPose there is no 2D Pose Estimate button."""
     tools = yaml.safe_load(RVIZ.read_text())["Visualization Manager"]["Tools"]
-    goal = next(t for t in tools if t["Class"] == "rviz_default_plugins/SetGoal")
-    assert goal["Topic"]["Value"] == "/move_base_simple/goal"
+    by_class = {t["Class"]: t for t in tools}
+    topics = {name: by_class[f"rviz_default_plugins/{name}"]["Topic"] for name in ("SetInitialPose", "SetGoal")}
+    assert topics["SetInitialPose"]["Value"] == "/initialpose"
+    assert topics["SetGoal"]["Value"] == "/move_base_simple/goal"
+    for topic in topics.values():       # reliable and volatile, as amcl and move_base subscribe
+        assert topic["Reliability Policy"] == "Reliable" and topic["Durability Policy"] == "Volatile"
+        assert topic["History Policy"] == "Keep Last" and topic["Depth"] >= 1
+    estimate = by_class["rviz_default_plugins/SetInitialPose"]
+    assert (estimate["Covariance x"], estimate["Covariance y"]) == (0.25, 0.25)    # RViz's spread: 0.5 m
