@@ -19,6 +19,7 @@ from rclpy.time import Time
 from nav_msgs.msg import OccupancyGrid
 from sensor_msgs.msg import LaserScan
 from std_srvs.srv import Empty
+from tf2_msgs.msg import TFMessage
 
 from simplebot_navigation.paths import package_share
 from simplebot_navigation.ros.amcl.amcl_node import LATCHED, AmclNode
@@ -37,12 +38,22 @@ class Probe(Node):
         self.poses: list[PoseWithCovarianceStamped] = []
         self.clouds: list[PoseArray] = []
         self.logs: list[str] = []
+        self.scan_stamps: set[int] = set()              # ns, of both lidars' scans
+        self.map_to_odom_stamps: list[int] = []         # ns, of amcl's map -> odom on /tf
         self.create_subscription(PoseWithCovarianceStamped, "/amcl_pose", self.poses.append, LATCHED)
+        self.create_subscription(TFMessage, "/tf", self._on_tf, 100)
+        for topic in ("/front_laser/front_scan", "/back_laser/back_scan"):
+            self.create_subscription(LaserScan, topic, lambda m: self.scan_stamps.add(Time.from_msg(
+                m.header.stamp).nanoseconds), qos_profile_sensor_data)
         self.create_subscription(PoseArray, "/particle_cloud", self.clouds.append, 1)
         self.create_subscription(Log, "/rosout", lambda m: self.logs.append(m.msg), 100)
         self.initial_pose = self.create_publisher(PoseWithCovarianceStamped, "/initialpose", 10)
         self.front = self.create_publisher(LaserScan, "/front_laser/front_scan", qos_profile_sensor_data)
         self.map = self.create_publisher(OccupancyGrid, "/map", LATCHED)
+
+    def _on_tf(self, msg: TFMessage) -> None:
+        self.map_to_odom_stamps += [Time.from_msg(t.header.stamp).nanoseconds for t in msg.transforms
+                                    if (t.header.frame_id, t.child_frame_id) == ("map", "odom")]
 
 
 @pytest.fixture(scope="module")
@@ -102,6 +113,11 @@ def test_it_localizes_a_drifting_robot_and_publishes_map_to_odom(lab):
     assert math.hypot(odom.x - truth.x, odom.y - truth.y) > error       # the encoders drift, amcl does not
     tf = amcl.tf.lookup_transform("map", "base_link", Time())
     assert math.hypot(tf.transform.translation.x - truth.x, tf.transform.translation.y - truth.y) < 0.15
+    # post-dated by transform_tolerance: stamped the newest scan's stamp + 0.2 s, so that move_base, asking for map
+    # -> base_link at its own later time, does not fail for lack of a transform newer than the last scan
+    tolerance_ns = round(amcl.params.transform_tolerance * 1e9)
+    assert tolerance_ns == 200_000_000
+    assert abs(max(probe.map_to_odom_stamps) - (max(probe.scan_stamps) + tolerance_ns)) < 1000
     saved = amcl.get_parameter("initial_pose_x").value, amcl.get_parameter("initial_pose_y").value
     assert math.hypot(saved[0] - truth.x, saved[1] - truth.y) < 0.8     # save_pose_rate 0.5 Hz: at most 2 s old
 
@@ -130,7 +146,7 @@ def test_hostile_initial_poses_scans_and_parameters_change_nothing(lab):
     before = amcl.amcl.particles
     probe.initial_pose.publish(initial_pose_msg(float("nan"), 0.0, 0.0))
     probe.initial_pose.publish(initial_pose_msg(0.0, 0.0, 0.0, cov=covariance(xx=-1.0)))
-    probe.initial_pose.publish(initial_pose_msg(0.0, 0.0, 0.0, frame="nowhere"))
+    probe.initial_pose.publish(initial_pose_msg(0.0, 0.0, 0.0, frame="no_such_tool_frame"))
     probe.initial_pose.publish(initial_pose_msg(1e308, 0.0, 0.0))
     probe.initial_pose.publish(initial_pose_msg(0.0, 0.0, 0.0, cov=covariance(xx=1e308, yy=1e308)))
     bad_map = OccupancyGrid()
@@ -138,17 +154,15 @@ def test_hostile_initial_poses_scans_and_parameters_change_nothing(lab):
     bad_map.info.origin.position.x, bad_map.data = float("nan"), [0, 0, 0, 0]
     probe.map.publish(bad_map)
     scan = LaserScan()
-    scan.header.frame_id, scan.header.stamp = "nowhere", amcl.get_clock().now().to_msg()
-    probe.front.publish(scan)
-    scan.header.frame_id, scan.header.stamp = "front_laser_link", Time(seconds=1e9).to_msg()   # far ahead
     scan.angle_increment, scan.range_max, scan.ranges = 0.01, 5.6, [1.0] * 10
+    scan.header.frame_id, scan.header.stamp = "front_laser_link", Time(seconds=1e9).to_msg()   # far ahead
     probe.front.publish(scan)
     driver.run_until(driver.time + 0.05)
     assert np.array_equal(amcl.amcl.particles, before)
     text = "\n".join(probe.logs)
     assert "initialpose ignored: pose.position.x is nan" in text
     assert "initialpose ignored: initial pose covariance: must be positive definite" in text
-    assert "initialpose ignored:" in text and "nowhere" in text
+    assert any(line.startswith("initialpose ignored:") and "no_such_tool_frame" in line for line in probe.logs)
     assert "initialpose ignored: (1e+308, 0) is outside the map" in text
     assert "initialpose ignored: pose.covariance is wider than the map" in text
     assert "map ignored:" in text
@@ -160,6 +174,21 @@ def test_hostile_initial_poses_scans_and_parameters_change_nothing(lab):
     assert not refused.successful and "min_particles" in refused.reason
     assert amcl.set_parameters([Parameter("laser_max_beams", value=30)])[0].successful
     assert amcl.amcl.params.laser_max_beams == 30
+
+
+def test_a_scan_in_an_unknown_frame_is_dropped_with_its_topic_and_frame_named(lab):
+    sim, amcl, probe, driver = lab
+    before = amcl.amcl.particles
+    scan = LaserScan()
+    scan.header.frame_id, scan.header.stamp = "no_such_laser_link", amcl.get_clock().now().to_msg()
+    scan.angle_min, scan.angle_increment, scan.range_min, scan.range_max = -1.0, 0.01, 0.2, 5.6
+    scan.ranges = [1.0] * 200                     # a good scan but for its frame
+    probe.front.publish(scan)
+    driver.run_until(driver.time + 0.05)
+    dropped = [line for line in probe.logs if line.startswith("front_laser/front_scan: scan dropped:")
+               and '"no_such_laser_link"' in line]
+    assert dropped, probe.logs[-5:]
+    assert np.array_equal(amcl.amcl.particles, before)
 
 
 def test_time_going_back_restarts_the_filter_round_its_estimate(lab):
