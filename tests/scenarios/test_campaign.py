@@ -248,8 +248,8 @@ def test_summary_and_comparison_of_two_parameter_sets():
 # -- real runs: lockstep determinism across executors ----------------------------------------------
 DETERMINED = ("success", "status", "time_s", "path_length", "collisions", "final", "min_clearance", "replans",
               "recoveries", "failures")
-#: eight runs: enough for two workers (or Ray's two CPUs) to interleave and still finish in any order
-SHORT_CAMPAIGN = {"worlds": "empty", "goals": ["1,0,0", "0.8,0.4,0.5"], "seeds": "0-3", "run_timeout": 600}
+#: four runs: enough for two workers (or Ray's two CPUs) to interleave and still finish in any order
+SHORT_CAMPAIGN = {"worlds": "empty", "goals": ["1,0,0", "0.8,0.4,0.5"], "seeds": "0-1", "run_timeout": 600}
 
 
 def outcomes(records):
@@ -260,7 +260,7 @@ def outcomes(records):
 def sequential(tmp_path_factory):
     out = tmp_path_factory.mktemp("sequential") / "results.jsonl"
     records = run_campaign(spec_from_dict(SHORT_CAMPAIGN), str(out), LocalExecutor(1))
-    assert len(records) == 8 and all(r["success"] for r in records), [r["failures"] for r in records]
+    assert len(records) == 4 and all(r["success"] for r in records), [r["failures"] for r in records]
     return outcomes(records)
 
 
@@ -285,7 +285,7 @@ def test_a_local_ray_gives_the_sequential_results(sequential, tmp_path, monkeypa
     finally:
         ray.shutdown()
     assert outcomes(records) == sequential
-    assert json.loads((tmp_path / "r.jsonl").read_text().splitlines()[0])["spec"]["seeds"] == list(range(4))
+    assert json.loads((tmp_path / "r.jsonl").read_text().splitlines()[0])["spec"]["seeds"] == list(range(2))
 
 
 def test_the_summary_figure_and_the_hardest_runs(tmp_path):
