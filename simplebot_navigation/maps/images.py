@@ -51,7 +51,10 @@ def check_size(width: int, height: int, where) -> None:
 def read_image(path: Path) -> Levels:
     """The image's grey levels: ``.pgm`` files by the parser below, anything else by Pillow."""
     if path.suffix.lower() == ".pgm":
-        return read_pgm(path)
+        try:
+            return read_pgm(path)
+        except OSError as err:     # unreadable: a directory, no permission, an I/O error
+            raise MapError(f"{path}: cannot be read ({err.strerror or err.__class__.__name__})") from None
     return _read_with_pillow(path)
 
 

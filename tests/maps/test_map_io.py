@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from simplebot_navigation.maps import MAX_CELLS, MAX_SIDE, MapError, OccupancyMap, load_map, save_map
+from simplebot_navigation.maps import MAX_CELLS, MAX_SIDE, MapError, OccupancyMap, images, load_map, save_map
 from simplebot_navigation.maps.map_io import scale_greys
 
 ORIGIN = (-3.25, 1.5000000000000002, 0.3)
@@ -218,6 +218,17 @@ def test_bad_pgm_is_one_line_naming_the_yaml_its_image_key_and_the_image(tmp_pat
     with pytest.raises(MapError) as err:
         load_map(write_yaml(tmp_path, "map.pgm"))
     assert_one_line(err, f"map.yaml: image: {tmp_path / 'map.pgm'}: ", problem)
+
+
+def test_an_image_that_cannot_be_read_is_one_line(tmp_path, monkeypatch):
+    write_pgm(tmp_path / "map.pgm", np.zeros((2, 2), np.uint8))
+
+    def denied(*_args, **_kwargs):   # what a file without read permission gives (the tests run as root)
+        raise PermissionError(13, "Permission denied")
+    monkeypatch.setattr(images, "open", denied, raising=False)
+    with pytest.raises(MapError) as err:
+        load_map(write_yaml(tmp_path, "map.pgm"))
+    assert_one_line(err, f"map.yaml: image: {tmp_path / 'map.pgm'}: cannot be read (Permission denied)")
 
 
 def png_header_only(width, height):
