@@ -180,7 +180,8 @@ class Run:
                  "rtf:=1", *version.launch_args], cwd=version.checkout, env=env, stdout=log, stderr=subprocess.STDOUT,
                 stdin=subprocess.DEVNULL, start_new_session=True)
         self.context = rclpy.Context()
-        rclpy.init(context=self.context, domain_id=version.domain)
+        # not the bench's own command line: rcl would read its --arg robot:=round as a remap rule
+        rclpy.init(args=[], context=self.context, domain_id=version.domain)
         self.client = BenchClient(self.context)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.client)
