@@ -4,6 +4,8 @@
     .venv/bin/python bench/realtime.py --arg map:=lab --stress 0    # on a map: amcl's CPU too, goals in map
     .venv/bin/python bench/realtime.py --world crowd:2 --arg robot:=round --arg radius:=0.25 --arg tight:=true \
         --set TebLocalPlannerROS.max_vel_x=1.0 ... --stress 0      # a crowd world: 24 moving obstacles in view
+    .venv/bin/python bench/realtime.py --world forest:3 --arg robot:=round --arg radius:=0.25 --arg tight:=true \
+        --arg max_speed:=2.0 --time-budget 100 --stress 0        # a forest of the benchmark set, at 2 m/s
 
 Each run starts ``python -m simplebot_navigation.launch navigation world:=lab rtf:=1`` (every node its
 own process, as a user runs it; ``--world``, ``--arg`` and ``--set`` change what it starts), sends the tour's goals one after the other through the move_base
@@ -21,6 +23,11 @@ action and measures, only while a goal is active ("while driving"):
               enter: what any version can be compared by. "late" is the share of intervals longer
               than 1.5 controller periods.
 
+A generated world (``forest:N``, ``crowd:N``, ``people:N``) is driven from its start to its own goals (a forest's
+``exit``), as the scenario runner drives it. ``--arg max_speed:=V`` derives move_base's speed parameters as the
+launcher does (docs/reference.md §10); the budget of each goal then follows V (or ``--time-budget``: the BARN
+challenge's 100 s, say).
+
 Runs: this tree at the machine's load, then (with --without-monitor) this tree with collision_monitor:=false, then (with --baseline, a checkout with its own .venv, or --baseline-python) the
 baseline; then both again with --stress busy-loop processes beside them (--stress 0: no stress
 runs). Each version runs in its own ROS domain. The table ends with the 1-minute load average at
@@ -30,6 +37,7 @@ the end of each run (/proc/loadavg).
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import signal
 import subprocess
@@ -57,11 +65,13 @@ from rclpy.node import Node  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 
 from move_base_msgs.action import MoveBase  # noqa: E402
+from simplebot_description import robot_description  # noqa: E402
 from simplebot_navigation.geometry import pose_in_frame  # noqa: E402
 from simplebot_navigation.launch.loader import LaunchError, load_launch  # noqa: E402
-from simplebot_navigation.launch.overrides import apply_set  # noqa: E402
+from simplebot_navigation.launch.overrides import apply_set, speed_assignments  # noqa: E402
 from simplebot_navigation.ros.conversions import quaternion_msg, yaw_of  # noqa: E402
 from simplebot_navigation.scenarios.runner import parse_goals, time_budget  # noqa: E402
+from simplebot_navigation.sim.diff_drive import drive_for  # noqa: E402
 from simplebot_navigation.sim.world import Pose2D, World  # noqa: E402
 from simplebot_navigation.sim.world_loader import load_world  # noqa: E402
 from simplebot_navigation.testing.proc_stats import cpu_seconds, loadavg  # noqa: E402
@@ -170,7 +180,8 @@ class Run:
                  "rtf:=1", *version.launch_args], cwd=version.checkout, env=env, stdout=log, stderr=subprocess.STDOUT,
                 stdin=subprocess.DEVNULL, start_new_session=True)
         self.context = rclpy.Context()
-        rclpy.init(context=self.context, domain_id=version.domain)
+        # not the bench's own command line: rcl would read its --arg robot:=round as a remap rule
+        rclpy.init(args=[], context=self.context, domain_id=version.domain)
         self.client = BenchClient(self.context)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.client)
@@ -197,10 +208,11 @@ class Run:
             raise RuntimeError(f"the nodes did not come up within {START_TIMEOUT_S:g} s; see {self.log_file}")
         self.pids = node_pids(self.launcher.pid, NODES)     # and the collision monitor, where the version has one
 
-    def drive(self, world: World, goals: list[Pose2D], max_vel_x: float, result: RunResult) -> None:
+    def drive(self, world: World, goals: list[Pose2D], max_vel_x: float, result: RunResult,
+              budget_s: float | None = None) -> None:
         """Each goal in turn; CPU, cycles and cmd_vel intervals accumulate over the goals' active spans."""
         for goal in goals:
-            budget = time_budget(world, self.client.pose, goal, max_vel_x)
+            budget = budget_s or time_budget(world, self.client.pose, goal, max_vel_x)
             cpu0 = {name: cpu_seconds(pid) for name, pid in self.pids.items()}
             wall0, sim0 = time.monotonic(), self.client.sim_time()
             epoch0 = time.time_ns()
@@ -269,13 +281,13 @@ class Run:
 
 
 def run_tour(version: Version, load: str, world: World, goals: list[Pose2D], max_vel_x: float,
-             log_dir: str) -> RunResult:
+             log_dir: str, budget_s: float | None = None) -> RunResult:
     result = RunResult(version.label, load)
     print(f"{version.label}, {load}:", flush=True)
     run = Run(version, log_dir)
     try:
         run.wait_ready()
-        run.drive(world, goals, max_vel_x, result)
+        run.drive(world, goals, max_vel_x, result, budget_s)
     except (RuntimeError, OSError) as err:  # OSError: a node's /proc entry vanished (it died)
         result.error = str(err)
         print(f"  {err}", flush=True)
@@ -332,37 +344,77 @@ def describe(checkout: Path) -> str:
     return commit + ("+" if dirty else "")
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--world", default=WORLD, help=f"the world to drive in (default: {WORLD})")
-    parser.add_argument("--goals", help="goal names of the world, comma-separated (default: all, the lab's tour)")
-    parser.add_argument("--arg", action="append", default=[], metavar="NAME:=VALUE",
-                        help="a launch argument for every version (robot:=round, tight:=true, ...)")
-    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                        help="a move_base parameter for every version (the launcher's --set)")
-    parser.add_argument("--stress", type=int, default=2, help="busy-loop processes of the stress runs (0: none)")
-    parser.add_argument("--baseline", type=Path, help="a checkout to compare against")
-    parser.add_argument("--baseline-python", type=Path,
-                        help="interpreter of the baseline (default: the baseline checkout's .venv/bin/python)")
-    parser.add_argument("--python", default=sys.executable, help="interpreter of this tree (default: this one)")
-    parser.add_argument("--domain", type=int, default=int(os.environ.get("ROS_DOMAIN_ID", "42")),
-                        help="ROS domain of this tree's runs (default: $ROS_DOMAIN_ID or 42)")
-    parser.add_argument("--baseline-domain", type=int, default=44, help="ROS domain of the baseline's runs")
-    parser.add_argument("--without-monitor", action="store_true",
-                        help="also run this tree with collision_monitor:=false (in ROS domain --domain + 1)")
-    args = parser.parse_args()
-    signal.signal(signal.SIGTERM, signal.default_int_handler)  # stopped from outside, it still stops its launchers
+@dataclass
+class Plan:
+    """What the command line asks for, checked before anything starts."""
+
+    world: World
+    goals: list[Pose2D]
+    versions: list[Version]
+    max_vel_x: float
+    period_ms: float
+    stress: int
+    time_budget: float | None
+    speed_report: list[str]
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--world", default=WORLD,
+                   help=f"the world to drive in (default: {WORLD}); a generated one (forest:3) from its start to its "
+                        "goals")
+    p.add_argument("--goals", help="goal names of the world, comma-separated, or 'x,y[,yaw];...' (default: all its "
+                                   "goals: the lab's tour, a forest's exit)")
+    p.add_argument("--arg", action="append", default=[], metavar="NAME:=VALUE",
+                   help="a launch argument for every version (robot:=round, tight:=true, max_speed:=2.0, ...)")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                   help="a move_base parameter for every version (the launcher's --set; it wins over max_speed's)")
+    p.add_argument("--time-budget", type=float,
+                   help="wall seconds per goal before it is canceled (default: from the shortest path and the top "
+                        "speed, as the scenario runner's)")
+    p.add_argument("--stress", type=int, default=2, help="busy-loop processes of the stress runs (0: none)")
+    p.add_argument("--baseline", type=Path, help="a checkout to compare against")
+    p.add_argument("--baseline-python", type=Path,
+                   help="interpreter of the baseline (default: the baseline checkout's .venv/bin/python)")
+    p.add_argument("--python", default=sys.executable, help="interpreter of this tree (default: this one)")
+    p.add_argument("--domain", type=int, default=int(os.environ.get("ROS_DOMAIN_ID", "42")),
+                   help="ROS domain of this tree's runs (default: $ROS_DOMAIN_ID or 42)")
+    p.add_argument("--baseline-domain", type=int, default=44, help="ROS domain of the baseline's runs")
+    p.add_argument("--without-monitor", action="store_true",
+                   help="also run this tree with collision_monitor:=false (in ROS domain --domain + 1)")
+    return p
+
+
+def plan(argv: list[str] | None = None) -> Plan:
+    """Parse and check the command line: the world, its goals, the versions to run and move_base's top speed and
+    control period as the launcher will derive them (max_speed:=V, then --set). A bad value exits with status 2."""
+    p = parser()
+    args = p.parse_args(argv)
     if args.stress < 0:
-        parser.error(f"--stress must be >= 0, got {args.stress}")
+        p.error(f"--stress must be >= 0, got {args.stress}")
+    if args.time_budget is not None and not (math.isfinite(args.time_budget) and args.time_budget > 0):
+        p.error(f"--time-budget must be a positive number of seconds, got {args.time_budget}")
+    bad = [a for a in args.arg if ":=" not in a or not a.partition(":=")[0]]
+    if bad:
+        p.error(f"--arg {bad[0]!r}: expected NAME:=VALUE")
     launch_args = {name: value for name, _, value in (a.partition(":=") for a in args.arg)}
+    if "world" in launch_args:
+        p.error("--arg world:=...: use --world")
     common = tuple(args.arg) + tuple(f"--set={s}" for s in args.set)
     try:
         world = load_world(args.world)
         goals = parse_goals(args.goals, world)
         config = load_launch("navigation", {"world": args.world, **launch_args})
-        apply_set(config, args.set)
+        derived, speed_report = speed_assignments(config, args.set)
+        apply_set(config, derived + args.set)          # as the launcher does: an explicit --set wins
+        simulator = next(n for n in config.nodes if n.type == "simulator").parameters
+        try:                                           # what the simulator would refuse at its start (exit 2)
+            drive_for(robot_description(simulator["robot"], float(simulator["radius"])),
+                      None if simulator["max_speed"] == "" else simulator["max_speed"])
+        except ValueError as err:
+            raise ValueError(f"max_speed:={simulator['max_speed']}: {err}") from None
     except (ValueError, LaunchError) as err:
-        parser.error(str(err))
+        p.error(str(err))
     versions = [Version(f"current {describe(ROOT)}", args.python, ROOT, args.domain, common, args.world)]
     if args.without_monitor:
         versions.append(Version(f"current {describe(ROOT)} collision_monitor:=false", args.python, ROOT,
@@ -370,27 +422,37 @@ def main() -> None:
     if args.baseline is not None:
         python = args.baseline_python or args.baseline / ".venv" / "bin" / "python"
         if not python.exists():
-            parser.error(f"--baseline {args.baseline}: no {python}")
+            p.error(f"--baseline {args.baseline}: no {python}")
         versions.append(Version(f"baseline {describe(args.baseline)}", str(python), args.baseline.resolve(),
                                 args.baseline_domain, common, args.world))
     move_base = next(n for n in config.nodes if n.name == "move_base")
     max_vel_x = float(move_base.parameters.get("TebLocalPlannerROS.max_vel_x", 0.4))
     period_ms = 1e3 / float(move_base.parameters.get("controller_frequency", 20.0))
+    return Plan(world, goals, versions, max_vel_x, period_ms, args.stress, args.time_budget, speed_report)
 
+
+def main(argv: list[str] | None = None) -> None:
+    signal.signal(signal.SIGTERM, signal.default_int_handler)  # stopped from outside, it still stops its launchers
+    bench = plan(argv)
+    world, goals, versions = bench.world, bench.goals, bench.versions
     log_dir = tempfile.mkdtemp(prefix="simplebot_realtime_")
-    print(f"{args.world}: {', '.join(g.name for g in goals)}; launcher logs in {log_dir}", flush=True)
-    results = [run_tour(v, "normal", world, goals, max_vel_x, log_dir) for v in versions]
-    if args.stress:
-        stress = start_stress(args.stress)
+    print(f"{versions[0].world}: {', '.join(g.name for g in goals)}; "
+          f"top speed {bench.max_vel_x:g} m/s; launcher logs in {log_dir}", flush=True)
+    for line in bench.speed_report:
+        print(f"  {line}", flush=True)
+    results = [run_tour(v, "normal", world, goals, bench.max_vel_x, log_dir, bench.time_budget) for v in versions]
+    if bench.stress:
+        stress = start_stress(bench.stress)
         try:
-            results += [run_tour(v, f"stress {args.stress}", world, goals, max_vel_x, log_dir) for v in versions]
+            results += [run_tour(v, f"stress {bench.stress}", world, goals, bench.max_vel_x, log_dir,
+                                 bench.time_budget) for v in versions]
         finally:
             stop_stress(stress)
     print()
     print(f"CPU % of one core while a goal is active (/sim s: move_base's CPU per simulated second, which a "
           f"simulator falling behind real time does not flatter); cycle: move_base's /diagnostics; cmd_vel: intervals between "
-          f"publishes, late > {LATE_FACTOR:g} x {period_ms:g} ms; load1: 1-min load average at the end of the run")
-    print(table(results, period_ms))
+          f"publishes, late > {LATE_FACTOR:g} x {bench.period_ms:g} ms; load1: 1-min load average at the end of the run")
+    print(table(results, bench.period_ms))
 
 
 if __name__ == "__main__":

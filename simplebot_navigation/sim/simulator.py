@@ -27,6 +27,7 @@ A robot's collision counts as "moving" or "standing" by whether it drove itself 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import weakref
 from typing import Sequence
@@ -184,6 +185,19 @@ class SimplebotSim:
         obstacle is a ValueError."""
         check_poses_clear(self.world, [("kidnap pose", pose)], self.description.inscribed_radius)
         self.robots[robot].kidnap(pose)
+
+    def set_moving_keyframes(self, index: int, keyframes: Sequence[Sequence[float]]) -> None:
+        """Give moving obstacle ``index`` (of the world's ``moving:``) new keyframes ((t, x, y), t in sim time),
+        from the next physics step on: an obstacle that appears where a robot is, at a moment a test chooses
+        while it runs. Its shape and size stay. IndexError for an unknown index, MovingObstacleError for bad
+        keyframes (the world's rules); either way the old track stays."""
+        if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < len(self.world.moving):
+            raise IndexError(f"no moving obstacle {index!r}; the world has {len(self.world.moving)}")
+        moving = list(self.world.moving)
+        moving[index] = dataclasses.replace(moving[index], keyframes=tuple(tuple(float(v) for v in frame)
+                                                                           for frame in keyframes))
+        self.world = dataclasses.replace(self.world, moving=tuple(moving))
+        self._tracks = MovingTracks(self.world.moving)
 
     def step(self) -> None:
         """Advance one physics step: drive control, physics, odometry, contacts, due scans."""

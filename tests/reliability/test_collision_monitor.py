@@ -67,8 +67,9 @@ class CommandSource(Node):
         self.sent_to_base.append((self.get_clock().now().nanoseconds * 1e-9, msg.linear.x, msg.angular.z))
 
 
-def start(context, world, robot="box", yaw=0.0, namespace="", monitor=True, v=1.0, **monitor_params):
-    sim = SimulatorNode(context=context, parameter_overrides=SIM_TIME + [
+def start(context, world, robot="box", yaw=0.0, namespace="", monitor=True, v=1.0, max_speed=None, **monitor_params):
+    drive = [] if max_speed is None else [Parameter("max_speed", value=float(max_speed))]
+    sim = SimulatorNode(context=context, parameter_overrides=SIM_TIME + drive + [
         Parameter("world", value=world), Parameter("robot", value=robot), Parameter("real_time_factor", value=0.0),
         Parameter("namespaces", value=namespace), Parameter("starts", value=f"0,0,{yaw}")])
     nodes = []
@@ -102,6 +103,21 @@ def test_a_command_at_1_m_s_into_a_wall_stops_short_of_it(context, world, robot,
     assert abs(sim.sim.ground_truth().x) > 2.5          # it did drive, and fast
     assert max(abs(v) for _, v, _ in source.sent_to_base) > 0.9
     assert abs(source.sent_to_base[-1][1]) < 0.01        # and is held still in front of the wall
+    driver.executor.shutdown()
+
+
+def test_a_command_at_2_m_s_into_a_wall_stops_short_of_it_with_the_jackal_drive(context, world):
+    # The approach check's 0.5 s horizon is 1 m at 2 m/s: the drive's 0.8 m to stop at 2.5 m/s^2 (0.4 s) and a
+    # command period's travel (0.1 m) fit in it (docs/reference.md §5.1).
+    sim, _, source, driver = start(context, world, "round", v=2.0, max_speed=2.0)
+    peak = []
+    driver.on_step(lambda: peak.append(sim.sim.ground_truth().vx))
+    driver.run_until(8.0)
+    gap = wall_gap(sim, "round")
+    assert max(peak) == pytest.approx(2.0, abs=0.01)                 # at full speed before the horizon
+    assert sim.sim.collisions(0).count == 0
+    assert 0.0 < gap < 0.5, f"stopped {gap:.2f} m from the wall"
+    assert abs(source.sent_to_base[-1][1]) < 0.01
     driver.executor.shutdown()
 
 

@@ -69,6 +69,31 @@ def test_ground_truth_of_the_moving_obstacles(make_sim):
         MovingObstacleState("moving[1] (cart)", "box", 3.5, 3.0, 1.0, 0.0, (0.5, 0.4))]
 
 
+def test_an_obstacle_given_new_keyframes_while_running_appears_at_the_next_step(make_sim):
+    # Parked 20 m aside until a moment chosen at run time, then 2 m ahead: seen and touched there.
+    sim = make_sim(World("appear", moving=(crossing((0.0, 0.0, 20.0), (1.0, 0.0, 20.0), name="post"),)))
+    assert np.isinf(front_range_at(sim, 0.5))
+    sim.set_moving_keyframes(0, [(0.0, 0.0, 20.0), (0.6, 0.0, 20.0), (0.61, 2.0, 0.0)])
+    assert front_range_at(sim, 0.7) == pytest.approx(2.0 - 0.2 - LASER_X, abs=0.01)
+    assert sim.moving_obstacle_states()[0][:4] == ("moving[0] (post)", "cylinder", 2.0, 0.0)
+    sim.set_moving_keyframes(0, [(0.0, 0.6, 0.0), (1.0, 0.6, 0.0)])           # onto the robot (front at 0.45)
+    sim.step_until(0.8)
+    assert sim.collisions().count_standing == 1 and sim.collisions().last_obstacle == "moving[0] (post)"
+
+
+@pytest.mark.parametrize("index, keyframes, error", [
+    (1, [(0.0, 1.0, 1.0), (1.0, 1.0, 1.0)], IndexError),
+    (0, [(0.0, 1.0, 1.0)], ValueError),                            # fewer than two
+    (0, [(1.0, 1.0, 1.0), (0.5, 1.0, 1.0)], ValueError),           # time going back
+])
+def test_bad_new_keyframes_are_refused_and_the_old_track_stays(make_sim, index, keyframes, error):
+    sim = make_sim(World("keep", moving=(crossing((0.0, 3.0, 0.0), (1.0, 3.0, 0.0)),)))
+    with pytest.raises(error):
+        sim.set_moving_keyframes(index, keyframes)
+    sim.step_until(0.5)
+    assert sim.moving_obstacle_states()[0].x == 3.0
+
+
 def test_an_obstacle_running_into_a_standing_robot_is_a_strike(make_sim):
     # It comes from behind at 0.5 m/s and runs on through the robot's place.
     sim = make_sim(World("struck", moving=(crossing((0.0, -2.0, 0.0), (8.0, 2.0, 0.0), name="walker"),)))
