@@ -12,6 +12,10 @@ import numpy as np
 from simplebot_navigation.geometry import normalize_theta
 from simplebot_navigation.teb.edge_kernels import MIN_TIME_DIFF
 
+#: a band segment shorter than this (m) is a turn on the spot: its time is not scaled by the distance
+#: still to drive at a warm start
+MIN_SCALED_SEGMENT = 1e-3
+
 
 def estimate_delta_t(p0, p1, max_vel_x: float, max_vel_theta: float) -> float:
     """Time for a constant-velocity move from p0 to p1 at the velocity limits."""
@@ -83,7 +87,15 @@ class TimedElasticBand:
 
     def update_and_prune(self, new_start, new_goal, min_samples: int) -> None:
         """Warm start: drop the poses the robot has passed (searching up to 10 ahead for the
-        nearest), then pin the new start and goal."""
+        nearest), then pin the new start and goal.
+
+        The new first segment, from the robot to the first pose kept, gets the time the old band
+        planned for that stretch: the time of the old segment it lies on (from the nearest pose on),
+        scaled by the share of that segment still to drive. TEB keeps the old first segment's time
+        whatever the robot drove meanwhile, so the first segment's speed swings with where the robot
+        happens to stand between two poses (at 2 m/s and 20 Hz it passes 2/3 of a 0.075 s segment
+        per cycle: half the cycles a dip, the others a spike), and the command, which is that speed,
+        alternates between braking and speeding up (see tests/teb/test_braking.py)."""
         if new_start is not None and self.is_init:
             dist = np.hypot(self.poses[:, 0] - new_start[0], self.poses[:, 1] - new_start[1])
             lookahead = min(len(self.poses) - min_samples, 10)
@@ -93,10 +105,19 @@ class TimedElasticBand:
                     nearest = i
                 else:
                     break
+            first_dt = None
+            if len(self.time_diffs) > nearest:
+                length = math.hypot(*(self.poses[nearest + 1, :2] - self.poses[nearest, :2]))
+                first_dt = float(self.time_diffs[nearest])
+                if length > MIN_SCALED_SEGMENT:
+                    ahead = math.hypot(*(self.poses[nearest + 1, :2] - np.asarray(new_start[:2], dtype=float)))
+                    first_dt = max(first_dt * ahead / length, MIN_TIME_DIFF)
             if nearest > 0:
                 self.poses = np.delete(self.poses, np.s_[1:nearest + 1], axis=0)
                 self.time_diffs = np.delete(self.time_diffs, np.s_[1:nearest + 1])
             self.poses[0] = new_start
+            if first_dt is not None:
+                self.time_diffs[0] = first_dt
         if new_goal is not None and self.is_init:
             self.poses[-1] = new_goal
 
@@ -118,9 +139,11 @@ class TimedElasticBand:
                         dts.insert(i + 1, half)
                         modified = True
                         continue  # re-check the halved interval
-                    if i < len(dts) - 1:
-                        dts[i + 1] += dts[i] - dt_ref
-                    dts[i] = dt_ref
+                    if i > 0:
+                        # upstream's retiming to dt_ref, the surplus to the next interval (poses stay)
+                        if i < len(dts) - 1:
+                            dts[i + 1] += dts[i] - dt_ref
+                        dts[i] = dt_ref
                 elif dts[i] < dt_ref - dt_hysteresis and len(dts) > min_samples:
                     if i < len(dts) - 1:
                         dts[i + 1] += dts[i]

@@ -9,6 +9,10 @@ from collections import deque
 
 import numpy as np
 
+#: a turn rate below this fraction of max_vel_theta counts as no turn when the flips of its sign are counted: the
+#: optimiser's numerical noise around a standstill (1e-4 rad/s of either sign) is not a robot rocking to and fro
+TURN_NOISE_FLOOR = 0.01
+
 
 def buffer_length(filter_duration: float, controller_period: float) -> int:
     """Commands in oscillation_filter_duration seconds of control cycles."""
@@ -44,11 +48,11 @@ class FailureDetector:
         return self.oscillating
 
     def _detect(self, v_eps: float, omega_eps: float) -> bool:
-        """Only once the buffer is half full: small mean v and omega, and omega's sign (zero
-        counting as a sign of its own) changed more than once."""
+        """Only once the buffer is half full: small mean v and omega, and omega's sign (zero, or a turn rate below
+        the noise floor, counting as a sign of its own) changed more than once."""
         if len(self._buffer) < self._buffer.maxlen // 2:
             return False
         v, omega = np.array(self._buffer).T
-        sign = np.sign(omega)
+        sign = np.where(np.abs(omega) < TURN_NOISE_FLOOR, 0.0, np.sign(omega))
         crossings = int(np.count_nonzero(sign[1:] != sign[:-1]))
         return bool(abs(v.mean()) < v_eps and abs(omega.mean()) < omega_eps and crossings > 1)

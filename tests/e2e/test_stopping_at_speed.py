@@ -52,7 +52,21 @@ def corridor(tmp_path_factory):
 
 @pytest.mark.parametrize("gap", [2.0, 3.0])
 def test_the_stack_stops_short_of_an_obstacle_appearing_ahead_at_2_m_s(corridor, gap):
-    with NavigationSession(corridor, robot="round", radius=RADIUS, tight=True, max_speed=SPEED) as session:
+    _stops_short(corridor, gap, collision_monitor=True)
+
+
+@pytest.mark.parametrize("gap", [2.0, 3.0])
+def test_move_base_alone_stops_short_of_an_obstacle_appearing_ahead_at_2_m_s(corridor, gap):
+    """Without the collision monitor: TEB alone must brake at its acc_lim_x. It used to run into the box from both
+    distances (at 1.2 m/s from 2 m, 0.7 m/s from 3 m), its commands alternating between braking and speeding up
+    because a warm-started band kept its first segment's time whatever the robot had driven meanwhile (and the
+    band's resizing retimed that segment without moving its poses)."""
+    _stops_short(corridor, gap, collision_monitor=False)
+
+
+def _stops_short(corridor, gap, collision_monitor):
+    with NavigationSession(corridor, robot="round", radius=RADIUS, tight=True, max_speed=SPEED,
+                           collision_monitor=collision_monitor) as session:
         sim = session.sim.sim
         truth: list[tuple[float, float, float, float]] = []     # (t, x, y, vx) after every lockstep event
         session.driver.on_step(lambda: truth.append((sim.sim_time, *_xyv(sim.ground_truth()))))

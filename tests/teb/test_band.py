@@ -21,7 +21,10 @@ def test_auto_resize_keeps_every_dt_within_hysteresis(seed):
     total = band.sum_of_time_diffs
     start, goal = band.poses[0].copy(), band.poses[-1].copy()
     band.auto_resize(dt, hyst, 3, 100, fast_mode=False)
-    assert np.all(np.abs(band.time_diffs - dt) <= hyst + 1e-3)
+    # the first interval is split or merged but never retimed in place (see
+    # test_resizing_does_not_retime_the_first_segment_under_its_poses): up to 2 dt_ref
+    assert np.all(np.abs(band.time_diffs[1:] - dt) <= hyst + 1e-3)
+    assert dt - hyst - 1e-3 <= band.time_diffs[0] <= 2 * dt + 1e-9
     assert len(band.poses) == len(band.time_diffs) + 1
     np.testing.assert_array_equal(band.poses[0], start)
     np.testing.assert_array_equal(band.poses[-1], goal)
@@ -68,3 +71,33 @@ def test_warm_start_prunes_passed_poses_and_pins_start_and_goal():
     np.testing.assert_allclose(band.poses[1:-1, 0], [0.4, 0.5, 0.6])
     np.testing.assert_allclose(band.poses[-1], [0.7, 0.05, 0.0])
     assert len(band.time_diffs) == 4
+
+
+@pytest.mark.parametrize("driven", [0.05, 0.1])
+def test_warm_start_gives_the_first_segment_the_time_left_on_the_old_band(driven):
+    # 2 m/s with poses 0.15 m apart (dt_ref 0.075 s, max_speed 2.0); the robot drove `driven` since the last
+    # cycle. TEB kept the old first interval (0.075 s) for whatever was left: 0.1 m (1.33 m/s) or, with pose 1
+    # dropped, 0.2 m (2.67 m/s), so the commanded speed alternated from cycle to cycle.
+    poses = np.column_stack([np.arange(12) * 0.15, np.zeros(12), np.zeros(12)])
+    band = TimedElasticBand(poses, np.full(11, 0.075))
+    band.update_and_prune(np.array([driven, 0.0, 0.0]), poses[-1], min_samples=3)
+    first = math.hypot(*(band.poses[1, :2] - band.poses[0, :2])) / band.time_diffs[0]
+    assert first == pytest.approx(2.0)
+    np.testing.assert_allclose(band.time_diffs[1:], 0.075)
+
+
+def test_a_turn_on_the_spot_keeps_its_time_at_a_warm_start():
+    poses = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.5], [0.0, 0.0, 1.0], [0.5, 0.5, 1.0]])
+    band = TimedElasticBand(poses, np.array([0.25, 0.25, 0.5]))
+    band.update_and_prune(np.array([0.0, 0.0, 0.2]), poses[-1], min_samples=3)
+    np.testing.assert_allclose(band.time_diffs, [0.25, 0.25, 0.5])
+
+
+def test_resizing_does_not_retime_the_first_segment_under_its_poses():
+    # dt_0 between dt_ref + dt_hysteresis and 2 dt_ref: upstream sets it to dt_ref and hands the rest to dt_1,
+    # the poses staying where they are, so the first segment (the command) jumps from 2.0 to 2.67 m/s
+    poses = np.column_stack([np.arange(6) * 0.2, np.zeros(6), np.zeros(6)])
+    band = TimedElasticBand(poses, np.full(5, 0.1))
+    band.auto_resize(0.075, 0.0075, 3, 100, fast_mode=True)
+    assert band.poses[1, 0] / band.time_diffs[0] == pytest.approx(2.0)
+    np.testing.assert_allclose(band.time_diffs[1:4], 0.075)       # the later ones are, as upstream does

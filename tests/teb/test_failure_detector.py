@@ -27,6 +27,7 @@ def test_a_small_turn_rate_that_keeps_changing_sign_is_detected_once_the_buffer_
     [(0.0, 0.2)] * 20,                                    # turning on the spot
     [(0.3, 0.05 * (-1) ** k) for k in range(20)],         # driving, wobbling
     [(0.0, 0.1 * (-1) ** (k // 10)) for k in range(20)],  # one change of direction
+    [(0.0, 6e-4 * (-1) ** k) for k in range(20)],         # standing: the optimiser's noise around zero
 ])
 def test_a_steady_turn_driving_or_a_single_change_of_direction_is_no_oscillation(commands):
     assert not any(feed(FailureDetector(20), commands))
