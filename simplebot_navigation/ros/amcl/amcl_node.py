@@ -36,6 +36,7 @@ from simplebot_navigation.parameters import ParameterError, fields_of
 from simplebot_navigation.parameters.spec import Param
 from simplebot_navigation.ros.amcl import amcl_messages as messages
 from simplebot_navigation.ros.conversions import occupancy_map_from_msg, pose_array_msg, transform_to_xyyaw
+from simplebot_navigation.ros.costmap.costmap_log import Throttle
 from simplebot_navigation.ros.node_main import SetUpNode, run_node
 from simplebot_navigation.ros.params import declare_defaults, descriptor, given_parameter_tree
 from simplebot_navigation.ros.lifecycle_state import serve_lifecycle_state
@@ -97,6 +98,7 @@ class AmclNode(SetUpNode):
         self.amcl: Amcl | None = None               # until the first map
         self._pending_pose: tuple | None = None     # an initial pose that came before the map
         self._pending: deque = deque(maxlen=MAX_PENDING)
+        self._throttle = Throttle()
         self._sensor_poses: dict[str, tuple[float, float, float]] = {}
         self._map_to_odom: tuple[float, float, float] | None = None
         self._newest = -math.inf
@@ -272,26 +274,32 @@ class AmclNode(SetUpNode):
         try:
             scan = messages.range_scan(msg, self._sensor_pose(strip_frame(msg.header.frame_id)))
         except (ValueError, TransformException) as err:
-            self.get_logger().warn(f"{topic}: scan dropped: {err}", throttle_duration_sec=5.0)
+            self._warn_dropped(topic, msg, err)
             return True
         try:
             odom = transform_to_xyyaw(self.tf.lookup_transform(self.odom_frame, self.base_frame, stamp))
         except ExtrapolationException:
             return False
         except TransformException as err:
-            self.get_logger().warn(f"{topic}: scan dropped: {err}", throttle_duration_sec=5.0)
+            self._warn_dropped(topic, msg, err)
             return True
         try:
             self.amcl.odometry_update(odom)
             updated = self.amcl.sensor_update([scan], source=topic)
         except ValueError as err:
-            self.get_logger().warn(f"{topic}: scan dropped: {err}", throttle_duration_sec=5.0)
+            self._warn_dropped(topic, msg, err)
             return True
         self._newest = max(self._newest, t)
         if updated or self._map_to_odom is None:
             self._publish_estimate(odom, msg.header.stamp)
         self._send_map_to_odom(t)
         return True
+
+    def _warn_dropped(self, topic: str, msg: LaserScan, err: Exception) -> None:
+        """Every 5 s at most per topic, frame and kind of problem: a new problem is told at once, a repeated one
+        does not flood the log (rclpy's own throttle is per call site and would hide the new one)."""
+        if self._throttle((topic, msg.header.frame_id, type(err).__name__), 5.0):
+            self.get_logger().warn(f"{topic}: scan dropped: {err}")
 
     def _sensor_pose(self, frame: str) -> tuple[float, float, float]:
         if frame not in self._sensor_poses:
