@@ -91,6 +91,9 @@ class ScenarioClient(Node):
         self.collisions = 0              # the robot's own: it drove into something (simulator's count_moving)
         self.struck_standing = 0         # something ran into it while it stood (count_standing)
         self.status: GoalStatusArray | None = None
+        #: goal id -> a GoalRun that ended before move_base's status told why (the result and the status topic
+        #: are separate channels; between processes either may come first)
+        self.awaiting_reason: dict[str, GoalRun] = {}
         self.create_subscription(Odometry, "simplebot/ground_truth", self._on_truth, 100)
         self.create_subscription(PoseWithCovarianceStamped, "amcl_pose", self._on_amcl_pose, 10)
         self.create_subscription(DiagnosticStatus, "simplebot/collisions", self._on_collisions, LATCHED)
@@ -111,6 +114,8 @@ class ScenarioClient(Node):
 
     def _on_status(self, msg: GoalStatusArray) -> None:
         self.status = msg
+        for goal_id in [g for g in self.awaiting_reason if self.status_text(g)]:
+            self.awaiting_reason.pop(goal_id).reason = self.status_text(goal_id)
 
     def record_commands(self) -> list[tuple[float, float, float]]:
         """From now on, (monotonic wall time, v, omega) of every cmd_vel the robot is sent: when it was told what,
@@ -242,6 +247,8 @@ class _Session(abc.ABC):
         run.finished_at = self.time
         goal_id = str(uuid.UUID(bytes=bytes(run.handle.goal_id.uuid)))
         run.reason = self.client.status_text(goal_id) if status != "SUCCEEDED" else ""
+        if status != "SUCCEEDED" and not run.reason:
+            self.client.awaiting_reason[goal_id] = run
 
     def cancel(self, run: GoalRun) -> None:
         if run.handle is not None and not run.done:
