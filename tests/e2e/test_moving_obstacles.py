@@ -27,6 +27,9 @@ CROWD = AT_ONE_METRE_PER_SECOND + ("global_costmap.width=50.0", "global_costmap.
                                    "TebLocalPlannerROS.include_dynamic_obstacles=true", "obstacle_tracking.enabled=true")
 PREDICTION = ("TebLocalPlannerROS.include_dynamic_obstacles=true", "obstacle_tracking.enabled=true")
 STALE_AFTER_S = 1.0
+#: a mark that went stale is cleared by the next scan (10 Hz) the local costmap processes (10 Hz updates): so a
+#: cell counts as stale once nothing explained it for STALE_AFTER_S plus one scan and one update period
+CLEARING_LAG_S = 0.2
 #: cells within this of a wall or of a moving obstacle's recent place are explained (two cells and the
 #: clearing margin)
 EXPLAINED_M = 0.2
@@ -67,7 +70,7 @@ class StaleMarks:
         c, s = math.cos(oyaw), math.sin(oyaw)
         cells = np.column_stack([ox + c * x - s * y, oy + s * x + c * y])
         unexplained = self.world.distance(cells) > EXPLAINED_M
-        for t in np.arange(now - STALE_AFTER_S, now + 1e-9, 0.05):
+        for t in np.arange(now - STALE_AFTER_S - CLEARING_LAG_S, now + 1e-9, 0.05):
             states = self.tracks.states(float(t))
             near = np.hypot(cells[:, None, 0] - states[:, 0], cells[:, None, 1] - states[:, 1]) \
                 <= self.tracks.reach + EXPLAINED_M
