@@ -2,8 +2,9 @@
 derived from it.
 
 A faster robot needs more than a higher ``max_vel_x``: its turn rate and accelerations must grow with it, or it
-crawls through every bend; TEB's poses must stay as close together in space, or the band skips over a thin
-post between two of them; and it must see far enough to stop. The rules below keep those in proportion; they
+crawls through every bend; TEB's poses must stay close together in space, or the band skips over a thin post
+between two of them, but not in time, or the acceleration edges take over the band; and it must see far enough
+to stop. The rules below keep those in proportion; they
 reproduce the 1 m/s set the forest benchmark was tuned with.
 """
 
@@ -21,8 +22,13 @@ LIDAR_RANGE_M = 5.6
 REACTION_S = 0.25
 #: kept free between the stopped robot and the obstacle it stopped for
 STOP_MARGIN_M = 0.5
-#: TEB's poses at top speed lie at most this far apart: the diameter of the thinnest posts of the forests
+#: TEB's poses at top speed lie this far apart while MIN_DT_REF_S allows: the thinnest posts' diameter
 BAND_STEP_M = 0.15
+#: the shortest dt_ref: an acceleration edge divides the noise of three poses by dt^2, and below about 0.15 s
+#: those edges outweigh the rest of the band, which the optimiser then slows down and folds to satisfy them
+#: (forest set at 2 m/s: dt_ref 0.075 s scored 0.353, 0.15 s 0.483, BENCHMARKS.md). At 2 m/s the poses are then
+#: 0.3 m apart, still inside the round body's 0.5 m; the feasibility check fills in poses anyway.
+MIN_DT_REF_S = 0.15
 
 
 def stopping_distance(speed: float, decel: float) -> float:
@@ -45,7 +51,8 @@ def speed_parameters(speed: float, viapoints_on: bool) -> dict[str, float | int]
     if problem is not None:
         raise ValueError(problem)
     acc = max(0.5, speed)                     # m/s^2: top speed within a second (TEB's default 0.5 at least)
-    dt_ref = math.floor(min(0.3, BAND_STEP_M / speed) * 1e4) / 1e4   # TEB's 0.3 s while poses stay close enough
+    # TEB's 0.3 s while the poses stay close enough, never below MIN_DT_REF_S
+    dt_ref = math.floor(min(0.3, max(MIN_DT_REF_S, BAND_STEP_M / speed)) * 1e4) / 1e4
     stop = stopping_distance(speed, acc)
     # the local costmap (whole metres, as costmap_2d's width): the lab's 5 m, more when stopping needs it
     window = max(5, math.ceil(2.0 * (stop + 1.0)))

@@ -65,7 +65,7 @@ def test_max_speed_derives_the_speed_parameters_and_an_explicit_set_wins():
                           cwd=REPO, capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     lines = done.stdout.splitlines()
-    assert "TebLocalPlannerROS.max_vel_x: 2.0" in lines and "TebLocalPlannerROS.dt_ref: 0.075" in lines
+    assert "TebLocalPlannerROS.max_vel_x: 2.0" in lines and "TebLocalPlannerROS.dt_ref: 0.15" in lines
     assert "local_costmap.width: 6" in lines and "controller_frequency: 20.0" in lines
     assert "TebLocalPlannerROS.max_vel_theta: 1.5" in lines                   # the explicit --set, not 2.0
     assert "# --set TebLocalPlannerROS.max_vel_theta=1.5 replaces max_speed's 2" in lines

@@ -4,14 +4,13 @@ import math
 
 import pytest
 
-from simplebot_navigation.move_base.speed_profile import (BAND_STEP_M, LIDAR_RANGE_M, check_speed, speed_parameters,
-                                                          stopping_distance)
+from simplebot_navigation.move_base.speed_profile import (BAND_STEP_M, LIDAR_RANGE_M, MIN_DT_REF_S, check_speed,
+                                                          speed_parameters, stopping_distance)
 
 SPEEDS = (0.4, 0.7, 1.0, 1.5, 2.0)
 #: what grows with the speed, and what shrinks
 GROWS = ("TebLocalPlannerROS.max_vel_x", "TebLocalPlannerROS.max_vel_theta", "TebLocalPlannerROS.acc_lim_x",
-         "TebLocalPlannerROS.acc_lim_theta", "TebLocalPlannerROS.max_vel_x_backwards",
-         "TebLocalPlannerROS.feasibility_check_no_poses", "local_costmap.width",
+         "TebLocalPlannerROS.acc_lim_theta", "TebLocalPlannerROS.max_vel_x_backwards", "local_costmap.width",
          "local_costmap.obstacles.front_laser.obstacle_range")
 SHRINKS = ("TebLocalPlannerROS.dt_ref", "TebLocalPlannerROS.dt_hysteresis", "progress_timeout")
 
@@ -38,11 +37,14 @@ def test_each_derived_parameter_follows_the_speed(name):
 @pytest.mark.parametrize("speed", SPEEDS)
 def test_the_band_stays_fine_and_the_robot_can_stop_inside_what_it_sees(speed):
     p = speed_parameters(speed, True)
-    assert speed * p["TebLocalPlannerROS.dt_ref"] <= BAND_STEP_M + 1e-9           # poses no further apart
+    dt_ref = p["TebLocalPlannerROS.dt_ref"]
+    assert dt_ref >= MIN_DT_REF_S                   # the acceleration edges do not take over the band
+    # poses no further apart than the thinnest posts where dt_ref allows, and always within the round body
+    assert speed * dt_ref <= max(BAND_STEP_M, speed * MIN_DT_REF_S) + 1e-9 <= 2 * 0.15 + 1e-9
     stop = stopping_distance(speed, p["TebLocalPlannerROS.acc_lim_x"])
     sight = p["local_costmap.obstacles.front_laser.obstacle_range"]
     assert stop < sight <= LIDAR_RANGE_M and stop < p["local_costmap.width"] / 2
-    checked = p["TebLocalPlannerROS.feasibility_check_no_poses"] * speed * p["TebLocalPlannerROS.dt_ref"]
+    checked = p["TebLocalPlannerROS.feasibility_check_no_poses"] * speed * dt_ref
     assert checked >= stop                           # TEB checks the band for collisions as far as it takes to stop
     assert isinstance(p["local_costmap.width"], int)  # costmap_2d's width is whole metres
     assert speed * 1.0 / p["controller_frequency"] <= 0.1 + 1e-9

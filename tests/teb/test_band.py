@@ -75,7 +75,7 @@ def test_warm_start_prunes_passed_poses_and_pins_start_and_goal():
 
 @pytest.mark.parametrize("driven", [0.05, 0.1])
 def test_warm_start_gives_the_first_segment_the_time_left_on_the_old_band(driven):
-    # 2 m/s with poses 0.15 m apart (dt_ref 0.075 s, max_speed 2.0); the robot drove `driven` since the last
+    # 2 m/s with poses 0.15 m apart (dt_ref 0.075 s); the robot drove `driven` since the last
     # cycle. TEB kept the old first interval (0.075 s) for whatever was left: 0.1 m (1.33 m/s) or, with pose 1
     # dropped, 0.2 m (2.67 m/s), so the commanded speed alternated from cycle to cycle.
     poses = np.column_stack([np.arange(12) * 0.15, np.zeros(12), np.zeros(12)])

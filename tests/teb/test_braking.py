@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from simplebot_navigation.move_base.speed_profile import speed_parameters
 from simplebot_navigation.teb.config import TebConfig
 from simplebot_navigation.teb.planner import TebLocalPlanner
 from tests.teb.scenes import box_cells, rolling_costmap
@@ -13,10 +14,11 @@ from tests.teb.scenes import box_cells, rolling_costmap
 #: the round body r = 0.25 with max_speed 2.0 (move_base/speed_profile.py) and the narrow-passage set
 RADIUS = 0.25
 PERIOD = 0.05
+PREFIX = "TebLocalPlannerROS."
 PARAMS = {"footprint_model": {"type": "circular", "radius": RADIUS}, "allow_init_with_backwards_motion": True,
-          "min_obstacle_dist": 0.03, "inflation_dist": 0.15, "global_plan_viapoint_sep": -0.1, "max_vel_x": 2.0,
-          "max_vel_x_backwards": 0.5, "max_vel_theta": 2.0, "acc_lim_x": 2.0, "acc_lim_theta": 2.0, "dt_ref": 0.075,
-          "dt_hysteresis": 0.0075, "max_global_plan_lookahead_dist": 3.0, "feasibility_check_no_poses": 14}
+          "min_obstacle_dist": 0.03, "inflation_dist": 0.15, "global_plan_viapoint_sep": -0.1,
+          **{name.removeprefix(PREFIX): value for name, value in speed_parameters(2.0, viapoints_on=False).items()
+             if name.startswith(PREFIX)}}
 #: the Jackal drive's acceleration (sim/diff_drive.py): the robot reaches a command within a control period
 DRIVE_ACCEL = 2.5
 
