@@ -1,6 +1,7 @@
 """max_speed: every speed-dependent parameter derived from one number (docs/reference.md §10)."""
 
 import math
+from pathlib import Path
 
 import pytest
 
@@ -55,3 +56,26 @@ def test_a_speed_outside_the_rules_is_refused(bad):
     assert "max_speed" in check_speed(bad)
     with pytest.raises(ValueError, match="max_speed"):
         speed_parameters(bad, False)
+
+
+def test_reference_table_gives_the_derived_values():
+    """docs/reference.md §10's table is the contract: each row's values at 0.4, 1.0, 1.5 and 2.0 m/s are what the
+    rules derive (to the table's rounding)."""
+    text = (Path(__file__).resolve().parents[2] / "docs" / "reference.md").read_text()
+    section = text[text.index("## 10. One speed setting"):text.index("## 11.")]
+    header = next(line for line in section.splitlines() if line.startswith("| parameter | rule |"))
+    speeds = [float(cell) for cell in header.strip("|").split("|")[2:]]
+    rows = [line for line in section.splitlines() if line.startswith("| `")]
+    checked = 0
+    for row in rows:
+        cells = [cell.strip() for cell in row.strip("|").split("|")]
+        names = [n.strip("` ") for n in cells[0].split(",")]
+        for speed, cell in zip(speeds, cells[2:]):
+            derived = speed_parameters(speed, viapoints_on=True)
+            for name in names:
+                name = name.replace("<laser>", "front_laser")
+                key = next(k for k in derived if k.split(".", 1)[-1] == name.split(".", 1)[-1]
+                           or k == f"local_costmap.{name}")
+                assert float(derived[key]) == pytest.approx(float(cell), abs=0.006), (name, speed, derived[key], cell)
+                checked += 1
+    assert checked >= 13 * len(speeds)
