@@ -5,7 +5,8 @@ from pathlib import Path
 
 from simplebot_navigation.kernel_cache import SHARED_KERNELS, drop_stale_kernel_caches
 
-drop_stale_kernel_caches(Path(__file__).parent, ("footprint_kernels", "edge_kernels", "solver_kernels"),
+drop_stale_kernel_caches(Path(__file__).parent,
+                         ("footprint_kernels", "edge_kernels", "solver_kernels", "evasion_kernels"),
                          inlined=(SHARED_KERNELS,))
 
 from simplebot_navigation.teb.config import TebConfig

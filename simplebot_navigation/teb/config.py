@@ -138,6 +138,10 @@ class TebConfig:
     dynamic_obstacle_radius_growth: float = param(0.0, "m/s", "Here: a predicted obstacle's radius grows by this "
                                                   "per second of prediction (with include_dynamic_obstacles)",
                                                   ge=0, le=2.0)
+    dynamic_obstacle_evasion_horizon: float = param(2.5, "s", "Here: when the band or a standstill would meet a "
+                                                    "predicted moving obstacle within this time, drive the sampled "
+                                                    "command that meets one latest (0: stop as TEB does)",
+                                                    ge=0, le=10.0)
     weight_velocity_obstacle_ratio: float = param(0.0, "", "weight of the speed limit near obstacles", ge=0,
                                                   not_implemented=_PROXIMITY)
     weight_viapoint: float = param(1.0, "", "weight of the distance to via-points", ge=0)

@@ -178,9 +178,12 @@ def warm_up() -> None:
     """Compile (or load from numba's cache) the kernels of a control cycle on a tiny band, so the
     first goal does not wait for the compiler."""
     from simplebot_navigation.teb.config import TebConfig
+    from simplebot_navigation.teb.evasion_kernels import rollout_contacts, rollouts
     from simplebot_navigation.teb.footprint import FootprintModel
 
     band = TimedElasticBand(np.column_stack([np.linspace(0.0, 1.5, 4), np.zeros(4), np.zeros(4)]), np.full(3, 0.3))
+    moving = np.array([[1.0, -0.5, 0.0, 1.0, 0.2]])
     TebOptimizer(TebConfig(), FootprintModel.point()).optimize(band, np.array([[0.7, 0.4]]), np.array([[1.0, 0.1]]),
-                                                              (0.0, 0.0), False,
-                                                              dynamic_obstacles=np.array([[1.0, -0.5, 0.0, 1.0, 0.2]]))
+                                                              (0.0, 0.0), False, dynamic_obstacles=moving)
+    poses = rollouts(0.0, 0.0, 0.0, 0.0, 0.0, np.ones((1, 2)), 1.0, 1.0, 0.1, 3)
+    rollout_contacts(poses, np.arange(4) * 0.1, moving, FootprintModel.point().kernel_model, 0.0, 0.1, 0.5)

@@ -16,6 +16,7 @@ from simplebot_navigation.geometry import normalize_theta
 from simplebot_navigation.parameters import fields_of
 from simplebot_navigation.teb.command import saturate, velocity_from_band
 from simplebot_navigation.teb.config import TebConfig
+from simplebot_navigation.teb.evasion import MIN_GAIN_S, band_contact_time, choose_evasion
 from simplebot_navigation.teb.failure_detector import FailureDetector, buffer_length
 from simplebot_navigation.teb.feasibility import collision_model, is_trajectory_feasible
 from simplebot_navigation.teb.footprint import FootprintModel
@@ -216,23 +217,51 @@ class TebLocalPlanner:
                                           cfg.min_resolution_collision_check_angular, band.time_stamps, moving,
                                           self.collision_model)
 
+        evading = cfg.include_dynamic_obstacles and cfg.dynamic_obstacle_evasion_horizon > 0 and len(moving) > 0
         if not self.planner.remove_infeasible_best(feasible):
-            return self._infeasible("trajectory is not feasible. Resetting planner...")
+            evasion = self._evasion(pose, vel, local_goal, moving, costmap) if evading else None
+            if evasion is None or not (evasion.standstill_contact_time < cfg.dynamic_obstacle_evasion_horizon
+                                       and evasion.contact_time > evasion.standstill_contact_time + MIN_GAIN_S):
+                return self._infeasible("trajectory is not feasible. Resetting planner...")
+            self._drop_bands()
+            return self._command(evasion.v, evasion.omega, vel)
         self._infeasible_in_a_row = 0
         command = velocity_from_band(self.planner.best_band(), cfg)
         if command is None:
             return self._infeasible("velocity command invalid. Resetting planner...")
-        v, omega = saturate(*command, vel, cfg, self.controller_period)
+        if evading:
+            band = self.planner.best_band()
+            met = band_contact_time(self.collision_model, band.poses, band.time_stamps, moving,
+                                    cfg.dynamic_obstacle_evasion_horizon)
+            if met < math.inf:
+                evasion = self._evasion(pose, vel, local_goal, moving, costmap)
+                if evasion.contact_time > met + MIN_GAIN_S:
+                    return self._command(evasion.v, evasion.omega, vel)
+        return self._command(*command, vel)
+
+    def _command(self, v: float, omega: float, vel) -> VelocityCommandResult:
+        """The command held to the acceleration window and the limits, remembered for the oscillation check."""
+        v, omega = saturate(v, omega, vel, self.cfg, self.controller_period)
         self._last_command = (v, omega)
         return VelocityCommandResult(v, omega, True, "")
 
+    def _evasion(self, pose, vel, local_goal, moving, costmap):
+        cfg = self.cfg
+        return choose_evasion(pose, vel, local_goal, moving, costmap, self.costmap_footprint, self.collision_model,
+                              (cfg.max_vel_x, cfg.max_vel_x_backwards, cfg.max_vel_theta, cfg.acc_lim_x,
+                               cfg.acc_lim_theta), cfg.dynamic_obstacle_evasion_horizon)
+
     def _infeasible(self, message: str) -> VelocityCommandResult:
-        """No valid command this cycle: drop the bands and count it for shrink_horizon_backup."""
+        """No valid command this cycle."""
+        self._drop_bands()
+        return VelocityCommandResult(0.0, 0.0, False, message)
+
+    def _drop_bands(self) -> None:
+        """The band was infeasible: drop the bands and count it for shrink_horizon_backup."""
         self.planner.clear()
         self._infeasible_in_a_row += 1
         self._since_infeasible = 0.0
         self._last_command = (0.0, 0.0)
-        return VelocityCommandResult(0.0, 0.0, False, message)
 
     def is_goal_reached(self, robot_pose, robot_velocity) -> bool:
         """Position and yaw within tolerance, no via-points left (complete_global_plan) and
