@@ -96,17 +96,16 @@ def contact_times(model, poses: np.ndarray, times: np.ndarray, obstacles: np.nda
 
 def wall_contact_times(costmap, footprint: np.ndarray, poses: np.ndarray, times: np.ndarray,
                        outline: bool) -> np.ndarray:
-    """Time of the first pose (S, N, 3) that leaves the costmap or whose centre cell is inscribed or
-    lethal, and with ``outline`` also whose footprint outline meets a lethal cell (the feasibility
-    check's footprint cost); inf if none."""
+    """Time of the first pose (S, N, 3) whose centre cell is inscribed or lethal, and with ``outline``
+    also whose footprint outline meets a lethal cell (the feasibility check's footprint cost); inf if
+    none. Beyond the rolling local costmap nothing is known, as for the feasibility check."""
     s, n = poses.shape[:2]
     flat = poses.reshape(-1, 3)
     mx, my, on_map = costmap.world_to_map_array(flat[:, 0], flat[:, 1])
     cost = costmap.costmap[np.where(on_map, my, 0), np.where(on_map, mx, 0)]
-    hit = ~on_map | (cost == LETHAL_OBSTACLE) | (cost == INSCRIBED_INFLATED_OBSTACLE)
+    hit = on_map & ((cost == LETHAL_OBSTACLE) | (cost == INSCRIBED_INFLATED_OBSTACLE))
     if outline:
-        costs = footprint_costs(costmap, footprint, flat)
-        hit |= (costs == -1.0) | (costs == -3.0)
+        hit |= footprint_costs(costmap, footprint, flat) == -1.0
     hit = hit.reshape(s, n)
     return np.where(hit.any(axis=1), times[np.argmax(hit, axis=1)], np.inf)
 
