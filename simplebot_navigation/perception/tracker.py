@@ -125,7 +125,10 @@ class ObstacleTracker:
         self.hits[seen] += 1
         self.missed[seen] = 0
         matched = cluster_of[seen]
-        self.radius[seen] += RADIUS_SMOOTHING * (np.maximum(clusters.radius[matched], MIN_RADIUS) - self.radius[seen])
+        # A cut outline shows only part of the obstacle: it may make a track larger, never smaller.
+        observed = np.maximum(clusters.radius[matched], MIN_RADIUS)
+        observed = np.where(clusters.occluded[matched], np.maximum(observed, self.radius[seen]), observed)
+        self.radius[seen] += RADIUS_SMOOTHING * (observed - self.radius[seen])
         whole = np.flatnonzero(seen)[~clusters.occluded[matched]]
         if len(whole):
             state, cov = self.state[whole], self.cov[whole]

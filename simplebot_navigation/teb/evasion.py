@@ -25,6 +25,9 @@ STEP_S = 0.1
 #: Distance (m) from an obstacle's predicted circle that counts as a contact: the tracker's position error
 #: and the band's 3 cm of min_obstacle_dist are no margin against a body moving at 1-2 m/s.
 CONTACT_MARGIN_M = 0.1
+#: An obstacle already within the margin is met when it comes this much closer (m): a robot that has
+#: been cut close can still tell the ways that let it come closer from those that take it away.
+CLOSING_M = 0.05
 #: Targets sampled: forward speeds as fractions of max_vel_x, reverse ones of max_vel_x_backwards,
 #: turn rates as fractions of max_vel_theta.
 FORWARD_FRACTIONS = (0.0, 0.25, 0.5, 0.75, 1.0)
@@ -74,9 +77,10 @@ def rollouts(pose, velocity, targets: np.ndarray, acc_lim_x: float, acc_lim_thet
 
 def contact_times(model, poses: np.ndarray, times: np.ndarray, obstacles: np.ndarray,
                   margin: float = CONTACT_MARGIN_M, clearance_cap: float = np.inf) -> tuple[np.ndarray, np.ndarray]:
-    """For trajectories (S, N, 3) timed (N,): the time of the first pose within ``margin`` of an
-    obstacle's predicted circle (inf if none), and the smallest distance up to that pose, at most
-    clearance_cap. The reference of evasion_kernels.rollout_contacts."""
+    """For trajectories (S, N, 3) from one pose, timed (N,): the time of the first pose within ``margin``
+    of an obstacle's predicted circle, or CLOSING_M nearer than the first pose is if that is less (inf if
+    none), and the smallest distance up to that pose, at most clearance_cap. The reference of
+    evasion_kernels.rollout_contacts."""
     s, n = poses.shape[:2]
     if len(obstacles) == 0:
         return np.full(s, np.inf), np.full(s, clearance_cap)
@@ -85,8 +89,9 @@ def contact_times(model, poses: np.ndarray, times: np.ndarray, obstacles: np.nda
     flat_poses = np.broadcast_to(poses[None], (k, s, n, 3)).reshape(-1, 3)
     flat_centres = np.broadcast_to(centres[:, None], (k, s, n, 2)).reshape(-1, 2)
     d = model.pair_distances(flat_poses, flat_centres).reshape(k, s, n) - obstacles[:, 4, None, None]
-    nearest = d.min(axis=0)                                                       # S, N
-    hit = nearest < margin
+    limit = np.minimum(margin, d[:, 0, 0] - CLOSING_M)                            # K
+    hit = (d < limit[:, None, None]).any(axis=0)                                  # S, N
+    nearest = d.min(axis=0)
     reached = hit.any(axis=1)
     last = np.where(reached, np.argmax(hit, axis=1), n - 1)
     upto = np.arange(n)[None, :] <= last[:, None]
@@ -133,7 +138,7 @@ def choose_evasion(pose, velocity, local_goal, obstacles: np.ndarray, costmap, f
     poses, times = rollouts(pose, velocity, targets, acc_lim_x, acc_lim_theta, 2.0 * horizon)
     moving, clearance = evasion_kernels.rollout_contacts(poses, times, np.ascontiguousarray(obstacles, dtype=float),
                                                          model.kernel_model, model.bounding_radius,
-                                                         CONTACT_MARGIN_M, CLEARANCE_CAP_M)
+                                                         CONTACT_MARGIN_M, CLOSING_M, CLEARANCE_CAP_M)
     goal = np.asarray(local_goal[:2], dtype=float)
     end = poses[:, np.count_nonzero(times <= horizon + 1e-9) - 1, :2]
     progress = np.hypot(*(goal - pose[:2])) - np.hypot(*(goal - end).T)

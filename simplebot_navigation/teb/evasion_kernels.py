@@ -37,13 +37,20 @@ def rollouts(x0, y0, th0, v0, w0, targets, acc_lim_x, acc_lim_theta, step, n):
 
 
 @njit(cache=True, nogil=True)
-def rollout_contacts(poses, times, obstacles, model, bounding_radius, margin, clearance_cap):
-    """For rollouts (S, N, 3) timed (N,), obstacles (K, 5) x y vx vy radius: the time of the first pose
-    within ``margin`` of an obstacle's predicted circle (inf if none) and the smallest distance up to
-    then, at most clearance_cap."""
+def rollout_contacts(poses, times, obstacles, model, bounding_radius, margin, closing, clearance_cap):
+    """For rollouts (S, N, 3) from one pose, timed (N,), obstacles (K, 5) x y vx vy radius: the time of the
+    first pose within ``margin`` of an obstacle's predicted circle, or ``closing`` nearer than the first
+    pose is to it if that is less (inf if none), and the smallest distance up to then, at most
+    clearance_cap."""
     n_roll, n_pose = poses.shape[0], poses.shape[1]
     first = np.full(n_roll, np.inf)
     nearest = np.full(n_roll, clearance_cap)
+    limit = np.empty(obstacles.shape[0])
+    c0, s0 = math.cos(poses[0, 0, 2]), math.sin(poses[0, 0, 2])
+    for k in range(obstacles.shape[0]):
+        now = footprint_distance_trig(poses[0, 0, 0], poses[0, 0, 1], c0, s0, obstacles[k, 0], obstacles[k, 1],
+                                      model)[0] - obstacles[k, 4]
+        limit[k] = min(margin, now - closing)
     for s in range(n_roll):
         for n in range(n_pose):
             t = times[n]
@@ -53,12 +60,12 @@ def rollout_contacts(poses, times, obstacles, model, bounding_radius, margin, cl
                 ox = obstacles[k, 0] + t * obstacles[k, 2]
                 oy = obstacles[k, 1] + t * obstacles[k, 3]
                 bound = math.hypot(ox - x, oy - y) - obstacles[k, 4] - bounding_radius
-                if bound >= nearest[s] and bound >= margin:
+                if bound >= nearest[s] and bound >= limit[k]:
                     continue
                 d = footprint_distance_trig(x, y, c, sn, ox, oy, model)[0] - obstacles[k, 4]
                 if d < nearest[s]:
                     nearest[s] = d
-                if d < margin and first[s] == np.inf:
+                if d < limit[k] and first[s] == np.inf:
                     first[s] = t
             if first[s] < np.inf:
                 break

@@ -186,4 +186,4 @@ def warm_up() -> None:
     TebOptimizer(TebConfig(), FootprintModel.point()).optimize(band, np.array([[0.7, 0.4]]), np.array([[1.0, 0.1]]),
                                                               (0.0, 0.0), False, dynamic_obstacles=moving)
     poses = rollouts(0.0, 0.0, 0.0, 0.0, 0.0, np.ones((1, 2)), 1.0, 1.0, 0.1, 3)
-    rollout_contacts(poses, np.arange(4) * 0.1, moving, FootprintModel.point().kernel_model, 0.0, 0.1, 0.5)
+    rollout_contacts(poses, np.arange(4) * 0.1, moving, FootprintModel.point().kernel_model, 0.0, 0.1, 0.05, 0.5)

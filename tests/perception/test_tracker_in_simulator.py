@@ -54,7 +54,7 @@ def test_tracks_of_the_crowd_match_the_ground_truth(seed, command):
     world = load_world(f"crowd:{seed}", robot_radius=0.25)
     description = robot_description("round", 0.25)
     tracker = ObstacleTracker()
-    position_errors, velocity_errors, missed = [], [], 0
+    position_errors, velocity_errors, radius_errors, missed = [], [], [], 0
     first_seen: dict[str, float] = {}
     with SimplebotSim(world, description, range_noise_std=0.01, seed=seed) as sim:
         while sim.sim_time < 14.0:
@@ -84,10 +84,13 @@ def test_tracks_of_the_crowd_match_the_ground_truth(seed, command):
                 track = tracks[int(np.argmin(distance))]
                 position_errors.append(min(distance))
                 velocity_errors.append(np.hypot(*(track.velocity - (obstacle.vx, obstacle.vy))))
+                radius_errors.append(track.radius - obstacle.extent)
     rms_position = float(np.sqrt(np.mean(np.square(position_errors))))
     rms_velocity = float(np.sqrt(np.mean(np.square(velocity_errors))))
-    report = (f"RMS position {rms_position:.3f} m, RMS velocity {rms_velocity:.3f} m/s over {len(position_errors)} "
-              f"samples; {missed} samples of a visible obstacle without a moving track")
+    too_small = float(np.percentile(radius_errors, 5)) if radius_errors else math.nan
+    report = (f"RMS position {rms_position:.3f} m, RMS velocity {rms_velocity:.3f} m/s, radius 5th percentile "
+              f"{too_small:+.3f} m over {len(position_errors)} samples; {missed} samples of a visible obstacle "
+              "without a moving track")
     print(report)
     assert len(position_errors) >= 30, report
     assert rms_position <= 0.1 and rms_velocity <= 0.15, report

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from simplebot_navigation.costmap.footprint import footprint_from_radius
-from simplebot_navigation.teb.evasion import (CLEARANCE_CAP_M, CONTACT_MARGIN_M, band_contact_time, choose_evasion,
-                                              contact_times, rollouts, velocity_targets)
+from simplebot_navigation.teb.evasion import (CLEARANCE_CAP_M, CLOSING_M, CONTACT_MARGIN_M, band_contact_time,
+                                              choose_evasion, contact_times, rollouts, velocity_targets)
 from simplebot_navigation.teb.evasion_kernels import rollout_contacts
 from simplebot_navigation.teb.feasibility import collision_model
 from simplebot_navigation.teb.footprint import FootprintModel
@@ -59,10 +59,20 @@ def test_the_compiled_contact_check_agrees_with_the_numpy_reference(footprint):
     obstacles = np.column_stack([rng.uniform(-4, 4, (12, 2)), rng.uniform(-1.5, 1.5, (12, 2)), rng.uniform(0.2, 0.5, 12)])
     obstacles = obstacles[np.hypot(obstacles[:, 0], obstacles[:, 1]) > 1.2]
     first, nearest = rollout_contacts(poses, times, obstacles, model.kernel_model, model.bounding_radius,
-                                      CONTACT_MARGIN_M, CLEARANCE_CAP_M)
+                                      CONTACT_MARGIN_M, CLOSING_M, CLEARANCE_CAP_M)
     ref_first, ref_nearest = contact_times(model, poses, times, obstacles, CONTACT_MARGIN_M, CLEARANCE_CAP_M)
     assert np.isfinite(ref_first).any() and np.isinf(ref_first).any()      # both kinds of rollout are compared
     assert first == pytest.approx(ref_first) and nearest == pytest.approx(ref_nearest, abs=1e-9)
+
+
+def test_an_obstacle_already_within_the_margin_is_met_only_by_coming_closer():
+    beside = np.array([[0.0, 0.8, 0.0, 0.0, 0.5]])                # 0.05 m from the round robot's left side
+    times = np.arange(11) * 0.1
+    away = np.column_stack([np.zeros(11), -0.1 * np.arange(11), np.zeros(11)])
+    closer = np.column_stack([np.zeros(11), 0.013 * np.arange(11), np.zeros(11)])
+    first, _ = contact_times(ROUND, np.stack([away, closer]), times, beside)
+    assert first[0] == math.inf
+    assert first[1] == pytest.approx(0.4)                          # 0.05 m nearer after 4 steps of 1.3 cm
 
 
 def test_a_band_that_drives_into_where_an_obstacle_will_be_meets_it_and_one_that_waits_does_not():
