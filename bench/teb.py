@@ -183,12 +183,15 @@ SCENES = {"corridor": corridor, "barrier": barrier, "door": door, "crowd": crowd
 
 
 def local_costmap(world: np.ndarray, x: float, y: float) -> Costmap2D:
-    """The 5 x 5 m rolling window around (x, y), aligned with the world cells."""
+    """The 5 x 5 m rolling window around (x, y), aligned with the world cells; free beyond the world's edge
+    (a robot that yields to the crowd may leave the field)."""
     size = 100
     mx0 = int(math.floor((x - WORLD_ORIGIN[0]) / RES)) - size // 2
     my0 = int(math.floor((y - WORLD_ORIGIN[1]) / RES)) - size // 2
     cm = Costmap2D(size, size, RES, WORLD_ORIGIN[0] + mx0 * RES, WORLD_ORIGIN[1] + my0 * RES)
-    cm.costmap[:, :] = world[my0:my0 + size, mx0:mx0 + size]
+    ys, xs = slice(max(my0, 0), min(my0 + size, world.shape[0])), slice(max(mx0, 0), min(mx0 + size, world.shape[1]))
+    if ys.stop > ys.start and xs.stop > xs.start:
+        cm.costmap[ys.start - my0:ys.stop - my0, xs.start - mx0:xs.stop - mx0] = world[ys, xs]
     return cm
 
 
