@@ -137,3 +137,18 @@ def test_a_robot_among_faster_obstacles_gets_out_of_their_way_and_still_arrives(
 def test_without_evasion_one_of_them_runs_into_the_robot():
     closest, _ = drive_among(0.0)
     assert closest < 0.0
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")     # numpy's overflow notes on 1e308 along the way
+def test_hostile_obstacle_rows_leave_the_evasion_finite():
+    planner = lab_planner(include_dynamic_obstacles=True, max_vel_x=1.0, acc_lim_x=1.0, max_vel_theta=1.0,
+                          acc_lim_theta=1.0)
+    planner.set_plan(straight_plan(0.0, 8.0))
+    hostile = np.array([[1e308, -1e308, 1e308, 1e308, 1e308], [0.9, 0.0, -1e308, 0.0, 0.2],
+                        [2.0, 0.0, -1.5, 0.0, 0.4], [-1e-300, 1e-300, 0.0, 0.0, 0.0]])
+    planner.set_dynamic_obstacles(hostile)
+    result = planner.compute_velocity_commands(np.zeros(3), (0.5, 0.0), rolling_costmap(0.0, 0.0, np.zeros((0, 2))))
+    assert math.isfinite(result.v) and math.isfinite(result.omega)
+    evasion = choose_evasion(np.zeros(3), (0.5, 0.0), np.array([3.0, 0.0, 0.0]), hostile,
+                             rolling_costmap(0.0, 0.0, np.zeros((0, 2))), ROUND_FOOTPRINT, ROUND, LIMITS, 2.5)
+    assert math.isfinite(evasion.v) and math.isfinite(evasion.omega)
