@@ -47,8 +47,8 @@ MIN_GAIN_S = 0.2
 
 @dataclass(frozen=True)
 class Evasion:
-    """The best target (v, omega), when it first meets an obstacle or a wall (inf: not within the
-    horizon), and the standstill's contact time for comparison."""
+    """The best target (v, omega), when it first meets an obstacle or a wall (inf: not within twice the
+    horizon, as far as the rollouts run), and the standstill's contact time for comparison."""
     v: float
     omega: float
     contact_time: float
