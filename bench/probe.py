@@ -3,13 +3,15 @@ robot stopped), with nothing lost. Run it before each release.
 
     python bench/probe.py
 
-Starts ``navigation world:=lab rtf:=1 foxglove:=true respawn:=true`` (every node its own process), then, as any
-other node or program on the machine could:
+Starts ``navigation world:=lab map:=lab rtf:=1 foxglove:=true respawn:=true`` (every node its own process, amcl and
+map_server among them), then, as any other node or program on the machine could:
   - sets hostile move_base, collision monitor and simulator parameters through their parameter services
     (ros2 param set);
   - drives the robot at 1 m/s straight ahead on cmd_vel_nav, as a crazed move_base would, for 25 s (the lab's
     outer wall is at most 15 m away): the collision monitor must stop it short of it, with no collision;
   - opens Foxglove WebSocket handshakes from a foreign web page and with a rebound host name;
+  - runs every area's probes in ``bench/probes/*.py``: each module's ``run(session)`` returns its rows (what, input,
+    outcome, refused-or-survived) and leaves the robot standing;
   - runs the launcher and the campaign runner with unbounded or malformed arguments.
 Afterwards the simulator and move_base must be the processes that started, and an ordinary goal must succeed.
 Prints one row per probe: what was sent, what came back, and whether that is a refusal.
@@ -17,6 +19,7 @@ Prints one row per probe: what was sent, what came back, and whether that is a r
 
 from __future__ import annotations
 
+import importlib.util
 import math
 import os
 import socket
@@ -116,6 +119,17 @@ def hostile_drive(session) -> tuple[str, str, str, bool]:
             new == 0 and last_second < 0.05)
 
 
+def area_probes() -> list:
+    """The ``run(session)`` of every module in bench/probes/, in name order."""
+    runs = []
+    for path in sorted((ROOT / "bench" / "probes").glob("*.py")):
+        spec = importlib.util.spec_from_file_location(f"probes_{path.stem}", path)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        runs.append(module.run)
+    return runs
+
+
 def main() -> int:
     with domain_lease(os.getpid() % 100, None) as domain:
         os.environ.update(ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
@@ -129,10 +143,10 @@ def probe() -> int:
     from simplebot_navigation.sim.world import Pose2D
 
     rows: list[tuple[str, str, str, bool]] = []
-    with ProcessSession("lab", rtf=1.0, respawn=True, foxglove_port=0) as session:
+    with ProcessSession("lab", rtf=1.0, respawn=True, foxglove_port=0, map_name="lab") as session:
         session.wait_ready(wall_timeout_s=240.0)
         pids = {name: session.node_pid(name) for name in ("simulator", "move_base", "collision_monitor",
-                                                           "foxglove_bridge")}
+                                                           "foxglove_bridge", "amcl", "map_server")}
         for node, probes in (("/move_base", MOVE_BASE_PROBES), ("/collision_monitor", COLLISION_MONITOR_PROBES),
                              ("/simulator", SIMULATOR_PROBES)):
             client = AsyncParameterClient(session.client, node)
@@ -146,6 +160,8 @@ def probe() -> int:
             outcome = handshake(port, origin, host)
             rows.append(("Foxglove handshake", f"Origin {origin}, Host {host}", outcome, outcome == "HTTP 403"))
         rows.append(hostile_drive(session))
+        for run in area_probes():
+            rows.extend(run(session))
         same = {name: session.node_pid(name) == pid for name, pid in pids.items()}
         run = session.send_goal(Pose2D(3.5, 0.0, 0.0, "corridor"))
         session.spin_wall(120.0, lambda: run.done)
