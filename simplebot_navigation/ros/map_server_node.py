@@ -19,7 +19,6 @@ from nav_msgs.msg import MapMetaData, OccupancyGrid
 from nav_msgs.srv import GetMap
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.parameter import Parameter
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.utilities import remove_ros_args
 
 from simplebot_description import world_name_problem
@@ -29,10 +28,10 @@ from simplebot_navigation.ros.conversions import occupancy_map_msg
 from simplebot_navigation.ros.node_main import SetUpNode, run_node
 from simplebot_navigation.ros.params import descriptor, refuse_unknown_parameters
 from simplebot_navigation.ros.publishers import create_publisher
+from simplebot_navigation.ros.qos import LATCHED
 
 #: metres per cell of a world's map served by name
 WORLD_MAP_RESOLUTION = 0.05
-LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 PARAMETERS = {
     "yaml_filename": Param(str, "", "", "the map's YAML file (map_server format), or a world's name whose map is "
                            "exported; setting it loads that map"),

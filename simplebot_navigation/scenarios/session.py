@@ -30,7 +30,6 @@ from rclpy.action import ActionClient
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from move_base_msgs.action import MoveBase
 from simplebot_description import RobotDescription, robot_description
@@ -43,13 +42,12 @@ from simplebot_navigation.move_base.cycle_stats import CycleSnapshot
 from simplebot_navigation.move_base.events import MoveBaseStats
 from simplebot_navigation.move_base.plugins import plugin_namespace
 from simplebot_navigation.ros.conversions import quaternion_msg, yaw_of
+from simplebot_navigation.ros.qos import LATCHED, SERVICE_QOS
 from simplebot_navigation.ros.simulator.lockstep import LockstepDriver
-from simplebot_navigation.ros.move_base.move_base_node import ACTION_SERVICE_QOS
 from simplebot_navigation.ros.simulator.simulator_node import SimulatorNode
 from simplebot_navigation.sim.world import Pose2D, World
 from simplebot_navigation.sim.world_loader import load_world
 
-LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 WARM_UP_S = 2.0
 STATUS_NAMES = {GoalStatus.STATUS_SUCCEEDED: "SUCCEEDED", GoalStatus.STATUS_ABORTED: "ABORTED",
                 GoalStatus.STATUS_CANCELED: "CANCELED"}
@@ -83,9 +81,9 @@ class ScenarioClient(Node):
         super().__init__("scenario_runner", namespace=namespace, context=context,
                          parameter_overrides=[Parameter("use_sim_time", value=True)])
         self.frame_prefix = f"{namespace}/" if namespace else ""  # the robot's frames, as the simulator names them
-        self.action = ActionClient(self, MoveBase, "move_base", goal_service_qos_profile=ACTION_SERVICE_QOS,
-                                   result_service_qos_profile=ACTION_SERVICE_QOS,
-                                   cancel_service_qos_profile=ACTION_SERVICE_QOS)
+        self.action = ActionClient(self, MoveBase, "move_base", goal_service_qos_profile=SERVICE_QOS,
+                                   result_service_qos_profile=SERVICE_QOS,
+                                   cancel_service_qos_profile=SERVICE_QOS)
         self.truth: list[tuple[float, float, float, float]] = []  # (t, x, y, yaw) in the world frame
         self.localized: list[tuple[float, float, float, float]] = []  # amcl's (t, x, y, yaw) in map, on a map
         self.collisions = 0              # the robot's own: it drove into something (simulator's count_moving)

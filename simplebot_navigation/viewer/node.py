@@ -26,7 +26,7 @@ from map_msgs.msg import OccupancyGridUpdate
 from nav_msgs.msg import OccupancyGrid, Odometry, Path
 from rcl_interfaces.msg import Log
 from rclpy.clock import Clock, ClockType
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from rclpy.time import Time
 from scipy.spatial import ConvexHull
 from sensor_msgs.msg import LaserScan
@@ -37,11 +37,11 @@ from simplebot_navigation.ros.conversions import path_to_array, pose_to_xyyaw, t
 from simplebot_navigation.ros.move_base.move_base_stats import NAVIGATION_STATUS
 from simplebot_navigation.ros.node_main import SetUpNode, run_node
 from simplebot_navigation.ros.params import declare_checked
+from simplebot_navigation.ros.qos import LATCHED
 from simplebot_navigation.ros.tf import Buffer, TransformException, TransformListener, strip_frame
 from simplebot_navigation.viewer.scene import Scene, obstacle_outlines
 from simplebot_navigation.viewer.server import ViewerServer
 
-LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 UPDATES = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 ROSOUT = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
 

@@ -13,18 +13,18 @@ from rclpy.exceptions import ParameterNotDeclaredException
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
 from rclpy.time import Time
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import String
 
 from simplebot_description import robot_description
+from simplebot_navigation.ros.qos import LATCHED
 from simplebot_navigation.ros.simulator.simulator_node import SimulatorNode, main as simulator_main
 from simplebot_navigation.ros.tf import Buffer, TransformListener
 from simplebot_navigation.sim.diff_drive import drive_for
 
-LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 BOX = robot_description("box")
 WALL_FACE = 2.2  # x of the wall's near face; the robot starts at the origin facing +x
 FRONT_LASER_X = 0.35

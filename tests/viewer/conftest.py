@@ -15,14 +15,14 @@ from nav_msgs.msg import OccupancyGrid
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
 
 from simplebot_navigation.costmap.cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
 from simplebot_navigation.ros.conversions import occupancy_grid_msg, path_msg, pose_array_msg, xyyaw_to_pose
+from simplebot_navigation.ros.qos import LATCHED
 from simplebot_navigation.ros.simulator.simulator_node import SimulatorNode
 from simplebot_navigation.viewer.node import ViewerNode
 
-LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 FRONT_WALL_X = 2.2   # near face of the wall ahead of the robot (robot at the origin, facing +x)
 BACK_WALL_X = -2.4   # near face of the wall behind it
 RESOLUTION = 0.05

@@ -24,7 +24,7 @@ from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped, TransformSta
 from nav_msgs.msg import OccupancyGrid
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.parameter import Parameter
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from rclpy.qos import qos_profile_sensor_data
 from rclpy.time import Time
 from sensor_msgs.msg import LaserScan
 from std_srvs.srv import Empty
@@ -41,10 +41,10 @@ from simplebot_navigation.ros.node_main import SetUpNode, run_node
 from simplebot_navigation.ros.params import declare_defaults, descriptor, given_parameter_tree
 from simplebot_navigation.ros.lifecycle_state import serve_lifecycle_state
 from simplebot_navigation.ros.publishers import create_publisher
+from simplebot_navigation.ros.qos import LATCHED
 from simplebot_navigation.ros.tf import (Buffer, ExtrapolationException, TransformBroadcaster, TransformException,
                                          TransformListener, strip_frame)
 
-LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 #: ours: the laser topics amcl reads (ROS 1's amcl reads one ``scan`` topic)
 SCAN_TOPICS = Param((str, list), "front_laser/front_scan back_laser/back_scan", "",
                     "the LaserScan topics amcl weighs the particles with (1 to 8, space-separated or a list)",

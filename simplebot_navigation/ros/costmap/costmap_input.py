@@ -17,7 +17,7 @@ import numpy as np
 from map_msgs.msg import OccupancyGridUpdate
 from nav_msgs.msg import OccupancyGrid
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from rclpy.time import Time
 from sensor_msgs.msg import LaserScan, PointCloud2, PointField
 
@@ -26,9 +26,9 @@ from simplebot_navigation.costmap.static_layer import StaticLayer
 from simplebot_navigation.geometry import quaternion_to_rotation_matrix
 from simplebot_navigation.ros.conversions import yaw_of
 from simplebot_navigation.ros.costmap.costmap_log import speaking_for
+from simplebot_navigation.ros.qos import LATCHED
 from simplebot_navigation.ros.tf import TransformException, strip_frame
 
-LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 UPDATES_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 #: messages a source may hold while their transform is not available (tf2_ros MessageFilter's 50)
 MESSAGE_FILTER_QUEUE = 50

@@ -16,7 +16,6 @@ from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
 
 from move_base_msgs.action import MoveBase
@@ -39,6 +38,7 @@ from simplebot_navigation.ros.move_base.nav2_front_door import Nav2FrontDoor
 from simplebot_navigation.ros.move_base.obstacle_tracking import ObstacleTracking
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
 from simplebot_navigation.ros.publishers import create_publisher, drop_event_handlers_of_best_effort_subscriptions
+from simplebot_navigation.ros.qos import SERVICE_QOS
 from simplebot_navigation.ros.tf import Buffer, TransformListener
 from simplebot_navigation.ros.node_main import run_node
 
@@ -48,10 +48,6 @@ HOUSEKEEPING_PERIOD_S = 0.1
 STATUS_TICKS = 2
 DIAGNOSTICS_TICKS = 10
 MISSED_RATE_WARNING_PERIOD_S = 5.0
-#: requests a burst may queue on the action's goal, cancel and result services before the middleware drops
-#: them (the services' default keeps 10); ROS 1 actionlib queued 50 goals
-ACTION_SERVICE_QOS = QoSProfile(depth=50, history=HistoryPolicy.KEEP_LAST, reliability=ReliabilityPolicy.RELIABLE,
-                                durability=DurabilityPolicy.VOLATILE)
 
 
 class MoveBaseNode(Node):
@@ -86,9 +82,9 @@ class MoveBaseNode(Node):
         self.action_server = ActionServer(self, MoveBase, "move_base", execute_callback=self._execute,
                                           goal_callback=lambda _req: GoalResponse.ACCEPT,
                                           cancel_callback=lambda _handle: CancelResponse.ACCEPT,
-                                          callback_group=group, goal_service_qos_profile=ACTION_SERVICE_QOS,
-                                          result_service_qos_profile=ACTION_SERVICE_QOS,
-                                          cancel_service_qos_profile=ACTION_SERVICE_QOS)
+                                          callback_group=group, goal_service_qos_profile=SERVICE_QOS,
+                                          result_service_qos_profile=SERVICE_QOS,
+                                          cancel_service_qos_profile=SERVICE_QOS)
         self.create_subscription(PoseStamped, "move_base_simple/goal", self._on_simple_goal, 1)
         self.create_subscription(GoalID, "~/cancel", self._on_cancel, 1)
         serve_move_base_services(self)

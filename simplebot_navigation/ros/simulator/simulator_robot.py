@@ -15,14 +15,14 @@ from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import TransformStamped, Twist
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import String
 
 from simplebot_navigation.geometry import axis_angle_to_quaternion, compose, rpy_to_quaternion, yaw_to_quaternion
+from simplebot_navigation.ros.qos import LATCHED
 from simplebot_navigation.sim.simulator import SimplebotSim
 
-LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 #: the fixed frame at the world's origin that namespaced robots' odom frames hang from
 MAP_FRAME = "map"
 
