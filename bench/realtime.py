@@ -74,7 +74,7 @@ from simplebot_navigation.scenarios.runner import parse_goals, time_budget  # no
 from simplebot_navigation.sim.diff_drive import drive_for  # noqa: E402
 from simplebot_navigation.sim.world import Pose2D, World  # noqa: E402
 from simplebot_navigation.sim.world_loader import load_world  # noqa: E402
-from simplebot_navigation.testing.proc_stats import cpu_seconds, loadavg  # noqa: E402
+from simplebot_navigation.testing.proc_stats import cpu_seconds, loadavg, start_stress, stop_stress  # noqa: E402
 
 WORLD = "lab"
 NODES = ("move_base", "simulator", "collision_monitor", "amcl")
@@ -295,17 +295,6 @@ def run_tour(version: Version, load: str, world: World, goals: list[Pose2D], max
         result.loadavg = loadavg()
         run.close()
     return result
-
-
-def start_stress(count: int) -> list[subprocess.Popen]:
-    return [subprocess.Popen([sys.executable, "-c", "while True: pass"], start_new_session=True)
-            for _ in range(count)]
-
-
-def stop_stress(processes: list[subprocess.Popen]) -> None:
-    for process in processes:
-        process.kill()
-        process.wait()
 
 
 def percentiles(values: list[float]) -> str:

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 
 CLOCK_TICK = os.sysconf("SC_CLK_TCK")
 
@@ -18,3 +20,15 @@ def loadavg() -> str:
     """The 1-minute load average, as /proc/loadavg gives it."""
     with open("/proc/loadavg", encoding="ascii") as handle:
         return handle.read().split()[0]
+
+
+def start_stress(count: int) -> list[subprocess.Popen]:
+    """count busy-loop processes, each taking a core if it can: the load a benchmark runs beside."""
+    return [subprocess.Popen([sys.executable, "-c", "while True: pass"], start_new_session=True)
+            for _ in range(count)]
+
+
+def stop_stress(processes: list[subprocess.Popen]) -> None:
+    for process in processes:
+        process.kill()
+        process.wait()
