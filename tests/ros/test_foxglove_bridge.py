@@ -26,6 +26,7 @@ from simplebot_navigation.ros.tools.foxglove_bridge import CLIENT_TOPICS, Foxglo
 from simplebot_navigation.ros.tools.message_json import message_from_json
 from simplebot_navigation.ros.tools.raw_topics import message_definition
 from simplebot_navigation.scenarios.session import NavigationSession
+from simplebot_navigation.web_host import FOXGLOVE_ALLOWED_ORIGINS
 
 LAYOUT = Path(__file__).resolve().parents[2] / "config" / "simplebot.foxglove.json"
 SUBPROTOCOL = "foxglove.sdk.v1"   # one of the two the Foxglove app offers
@@ -369,6 +370,32 @@ def test_a_bad_or_busy_port_is_named(context, bridge):
         FoxgloveBridge(context=context, parameter_overrides=[Parameter("port", value=70000)])
     with pytest.raises(OSError, match=f"cannot listen on 127.0.0.1:{bridge.port}: .*(?i:address already in use)"):
         FoxgloveBridge(context=context, parameter_overrides=[Parameter("port", value=bridge.port)])
+
+
+@pytest.mark.parametrize("name, value, said", [
+    ("port", 9000, "requires restart"),
+    ("host", "0.0.0.0", "requires restart"),
+    ("allowed_origins", "https://app.foxglove.dev null", "'null' is not an origin"),
+    ("allowed_origins", "javascript:alert(1)", "'javascript:alert(1)' is not an origin"),
+    ("allowed_origins", " ".join(["https://a.example"] * 65), "at most 64 origins, got 65"),
+    ("allowed_origins", 7, "expected a string, got 7"),
+])
+def test_live_changes_out_of_bounds_are_refused_with_the_reason(bridge, name, value, said):
+    result = bridge.set_parameters([Parameter(name, value=value)])[0]
+    assert not result.successful and f"foxglove_bridge parameter '{name}'" in result.reason and said in result.reason
+    with connect(bridge.url, subprotocols=[SUBPROTOCOL], origin="https://app.foxglove.dev", open_timeout=10):
+        pass   # the origins are those of the start
+
+
+def test_allowed_origins_change_while_running(bridge):
+    try:
+        assert bridge.set_parameters([Parameter("allowed_origins", value="http://robot-pc:8765")])[0].successful
+        with connect(bridge.url, subprotocols=[SUBPROTOCOL], origin="http://robot-pc:8765", open_timeout=10) as ws:
+            assert json.loads(ws.recv(timeout=10))["op"] == "serverInfo"
+        with pytest.raises(InvalidStatus, match="HTTP 403"):
+            connect(bridge.url, subprotocols=[SUBPROTOCOL], origin="https://app.foxglove.dev", open_timeout=10)
+    finally:
+        bridge.set_parameters([Parameter("allowed_origins", value=" ".join(FOXGLOVE_ALLOWED_ORIGINS))])
 
 
 def test_the_node_process_reports_a_bad_parameter_in_one_line():
