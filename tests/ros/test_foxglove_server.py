@@ -34,13 +34,14 @@ def received(ws, server: FoxgloveServer, channel: int, wall_s: float = 20.0) -> 
 
 def test_a_client_whose_frames_fail_is_closed_and_the_clients_after_it_are_still_served():
     said: list[tuple[str, str]] = []
-    server = FoxgloveServer("test", "127.0.0.1", 0, lambda event: None, (), lambda kind, text: said.append((kind, text)))
+    server = FoxgloveServer("test", "127.0.0.1", 0, lambda event: None, (),
+                            lambda kind, text: said.append((kind, text)))
     try:
         channel = server.add_channel("/chatter", "cdr", "std_msgs/msg/String", "string data\n", "ros2msg")
         url = f"ws://127.0.0.1:{server.port}"
         with subscribed_client(url, channel) as broken, subscribed_client(url, channel) as other:
             assert received(broken, server, channel) == b"hello" and received(other, server, channel) == b"hello"
-            first = next(iter(server._clients.values()))    # the first in the fan-out's order: the one that connected first
+            first = next(iter(server._clients.values()))    # first in the fan-out's order: the first connected
 
             def fails(frame):
                 raise RuntimeError("this client's queue is broken")

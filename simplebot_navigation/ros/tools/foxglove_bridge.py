@@ -168,7 +168,8 @@ class FoxgloveBridge(SetUpNode):
         if schema_name not in (type_name, type_name.replace("/msg/", "/")):
             return self._refuse(client, "schema", f"advertised {topic} as {schema_name!r}; it takes {type_name}")
         if encoding not in ("cdr", "json"):
-            return self._refuse(client, "encoding", f"advertised {topic} in encoding {encoding!r}; it takes cdr or json")
+            return self._refuse(client, "encoding",
+                                f"advertised {topic} in encoding {encoding!r}; it takes cdr or json")
         self._client_channels[(client, channel_id)] = _ClientChannel(topic, encoding)
 
     def _refuse(self, client: int, kind, why: str) -> None:
