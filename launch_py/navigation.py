@@ -27,7 +27,8 @@ LAUNCH = [
             "no Origin (not a browser) always may"),
     TIGHT,
     Arg("respawn", default="true", choices=("true", "false"),
-        doc="restart the simulator and move_base when they exit (roslaunch's respawn)"),
+        doc="restart the nodes when they exit (roslaunch's respawn): the simulator, move_base, the collision monitor, "
+            "map_server and amcl, the viewer and the Foxglove bridge"),
     NAMESPACE,
     COLLISION_MONITOR,
     MAP,
@@ -51,11 +52,12 @@ LAUNCH = [
         "world": "$(arg world)", "namespace": "$(arg namespace)", "initial_pose": "$(arg initial_pose)",
         "respawn": "$(arg respawn)"}),
 
-    Node(pkg="simplebot_navigation", type="viewer", name="viewer", output="screen", if_="$(arg viewer)", params=[
+    Node(pkg="simplebot_navigation", type="viewer", name="viewer", output="screen", respawn="$(arg respawn)",
+         if_="$(arg viewer)", params=[
         Param("fixed_frame", "map", if_=MAPPED),
     ]),
     Node(pkg="simplebot_navigation", type="foxglove_bridge", name="foxglove_bridge", output="screen",
-         if_="$(arg foxglove)", params=[
+         respawn="$(arg respawn)", if_="$(arg foxglove)", params=[
         Param("host", "$(arg foxglove_host)"),
         Param("port", "$(arg foxglove_port)"),
         Param("allowed_origins", "$(arg foxglove_allowed_origins)"),

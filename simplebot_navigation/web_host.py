@@ -11,6 +11,22 @@ _DIGITS = re.compile(r"[0-9]+")
 #: browser pages that may open the Foxglove WebSocket by default: the Foxglove app, and pages of the robot's own
 #: viewer at its default address (a client that sends no Origin is not a browser, and always may)
 FOXGLOVE_ALLOWED_ORIGINS = ("https://app.foxglove.dev", "http://127.0.0.1:8765", "http://localhost:8765")
+#: the most origins an allowed list may hold, and the longest origin
+MAX_ORIGINS, MAX_ORIGIN_CHARS = 64, 256
+_ORIGIN = re.compile(r"[a-z][a-z0-9+.-]*://[^/?#\s]+/?", re.IGNORECASE)
+
+
+def parse_origins(text: str, where: str) -> tuple[str, ...]:
+    """The origins of a space-separated list, each scheme://host[:port] as a browser sends it (not "null", which
+    any sandboxed page sends); ValueError naming ``where`` and the first one that is not."""
+    origins = tuple(text.split())
+    if len(origins) > MAX_ORIGINS:
+        raise ValueError(f"{where}: at most {MAX_ORIGINS} origins, got {len(origins)}")
+    for origin in origins:
+        if len(origin) > MAX_ORIGIN_CHARS or not _ORIGIN.fullmatch(origin):
+            raise ValueError(f"{where}: {origin[:MAX_ORIGIN_CHARS]!r} is not an origin (scheme://host[:port], at "
+                             f"most {MAX_ORIGIN_CHARS} characters)")
+    return tuple(o.rstrip("/") for o in origins)
 
 
 def _ip(name: str):

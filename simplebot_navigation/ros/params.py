@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import difflib
 import math
-from typing import Any
+from typing import Any, Callable
 
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
 from rclpy.exceptions import ParameterNotDeclaredException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -95,6 +95,41 @@ def declare_checked(node: Node, defaults: dict[str, Any], label: str = "paramete
         spec = Param(type(default), default, "Hz" if rate else "", name, low=0.0 if rate else None, low_open=rate)
         values[name] = spec.check(value, f"{label} {name!r}")
     return values
+
+
+def declare_specs(node: Node, specs: dict[str, Param], label: str) -> dict[str, Any]:
+    """Declare a node's own parameters from their specs and check each (type, range) before anything is built;
+    ParameterError names the parameter and the value. The descriptors then carry each spec's description and
+    range, for ``ros2 param describe``."""
+    values = {}
+    for name, spec in specs.items():
+        value = node.declare_parameter(name, spec.default, ParameterDescriptor(dynamic_typing=True)).value
+        values[name] = spec.check(value, f"{label} {name!r}")
+        node.set_descriptor(name, descriptor(spec))
+    return values
+
+
+def take_live_changes(node: Node, specs: dict[str, Param], label: str,
+                      apply: Callable[[dict[str, Any]], None]) -> None:
+    """Changes while running: a name the node does not have, one it reads at start-up only (``dynamic=False``) or a
+    value its spec refuses is refused with the reason, and nothing changes; otherwise ``apply`` gets every change of
+    the request, checked and converted (it may still refuse with ValueError)."""
+    refuse_unknown_parameters(node)
+
+    def on_set(params: list[Parameter]) -> SetParametersResult:
+        ours = [p for p in params if p.name in specs]
+        fixed = [p.name for p in ours if not specs[p.name].dynamic]
+        if fixed:
+            return SetParametersResult(successful=False, reason=f"{label} {', '.join(map(repr, fixed))}: requires "
+                                                                "restart (read at start-up only)")
+        try:
+            changes = {p.name: specs[p.name].check(p.value, f"{label} {p.name!r}") for p in ours}
+            if changes:
+                apply(changes)
+        except ValueError as err:
+            return SetParametersResult(successful=False, reason=str(err))
+        return SetParametersResult(successful=True)
+    node.add_on_set_parameters_callback(on_set)
 
 
 def refuse_unknown_parameters(node: Node) -> None:

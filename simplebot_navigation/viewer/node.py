@@ -36,7 +36,8 @@ from visualization_msgs.msg import Marker, MarkerArray
 from simplebot_navigation.ros.conversions import path_to_array, pose_to_xyyaw, transform_to_xyyaw, xyyaw_to_pose
 from simplebot_navigation.ros.move_base.move_base_stats import NAVIGATION_STATUS
 from simplebot_navigation.ros.node_main import SetUpNode, run_node
-from simplebot_navigation.ros.params import declare_checked
+from simplebot_navigation.parameters.spec import Param
+from simplebot_navigation.ros.params import declare_specs, take_live_changes
 from simplebot_navigation.ros.qos import LATCHED
 from simplebot_navigation.ros.tf import Buffer, TransformException, TransformListener, strip_frame
 from simplebot_navigation.viewer.scene import Scene, obstacle_outlines
@@ -62,8 +63,20 @@ INITIAL_POSE_VARIANCES = (0.25, 0.25, (math.pi / 12.0) ** 2)
 DIAGNOSTICS = "/diagnostics"
 MOVING_OBSTACLES = "/sim/moving_obstacles"
 
-PARAMETERS = {"host": "127.0.0.1", "port": 8765, "fixed_frame": "odom", "base_frame": "base_link",
-              "rate": 20.0, "costmap_rate": 5.0, "max_costmap_side": 400, "trail_points": 5000}
+LABEL = "viewer parameter"
+PARAMETERS = {
+    "host": Param(str, "127.0.0.1", "", "address the HTTP server listens on", dynamic=False),
+    "port": Param(int, 8765, "", "port of the HTTP server (0: a free one)", low=0, high=65535, dynamic=False),
+    "fixed_frame": Param(str, "odom", "", "the frame the page draws in", dynamic=False),
+    "base_frame": Param(str, "base_link", "", "the robot's frame (its body and footprint)", dynamic=False),
+    "rate": Param(float, 20.0, "Hz", "frames a second sent to the pages, at most", low=0.1, high=60.0),
+    "costmap_rate": Param(float, 5.0, "Hz", "costmap images a second sent to the pages, at most", low=0.1,
+                          high=60.0),
+    "max_costmap_side": Param(int, 400, "cells", "a costmap is sent downsampled to at most this many cells a side",
+                              low=16, high=4096),
+    "trail_points": Param(int, 5000, "", "points of the robot's trail kept (then thinned to half)", low=2,
+                          high=100_000),
+}
 STATUS_NAMES = {getattr(GoalStatus, n): n for n in ("PENDING", "ACTIVE", "PREEMPTED", "SUCCEEDED", "ABORTED",
                                                     "REJECTED", "PREEMPTING", "RECALLING", "RECALLED", "LOST")}
 LOG_LEVELS = {10: "DEBUG", 20: "INFO", 30: "WARN", 40: "ERROR", 50: "FATAL"}
@@ -135,6 +148,7 @@ class ViewerNode(SetUpNode):
             raise OSError(f"viewer cannot listen on {p['host']}:{p['port']}: {err.strerror or err} "
                           "(set the 'port' parameter, 0 picks a free one)") from err
         self.server.start()
+        take_live_changes(self, PARAMETERS, LABEL, self._take_parameters)
         self.create_timer(PAGE_CHECK_S, self._follow_pages, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.get_logger().info(f"viewer on {self.server.url} (fixed frame {self.fixed_frame})")
 
@@ -143,10 +157,21 @@ class ViewerNode(SetUpNode):
         return self.server.url
 
     def _checked_parameters(self) -> dict:
-        values = declare_checked(self, PARAMETERS, label="viewer parameter", positive=("rate", "costmap_rate"))
-        if not 0 <= values["port"] <= 65535:
-            raise ValueError(f"viewer parameter 'port' must be 0..65535, got {values['port']}")
+        values = declare_specs(self, PARAMETERS, LABEL)
+        for name in ("fixed_frame", "base_frame"):
+            if not strip_frame(values[name]):
+                raise ValueError(f"{LABEL} {name!r}: expected a frame name, got {values[name]!r}")
         return values
+
+    def _take_parameters(self, changes: dict) -> None:
+        """The rates and sizes change while running (the costmap's size with its next image)."""
+        for name, value in changes.items():
+            if name == "rate":
+                self.server.period_s = 1.0 / value
+            elif name == "costmap_rate":
+                self.scene.costmap_period_s = 1.0 / value
+            else:
+                setattr(self.scene, name, value)
 
     @property
     def watched(self) -> bool:

@@ -260,7 +260,9 @@ def test_navigation_respawns_its_nodes_unless_told_not_to():
     assert respawn({}) == {"simulator": (True, 0.0), "move_base": (True, 0.0), "collision_monitor": (True, 0.0)}
     assert respawn({"respawn": "false"}) == {"simulator": (False, 0.0), "move_base": (False, 0.0),
                                              "collision_monitor": (False, 0.0)}
-    assert respawn({"viewer": "true"})["viewer"] == (False, 0.0)
+    shown = {"viewer": "true", "foxglove": "true"}    # a bridge that dies leaves the app blank until respawned
+    assert respawn(shown)["viewer"] == respawn(shown)["foxglove_bridge"] == (True, 0.0)
+    assert respawn({**shown, "respawn": "false"})["foxglove_bridge"] == (False, 0.0)
 
 
 @pytest.mark.parametrize("monitor, nodes, move_base_commands", [

@@ -26,6 +26,7 @@ from simplebot_navigation.ros.tools.foxglove_bridge import CLIENT_TOPICS, Foxglo
 from simplebot_navigation.ros.tools.message_json import message_from_json
 from simplebot_navigation.ros.tools.raw_topics import message_definition
 from simplebot_navigation.scenarios.session import NavigationSession
+from simplebot_navigation.web_host import FOXGLOVE_ALLOWED_ORIGINS
 
 LAYOUT = Path(__file__).resolve().parents[2] / "config" / "simplebot.foxglove.json"
 SUBPROTOCOL = "foxglove.sdk.v1"   # one of the two the Foxglove app offers
@@ -41,15 +42,16 @@ class FoxgloveClient:
     """The app's side of the Foxglove WebSocket protocol, as much as the tests need. Lockstep time advances
     only while the client waits (pump), so the bridge's executor handles what the client sent."""
 
-    def __init__(self, session: NavigationSession, url: str):
+    def __init__(self, session: NavigationSession, url: str, subprotocol: str = SUBPROTOCOL):
         self.session = session
         self._stack = ExitStack()
-        self.ws = self._stack.enter_context(connect(url, subprotocols=[SUBPROTOCOL], open_timeout=10))
+        self.ws = self._stack.enter_context(connect(url, subprotocols=[subprotocol], open_timeout=10))
         self.info = json.loads(self.ws.recv(timeout=10))
         self.channels: dict[str, dict] = {}
         self.messages: dict[int, list[tuple[int, bytes]]] = defaultdict(list)  # subscription -> (log time, data)
         self.times: list[int] = []
         self.statuses: list[str] = []
+        self.errors: list[str] = []      # the statuses of level error
         self._next_id = 0
         self.pump(lambda: GOAL in self.channels, "the server's channels")
 
@@ -65,6 +67,8 @@ class FoxgloveClient:
                     self.channels.update({c["topic"]: c for c in message["channels"]})
                 elif message["op"] == "status":
                     self.statuses.append(message["message"])
+                    if message["level"] == 2:
+                        self.errors.append(message["message"])
             elif frame[0] == 1:   # message data: subscription id, log time, payload
                 subscription, log_time = struct.unpack_from("<IQ", frame, 1)
                 self.messages[subscription].append((log_time, frame[13:]))
@@ -210,7 +214,7 @@ def test_hostile_clients_are_refused_with_a_warning_and_the_bridge_carries_on(se
         client.pump(lambda: any(all(w in m for w in words) for m in warnings), f"a warning with {words}")
 
     client.advertise("/simplebot_controller/cmd_vel", "json", "geometry_msgs/msg/Twist")
-    warned("may not publish on /simplebot_controller/cmd_vel")
+    warned("may not publish on '/simplebot_controller/cmd_vel'")
     client.advertise(GOAL, "json", "geometry_msgs/msg/Twist")
     warned(GOAL, "'geometry_msgs/msg/Twist'", "it takes geometry_msgs/msg/PoseStamped")
     client.advertise(GOAL, "protobuf", "geometry_msgs/msg/PoseStamped")
@@ -225,12 +229,78 @@ def test_hostile_clients_are_refused_with_a_warning_and_the_bridge_carries_on(se
     client.pump(lambda: any("channel 999" in m for m in client.statuses), "a status about channel 999")
     assert not goals   # nothing reached ROS
     told = "\n".join(client.statuses)    # each refusal also went to the client that made it, which the app shows
-    assert "may not publish on /simplebot_controller/cmd_vel" in told and "encoding 'protobuf'" in told
+    assert "may not publish on '/simplebot_controller/cmd_vel'" in told and "encoding 'protobuf'" in told
     assert "cdr message on /move_base_simple/goal does not decode" in told
     # the next good goal still goes through
     client.publish(cdr, serialize_message(goal_message(0.0, 0.0)))
     client.pump(lambda: goals, "the good goal on /move_base_simple/goal")
     assert (goals[0].pose.position.x, goals[0].header.frame_id) == (0.0, "odom")
+
+
+@pytest.mark.parametrize("first, second", [
+    (("advertise", "/simplebot_controller/cmd_vel", "geometry_msgs/msg/Twist"), ("publish", b'{"linear":{"x":0.3}}')),
+    (("advertise", GOAL, "geometry_msgs/msg/PoseStamped"), ("publish", b"not json")),
+], ids=["cmd_vel then its message", "a message that does not decode"])
+def test_refusals_one_after_the_other_leave_the_bridge_running(session, bridge, first, second):
+    """Issue 43, probe 1: two refusals of different kinds in a row, with the node's real logger (rclpy refuses a
+    call site whose throttle changes between calls, which ended the bridge)."""
+    goals: list[PoseStamped] = []
+    subscription = session.client.create_subscription(PoseStamped, GOAL, goals.append, 10)
+    app = FoxgloveClient(session, bridge.url, "foxglove.websocket.v1")
+    try:
+        channel = app.advertise(first[1], "json", first[2])
+        app.publish(channel, second[1])
+        wrong = app.advertise(GOAL, "json", "geometry_msgs/msg/Twist")   # then a refusal of a third kind
+        app.publish(wrong, b"{}")
+        app.pump(lambda: any(f"message on channel {wrong}, which was refused" in m for m in app.statuses),
+                 "the last refusal told to the client")
+        assert len(app.statuses) == (4 if first[1] != GOAL else 3), app.statuses    # each refusal told
+        good = app.advertise(GOAL, "cdr", "geometry_msgs/msg/PoseStamped")
+        app.publish(good, serialize_message(goal_message(0.0, 0.0)))
+        app.pump(lambda: goals, "the next good goal, which only a running bridge passes on")
+    finally:
+        app.close()
+        session.client.destroy_subscription(subscription)
+
+
+#: subscription and channel ids that are not uint32, as JSON text
+NOT_UINT32 = ["-1", str(2**33), "1e400", "1.5", "true", '"7"', "null"]
+
+
+def test_ids_outside_uint32_are_refused_and_the_other_clients_keep_receiving(session, bridge, monkeypatch):
+    """Issue 43, probe 5: a client that subscribes with id -1 or 2**33 made the fan-out raise for it on every
+    message, and the clients after it received nothing; 1e400 closed its connection."""
+    warnings: list[str] = []
+    monkeypatch.setattr(bridge.get_logger(), "warn", lambda message, **kwargs: warnings.append(message))
+    hostile = FoxgloveClient(session, bridge.url)     # first in the server's list of clients
+    other = FoxgloveClient(session, bridge.url)
+    try:
+        tf = hostile.channels["/tf"]["id"]
+        for bad in ("-1", str(2**33)):    # the issue's probe: every client after this one stopped receiving
+            hostile.ws.send(f'{{"op":"subscribe","subscriptions":[{{"id":{bad},"channelId":{tf}}}]}}')
+        watched = other.subscribe("/tf")
+        other.pump(lambda: len(other.messages[watched]) >= 10, "/tf for the other client")
+        requests = [f'{{"op":"subscribe","subscriptions":[{{"id":{bad},"channelId":{tf}}}]}}' for bad in NOT_UINT32]
+        requests += [f'{{"op":"subscribe","subscriptions":[{{"id":1,"channelId":{bad}}}]}}' for bad in NOT_UINT32]
+        requests += [f'{{"op":"unsubscribe","subscriptionIds":[{bad}]}}' for bad in NOT_UINT32]
+        requests += [f'{{"op":"unadvertise","channelIds":[{bad}]}}' for bad in NOT_UINT32]
+        requests += [f'{{"op":"advertise","channels":[{{"id":{bad},"topic":"{GOAL}","encoding":"json",'
+                     f'"schemaName":"geometry_msgs/msg/PoseStamped"}}]}}' for bad in NOT_UINT32]
+        for request in requests:
+            hostile.ws.send(request)
+        hostile.pump(lambda: len(hostile.errors) >= len(requests) + 2, "an error status for each bad id")
+        assert all("uint32" in message for message in hostile.errors), hostile.errors
+        assert any("subscription id -1 is not a uint32" in message for message in hostile.errors), hostile.errors
+        assert any(f"channel id {2**33} is not a uint32" in message for message in hostile.errors), hostile.errors
+        assert 1 <= sum("uint32" in w for w in warnings) <= 3, warnings   # a line in the log, not one per request
+        count = len(other.messages[watched])
+        other.pump(lambda: len(other.messages[watched]) >= count + 10, "more /tf for the other client")
+        mine = hostile.subscribe("/tf")     # the hostile client's connection is still open and served
+        hostile.pump(lambda: hostile.messages[mine], "/tf for the refused client's good subscription")
+        assert not hostile.messages.keys() - {mine}
+    finally:
+        hostile.close()
+        other.close()
 
 
 def test_the_layout_shows_topics_of_the_run_and_publishes_where_the_bridge_listens(client):
@@ -296,14 +366,40 @@ def test_the_launch_file_starts_the_bridge_on_request():
 
 
 def test_a_bad_or_busy_port_is_named(context, bridge):
-    with pytest.raises(ValueError, match="foxglove_bridge parameter 'port' must be 0..65535, got 70000"):
+    with pytest.raises(ValueError, match=r"foxglove_bridge parameter 'port': must be in \[0, 65535\], got 70000"):
         FoxgloveBridge(context=context, parameter_overrides=[Parameter("port", value=70000)])
     with pytest.raises(OSError, match=f"cannot listen on 127.0.0.1:{bridge.port}: .*(?i:address already in use)"):
         FoxgloveBridge(context=context, parameter_overrides=[Parameter("port", value=bridge.port)])
+
+
+@pytest.mark.parametrize("name, value, said", [
+    ("port", 9000, "requires restart"),
+    ("host", "0.0.0.0", "requires restart"),
+    ("allowed_origins", "https://app.foxglove.dev null", "'null' is not an origin"),
+    ("allowed_origins", "javascript:alert(1)", "'javascript:alert(1)' is not an origin"),
+    ("allowed_origins", " ".join(["https://a.example"] * 65), "at most 64 origins, got 65"),
+    ("allowed_origins", 7, "expected a string, got 7"),
+])
+def test_live_changes_out_of_bounds_are_refused_with_the_reason(bridge, name, value, said):
+    result = bridge.set_parameters([Parameter(name, value=value)])[0]
+    assert not result.successful and f"foxglove_bridge parameter '{name}'" in result.reason and said in result.reason
+    with connect(bridge.url, subprotocols=[SUBPROTOCOL], origin="https://app.foxglove.dev", open_timeout=10):
+        pass   # the origins are those of the start
+
+
+def test_allowed_origins_change_while_running(bridge):
+    try:
+        assert bridge.set_parameters([Parameter("allowed_origins", value="http://robot-pc:8765")])[0].successful
+        with connect(bridge.url, subprotocols=[SUBPROTOCOL], origin="http://robot-pc:8765", open_timeout=10) as ws:
+            assert json.loads(ws.recv(timeout=10))["op"] == "serverInfo"
+        with pytest.raises(InvalidStatus, match="HTTP 403"):
+            connect(bridge.url, subprotocols=[SUBPROTOCOL], origin="https://app.foxglove.dev", open_timeout=10)
+    finally:
+        bridge.set_parameters([Parameter("allowed_origins", value=" ".join(FOXGLOVE_ALLOWED_ORIGINS))])
 
 
 def test_the_node_process_reports_a_bad_parameter_in_one_line():
     result = subprocess.run([sys.executable, "-m", "simplebot_navigation.ros.tools.foxglove_bridge", "--ros-args",
                              "-p", "port:=-1"], capture_output=True, text=True, timeout=60)
     assert result.returncode == 2
-    assert result.stderr.strip() == "foxglove_bridge: foxglove_bridge parameter 'port' must be 0..65535, got -1"
+    assert result.stderr.strip() == "foxglove_bridge: foxglove_bridge parameter 'port': must be in [0, 65535], got -1"

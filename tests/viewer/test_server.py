@@ -14,7 +14,7 @@ from rclpy.parameter import Parameter
 from simplebot_navigation.move_base.events import MoveBaseEvents
 from simplebot_navigation.ros.conversions import yaw_of
 from simplebot_navigation.ros.move_base.move_base_stats import navigation_status
-from simplebot_navigation.viewer.node import ViewerNode, body_outlines
+from simplebot_navigation.viewer.node import PARAMETERS, ViewerNode, body_outlines
 from simplebot_navigation.viewer.scene import UNKNOWN_CELL, Scene, downsample_grid
 from simplebot_description import robot_description
 from tests.viewer.conftest import CART_SIZE, CART_Y, LETHAL_BLOCK, ORIGIN, RESOLUTION, cells
@@ -171,8 +171,40 @@ def test_a_taken_port_is_named(scenario, context):
     port = int(scenario.viewer.url.rsplit(":", 1)[1].strip("/"))
     with pytest.raises(OSError, match=f"viewer cannot listen on 127.0.0.1:{port}: .*set the 'port' parameter"):
         ViewerNode(context=context, parameter_overrides=[Parameter("port", value=port)])
-    with pytest.raises(ValueError, match="viewer parameter 'rate': must be > 0, got 0.0"):
+    with pytest.raises(ValueError, match=r"viewer parameter 'rate': must be in \[0.1, 60\], got 0.0"):
         ViewerNode(context=context, parameter_overrides=[Parameter("rate", value=0.0)])
+    with pytest.raises(ValueError, match=r"viewer parameter 'trail_points': must be in \[2, 100000\], got 1000000000"):
+        ViewerNode(context=context, parameter_overrides=[Parameter("trail_points", value=10**9)])
+    with pytest.raises(ValueError, match="viewer parameter 'fixed_frame': expected a frame name, got '/'"):
+        ViewerNode(context=context, parameter_overrides=[Parameter("fixed_frame", value="/")])
+
+
+@pytest.mark.parametrize("name, value, said", [
+    ("rate", 1e308, "1e+308"),
+    ("rate", 1e-300, "1e-300"),
+    ("costmap_rate", math.nan, "nan"),
+    ("max_costmap_side", 10**6, "1000000"),
+    ("trail_points", "many", "'many'"),
+    ("port", 9000, "requires restart"),
+    ("fixed_frame", "map", "requires restart"),
+])
+def test_live_changes_out_of_bounds_are_refused_with_the_reason(scenario, name, value, said):
+    viewer = scenario.viewer
+    before = (viewer.server.period_s, viewer.scene.costmap_period_s, viewer.scene.max_costmap_side)
+    result = viewer.set_parameters([Parameter(name, value=value)])[0]
+    assert not result.successful and name in result.reason and said in result.reason, result.reason
+    assert (viewer.server.period_s, viewer.scene.costmap_period_s, viewer.scene.max_costmap_side) == before
+
+
+def test_live_rates_and_sizes_are_taken(scenario):
+    viewer = scenario.viewer
+    try:
+        assert all(r.successful for r in viewer.set_parameters([
+            Parameter("rate", value=10), Parameter("costmap_rate", value=2.0), Parameter("trail_points", value=50)]))
+        assert (viewer.server.period_s, viewer.scene.costmap_period_s, viewer.scene.trail_points) == (0.1, 0.5, 50)
+    finally:
+        viewer.set_parameters([Parameter(name, value=PARAMETERS[name].default)
+                               for name in ("rate", "costmap_rate", "trail_points")])
 
 
 def test_topics_are_taken_only_while_a_page_is_open(scenario, monkeypatch):

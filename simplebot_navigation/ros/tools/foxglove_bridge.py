@@ -11,7 +11,8 @@ subscribes, so that it too gets the last message (those already subscribed get i
 Clients may publish, but only on the topics of CLIENT_TOPICS (RViz's and the 3D panel's goal, pose
 estimate and clicked point), with the topic's type, encoded as CDR or JSON. Anything else is refused
 with a warning naming the topic, in the log and to that client as a status message; a message that does
-not decode is dropped the same way. Only clients whose browser page comes from an allowed origin
+not decode is dropped the same way. The log has at most one line per kind of refusal every WARN_EVERY_S (a client
+may send thousands), the client hears of each. Only clients whose browser page comes from an allowed origin
 (``allowed_origins``: the Foxglove app and this robot's viewer by default; no Origin at all is a
 non-browser client) and that address this server by its own name get past the handshake
 (ros/tools/foxglove_server.py). The server calls back from a thread of its own: the callbacks only queue what
@@ -30,15 +31,23 @@ from rclpy.qos import DurabilityPolicy
 from rclpy.serialization import deserialize_message
 from rclpy.subscription import Subscription
 
+from simplebot_navigation.parameters.spec import Param
+from simplebot_navigation.ros.costmap.costmap_log import Throttle
 from simplebot_navigation.ros.tools.foxglove_server import STATUS_WARNING, FoxgloveServer
 from simplebot_navigation.ros.tools.message_json import message_from_json
 from simplebot_navigation.ros.node_main import SetUpNode, run_node
-from simplebot_navigation.ros.params import declare_checked
+from simplebot_navigation.ros.params import declare_specs, take_live_changes
 from simplebot_navigation.ros.tools.raw_topics import RawTopic, TopicDiscovery, publisher_qos
-from simplebot_navigation.web_host import FOXGLOVE_ALLOWED_ORIGINS
+from simplebot_navigation.web_host import FOXGLOVE_ALLOWED_ORIGINS, MAX_ORIGINS, parse_origins
 
-#: ``allowed_origins``: browser pages that may connect, space-separated (the launch file's foxglove_allowed_origins)
-PARAMETERS = {"host": "127.0.0.1", "port": 8766, "allowed_origins": " ".join(FOXGLOVE_ALLOWED_ORIGINS)}
+LABEL = "foxglove_bridge parameter"
+PARAMETERS = {
+    "host": Param(str, "127.0.0.1", "", "address the WebSocket server listens on (0.0.0.0: every one)", dynamic=False),
+    "port": Param(int, 8766, "", "port of the WebSocket server (0: a free one)", low=0, high=65535, dynamic=False),
+    "allowed_origins": Param(str, " ".join(FOXGLOVE_ALLOWED_ORIGINS), "",
+                             f"browser pages that may connect: at most {MAX_ORIGINS} origins (scheme://host[:port]), "
+                             "space-separated (the launch file's foxglove_allowed_origins)"),
+}
 #: the only topics clients may publish on, with their types
 CLIENT_TOPICS = {"/move_base_simple/goal": PoseStamped, "/initialpose": PoseWithCovarianceStamped,
                  "/clicked_point": PointStamped}
@@ -71,9 +80,9 @@ class FoxgloveBridge(SetUpNode):
         super().__init__("foxglove_bridge", **kwargs)
 
     def _set_up(self) -> None:
-        p = declare_checked(self, PARAMETERS, label="foxglove_bridge parameter")
-        if not 0 <= p["port"] <= 65535:
-            raise ValueError(f"foxglove_bridge parameter 'port' must be 0..65535, got {p['port']}")
+        p = declare_specs(self, PARAMETERS, LABEL)
+        origins = parse_origins(p["allowed_origins"], f"{LABEL} 'allowed_origins'")
+        self._log_throttle = Throttle()
         self._events: queue.SimpleQueue = queue.SimpleQueue()
         self._wake = self.create_guard_condition(self._handle_events)
         self._client_channels: dict[tuple[int, int], _ClientChannel] = {}
@@ -82,14 +91,24 @@ class FoxgloveBridge(SetUpNode):
         self._time_sent: int | None = None
         self.discovery = TopicDiscovery(self, self._skip)
         try:
-            self.server = FoxgloveServer("simplebot_navigation", p["host"], p["port"], self._post,
-                                         tuple(p["allowed_origins"].split()), self.get_logger().warn,
+            self.server = FoxgloveServer("simplebot_navigation", p["host"], p["port"], self._post, origins, self._warn,
                                          metadata={"ROS_DISTRO": "jazzy"})
         except OSError as err:
             raise OSError(f"foxglove_bridge: {err} (set the 'port' parameter, 0 picks a free one)") from err
+        take_live_changes(self, PARAMETERS, LABEL, self._take_parameters)
         self.discover()
         self.create_timer(DISCOVERY_PERIOD_S, self.discover, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.get_logger().info(f"Foxglove WebSocket server on {self.url}")
+
+    def _take_parameters(self, changes: dict) -> None:
+        """Only the allowed origins change while running; the next handshakes are checked against them."""
+        self.server.allow_origins(parse_origins(changes["allowed_origins"], f"{LABEL} 'allowed_origins'"))
+
+    def _warn(self, kind, text: str) -> None:
+        """A warning in the log, at most one per kind every WARN_EVERY_S (rclpy's own throttle is fixed per call
+        site: it raises when one call site asks for different ones)."""
+        if self._log_throttle(kind, WARN_EVERY_S):
+            self.get_logger().warn(text)
 
     @property
     def url(self) -> str:
@@ -143,25 +162,25 @@ class FoxgloveBridge(SetUpNode):
     def _advertise(self, client: int, channel_id: int, topic: str, encoding: str, schema_name: str) -> None:
         msg_class = CLIENT_TOPICS.get(topic)
         if msg_class is None:
-            return self._refuse(client, f"may not publish on {topic}: clients publish only on "
+            return self._refuse(client, "topic", f"may not publish on {topic!r}: clients publish only on "
                                 + ", ".join(CLIENT_TOPICS))
         type_name = _type_name(msg_class)
         if schema_name not in (type_name, type_name.replace("/msg/", "/")):
-            return self._refuse(client, f"advertised {topic} as {schema_name!r}; it takes {type_name}")
+            return self._refuse(client, "schema", f"advertised {topic} as {schema_name!r}; it takes {type_name}")
         if encoding not in ("cdr", "json"):
-            return self._refuse(client, f"advertised {topic} in encoding {encoding!r}; it takes cdr or json")
+            return self._refuse(client, "encoding",
+                                f"advertised {topic} in encoding {encoding!r}; it takes cdr or json")
         self._client_channels[(client, channel_id)] = _ClientChannel(topic, encoding)
 
-    def _refuse(self, client: int, why: str, throttled: bool = False) -> None:
-        """A refused client request: said to that client, which the app shows, and in the log (at most every
-        WARN_EVERY_S for what a client may send many of)."""
+    def _refuse(self, client: int, kind, why: str) -> None:
+        """A refused client request: said to that client, which the app shows, and in the log."""
         self.server.status(client, STATUS_WARNING, why)
-        self.get_logger().warn(f"Foxglove client {client} {why}", throttle_duration_sec=WARN_EVERY_S if throttled else 0)
+        self._warn(kind, f"Foxglove client {client} {why}")
 
     def _publish(self, client: int, channel_id: int, data: bytes) -> None:
         channel = self._client_channels.get((client, channel_id))
         if channel is None:
-            return self._refuse(client, f"message on channel {channel_id}, which was refused; dropped", throttled=True)
+            return self._refuse(client, "channel", f"message on channel {channel_id}, which was refused; dropped")
         msg_class = CLIENT_TOPICS[channel.topic]
         try:
             if channel.encoding == "json":
@@ -169,8 +188,8 @@ class FoxgloveBridge(SetUpNode):
             else:
                 msg = deserialize_message(data, msg_class)
         except Exception as err:  # noqa: BLE001 - rclpy raises RMWError, UnicodeDecodeError...: any bad bytes
-            return self._refuse(client, f"{channel.encoding} message on {channel.topic} does not decode as "
-                                f"{_type_name(msg_class)} ({err}); dropped", throttled=True)
+            return self._refuse(client, ("decode", channel.encoding), f"{channel.encoding} message on {channel.topic} "
+                                f"does not decode as {_type_name(msg_class)} ({err}); dropped")
         self._client_publishers[channel.topic].publish(msg)
         self.get_logger().info(f"Foxglove client {client} published on {channel.topic}")
 

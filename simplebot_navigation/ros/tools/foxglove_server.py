@@ -6,7 +6,12 @@ one) open on the robot's computer could subscribe to everything and publish goal
 What it speaks: serverInfo, advertise and status to clients; message data and time as binary frames; subscribe,
 unsubscribe, client advertise/unadvertise and client message data from them. It runs an asyncio loop on a thread
 of its own and tells its owner what clients do through ``post((kind, client_id, args))``, from that thread; the
-owner's calls (add_channel, log, broadcast_time, status) may come from any thread.
+owner's calls (add_channel, log, broadcast_time, status, allow_origins) may come from any thread.
+
+Clients are strangers: every id a client gives (subscription and channel ids) must be a uint32, every name a string of
+at most MAX_NAME characters; anything else is refused to that client with an error status and reported to the owner
+through ``refused(kind, text)``, which the owner may throttle per kind. A client whose frames cannot be queued is
+closed; the others are served on.
 """
 
 from __future__ import annotations
@@ -17,7 +22,7 @@ import json
 import struct
 import threading
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Callable, Iterable
 
 from websockets.asyncio.server import ServerConnection, serve
 from websockets.exceptions import ConnectionClosed
@@ -32,6 +37,9 @@ STATUS_INFO, STATUS_WARNING, STATUS_ERROR = 0, 1, 2
 #: frames queued for one client before the oldest message data is dropped (a slow client must not grow memory)
 MAX_BACKLOG = 512
 MAX_CLIENT_FRAME = 1 << 20
+#: the longest topic, encoding or schema name a client may advertise
+MAX_NAME = 1024
+UINT32_MAX = 2**32 - 1
 #: subscription and advertisement changes a client may make: a burst (the app opening a layout subscribes to a few
 #: dozen topics at once), then so many a second. Each change costs the bridge a ROS subscription made or destroyed,
 #: which every node on the graph hears about: a client that churns them must not load the robot's computer.
@@ -73,10 +81,10 @@ class FoxgloveServer:
     """One Foxglove WebSocket server; OSError when it cannot listen on host:port (port 0: a free one)."""
 
     def __init__(self, name: str, host: str, port: int, post: Callable[[tuple], None],
-                 allowed_origins: tuple[str, ...], refused: Callable[[str], None],
+                 allowed_origins: tuple[str, ...], refused: Callable[[str, str], None],
                  metadata: dict[str, str] | None = None):
         self._post, self._refused = post, refused
-        self._allowed_origins = frozenset(o.rstrip("/") for o in allowed_origins)
+        self.allow_origins(allowed_origins)
         self._host = host
         self._machine_names = machine_names(host)
         self._info = {"op": "serverInfo", "name": name, "capabilities": ["clientPublish", "time"],
@@ -110,7 +118,11 @@ class FoxgloveServer:
 
     def broadcast_time(self, timestamp_ns: int) -> None:
         frame = struct.pack("<BQ", TIME, timestamp_ns)
-        self._loop.call_soon_threadsafe(lambda: [c.put(frame) for c in self._clients.values()])
+        self._loop.call_soon_threadsafe(self._to_clients, lambda client: (frame,))
+
+    def allow_origins(self, origins: tuple[str, ...]) -> None:
+        """The browser pages whose handshakes are taken from now on (those connected stay)."""
+        self._allowed_origins = frozenset(o.rstrip("/") for o in origins)
 
     def status(self, client_id: int, level: int, message: str) -> None:
         """A status message to one client (the app shows it in its problems panel)."""
@@ -156,20 +168,31 @@ class FoxgloveServer:
             why = f"Origin {origin!r} is not allowed (foxglove_allowed_origins)"
         else:
             return None
-        self._refused(f"refused a WebSocket handshake from {connection.remote_address[0]}: {why}")
+        self._refused("handshake", f"refused a WebSocket handshake from {connection.remote_address[0]}: {why}")
         return connection.respond(403, why + "\n")
 
     def _advertise(self, channel: dict) -> None:
         self._channels[channel["id"]] = channel
         frame = json.dumps({"op": "advertise", "channels": [channel]})
-        for client in self._clients.values():
-            client.put(frame)
+        self._to_clients(lambda client: (frame,))
 
     def _fan_out(self, channel_id: int, data: bytes, log_time: int) -> None:
-        for client in self._clients.values():
-            for subscription, channel in client.subscriptions.items():
-                if channel == channel_id:
-                    client.put(struct.pack("<BIQ", MESSAGE_DATA, subscription, log_time) + data)
+        self._to_clients(lambda client: [struct.pack("<BIQ", MESSAGE_DATA, subscription, log_time) + data
+                                         for subscription, channel in client.subscriptions.items()
+                                         if channel == channel_id])
+
+    def _to_clients(self, frames: Callable[[_Client], Iterable]) -> None:
+        """Queue ``frames(client)`` for every client, each on its own: one that fails is closed, and the clients
+        after it still get theirs."""
+        for client in list(self._clients.values()):
+            try:
+                for frame in frames(client):
+                    client.put(frame)
+            except Exception as err:  # noqa: BLE001 - whatever one client's frames raise, the others are served
+                del self._clients[client.id]
+                self._refused("client", f"closed Foxglove client {client.id}: cannot send it a frame "
+                                        f"({type(err).__name__}: {err})")
+                self._loop.create_task(client.ws.close(1011, "the server cannot send to this client"))
 
     async def _serve(self, ws: ServerConnection) -> None:
         client = _Client(next(self._ids), ws, budget_time=self._loop.time())
@@ -184,7 +207,7 @@ class FoxgloveServer:
             pass
         finally:
             sender.cancel()
-            del self._clients[client.id]
+            self._clients.pop(client.id, None)
             for channel in client.subscriptions.values():
                 self._post(("unsubscribe", client.id, channel))
             for channel in client.advertised:
@@ -209,32 +232,50 @@ class FoxgloveServer:
             return self._post(("data", client.id, (channel, frame[5:])))
         try:
             message = json.loads(frame)
-            op = message["op"]
-            items = CHANGE_ITEMS.get(op)
-            if items is not None and not self._within_budget(client, op, max(1, len(message[items]))):
-                return
-            if op == "subscribe":
-                for item in message["subscriptions"]:
-                    self._subscribe(client, int(item["id"]), int(item["channelId"]))
-            elif op == "unsubscribe":
-                for subscription in message["subscriptionIds"]:
-                    channel = client.subscriptions.pop(int(subscription), None)
-                    if channel is not None:
-                        self._post(("unsubscribe", client.id, channel))
-            elif op == "advertise":
-                for item in message["channels"]:
-                    channel = int(item["id"])
-                    client.advertised.add(channel)
-                    self._post(("advertise", client.id, (channel, str(item["topic"]), str(item["encoding"]),
-                                                          str(item.get("schemaName", "")))))
-            elif op == "unadvertise":
-                for channel in message["channelIds"]:
-                    client.advertised.discard(int(channel))
-                    self._post(("unadvertise", client.id, int(channel)))
-            else:
-                self._tell(client, f"operation {op!r} is not supported here")
-        except (ValueError, KeyError, TypeError) as err:
-            self._tell(client, f"malformed request ({type(err).__name__}: {err}): ignored")
+        except (ValueError, RecursionError) as err:
+            return self._reject(client, f"a request that is not JSON ({type(err).__name__}: {err}) ignored")
+        op = message.get("op") if isinstance(message, dict) else None
+        if not isinstance(op, str) or op not in CHANGE_ITEMS:
+            return self._tell(client, f"operation {_short(op)} is not supported here")
+        items = message.get(CHANGE_ITEMS[op])
+        if not isinstance(items, list):
+            return self._reject(client, f"{op}: {CHANGE_ITEMS[op]!r} must be a list; ignored")
+        if not self._within_budget(client, op, max(1, len(items))):
+            return
+        take = {"subscribe": self._subscribe, "unsubscribe": self._unsubscribe, "advertise": self._advertised,
+                "unadvertise": self._unadvertised}[op]
+        for item in items:
+            try:
+                take(client, item)
+            except ValueError as err:
+                self._reject(client, f"{op}: {err}; ignored")
+
+    def _subscribe(self, client: _Client, item) -> None:
+        subscription, channel = _uint32(_field(item, "id"), "subscription id"), \
+            _uint32(_field(item, "channelId"), "channel id")
+        if channel not in self._channels:
+            return self._tell(client, f"subscription {subscription}: no channel {channel}")
+        if subscription in client.subscriptions:
+            return self._tell(client, f"subscription {subscription} is already in use")
+        client.subscriptions[subscription] = channel
+        self._post(("subscribe", client.id, channel))
+
+    def _unsubscribe(self, client: _Client, item) -> None:
+        channel = client.subscriptions.pop(_uint32(item, "subscription id"), None)
+        if channel is not None:
+            self._post(("unsubscribe", client.id, channel))
+
+    def _advertised(self, client: _Client, item) -> None:
+        channel = _uint32(_field(item, "id"), "channel id")
+        topic, encoding = _name(_field(item, "topic"), "topic"), _name(_field(item, "encoding"), "encoding")
+        schema = _name(item.get("schemaName", ""), "schemaName")
+        client.advertised.add(channel)
+        self._post(("advertise", client.id, (channel, topic, encoding, schema)))
+
+    def _unadvertised(self, client: _Client, item) -> None:
+        channel = _uint32(item, "channel id")
+        client.advertised.discard(channel)
+        self._post(("unadvertise", client.id, channel))
 
     def _within_budget(self, client: _Client, op: str, changes: int) -> bool:
         now = self._loop.time()
@@ -246,14 +287,35 @@ class FoxgloveServer:
                                f"second (after a burst of {CHANGE_BURST})")
         return False
 
-    def _subscribe(self, client: _Client, subscription: int, channel: int) -> None:
-        if channel not in self._channels:
-            return self._tell(client, f"subscription {subscription}: no channel {channel}")
-        if subscription in client.subscriptions:
-            return self._tell(client, f"subscription {subscription} is already in use")
-        client.subscriptions[subscription] = channel
-        self._post(("subscribe", client.id, channel))
-
     @staticmethod
-    def _tell(client: _Client, message: str) -> None:
-        client.put(json.dumps({"op": "status", "level": STATUS_WARNING, "message": message}))
+    def _tell(client: _Client, message: str, level: int = STATUS_WARNING) -> None:
+        client.put(json.dumps({"op": "status", "level": level, "message": message}))
+
+    def _reject(self, client: _Client, message: str) -> None:
+        """A malformed request: an error status to the client, and a line to the owner (which may throttle it)."""
+        self._tell(client, message, STATUS_ERROR)
+        self._refused("request", f"Foxglove client {client.id}: {message}")
+
+
+def _field(item, key: str):
+    if not isinstance(item, dict) or key not in item:
+        raise ValueError(f"an item without {key!r} ({_short(item)})")
+    return item[key]
+
+
+def _uint32(value, what: str) -> int:
+    """A client's id: an integer 0..2**32 - 1, as the protocol's binary frames carry it."""
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= UINT32_MAX:
+        raise ValueError(f"{what} {_short(value)} is not a uint32 (an integer 0..{UINT32_MAX})")
+    return value
+
+
+def _name(value, what: str) -> str:
+    if not isinstance(value, str) or len(value) > MAX_NAME:
+        raise ValueError(f"{what} {_short(value)} is not a string of at most {MAX_NAME} characters")
+    return value
+
+
+def _short(value, width: int = 60) -> str:
+    text = repr(value)
+    return text if len(text) <= width else text[:width - 3] + "..."
