@@ -56,8 +56,10 @@ class CycleSnapshot:
 
 
 class ControlLoopStats:
-    """Cycle times of move_base's control loop: a cycle that computes longer than the controller
-    period has missed it (the robot then runs on an older command)."""
+    """Cycle times of move_base's control loop. A period is missed when its cycle computes longer than the period
+    (the robot then runs on an older command) or when no cycle runs in it at all (the executor was busy elsewhere):
+    ``ran(now)`` at every timer call, ``account(now)`` from a timer that keeps running (the housekeeping), so the
+    missed periods show while the loop is starved, not only once it runs again."""
 
     def __init__(self, period_s: float):
         self.period_s = period_s
@@ -66,11 +68,32 @@ class ControlLoopStats:
         self._max_s = 0.0
         self._recent: list[float] = []        # since the last take_recent(), bounded
         self._recent_cap = max(16, int(4.0 / period_s))
+        self._since: float | None = None      # the first timer call the periods are counted from
+        self._calls = 0                       # timer calls since then, that one included
+        self._skipped = 0                     # periods without a call since then, counted in _missed
 
     def set_period(self, period_s: float) -> None:
         """A new controller_frequency: later cycles are judged against this period."""
         self.period_s = period_s
         self._recent_cap = max(16, int(4.0 / period_s))
+        self._since = None
+
+    def ran(self, now_s: float) -> None:
+        """The control timer called (with or without a goal) at node time now_s."""
+        if self._since is None or now_s < self._since:          # the first call, or time jumped back
+            self._since, self._calls, self._skipped = now_s, 0, 0
+        self._calls += 1
+
+    def account(self, now_s: float) -> None:
+        """Count the periods up to now_s in which the timer did not call, as missed. The period just due may be
+        on its way, so it is not counted yet."""
+        if self._since is None or now_s < self._since:
+            return
+        due = int((now_s - self._since) / self.period_s + 1e-6) + 1      # calls due so far, the first included
+        skipped = due - 1 - self._calls
+        if skipped > self._skipped:
+            self._missed += skipped - self._skipped
+            self._skipped = skipped
 
     def add(self, seconds: float) -> bool:
         """Record one cycle; True when it missed the period."""

@@ -12,6 +12,7 @@ from nav2_msgs.srv import (ClearCostmapAroundPose, ClearCostmapAroundRobot, Clea
 
 from simplebot_navigation.ros.conversions import pose_to_xyyaw, xyyaw_to_pose
 from simplebot_navigation.ros.move_base.move_base_goal import in_frame, validate_pose
+from simplebot_navigation.ros.qos import SERVICE_QOS
 
 #: the side (m) of a square to clear is at most this
 MAX_RESET_DISTANCE_M = 1000.0
@@ -30,11 +31,13 @@ class CostmapServices:
 
     def __init__(self, node, costmap_ros, name: str):
         self.node, self.costmap_ros, self.name = node, costmap_ros, name
-        node.create_service(ClearEntireCostmap, f"{name}/clear_entirely_{name}", self._clear_entirely)
-        node.create_service(ClearCostmapExceptRegion, f"{name}/clear_costmap_except_region", self._clear_except)
-        node.create_service(ClearCostmapAroundRobot, f"{name}/clear_costmap_around_robot", self._clear_around_robot)
-        node.create_service(ClearCostmapAroundPose, f"{name}/clear_costmap_around_pose", self._clear_around_pose)
-        node.create_service(GetCostmap, f"{name}/get_costmap", self._get_costmap)
+        for srv_type, service, callback in (
+                (ClearEntireCostmap, f"clear_entirely_{name}", self._clear_entirely),
+                (ClearCostmapExceptRegion, "clear_costmap_except_region", self._clear_except),
+                (ClearCostmapAroundRobot, "clear_costmap_around_robot", self._clear_around_robot),
+                (ClearCostmapAroundPose, "clear_costmap_around_pose", self._clear_around_pose),
+                (GetCostmap, "get_costmap", self._get_costmap)):
+            node.create_service(srv_type, f"{name}/{service}", callback, qos_profile=SERVICE_QOS)
 
     def _refuse(self, service: str, reason: str) -> None:
         self.node.get_logger().error(f"{self.name}/{service}: {reason}")

@@ -4,6 +4,10 @@ obstacles (docs/reference.md §6).
 The latest message replaces the previous one and is used for external_timeout after it arrived. Its obstacles are
 converted into the planning frame through TF at the message's stamp (the latest transform if that is not
 available): positions transformed, velocities rotated. Bad obstacles are dropped with a warning naming the field.
+
+Any node may publish here, so the subscription takes the serialized bytes: a message beyond the caps of
+obstacle_msgs.py (100,000 obstacles, a polygon of 10,000 points) is refused whole after reading its lengths,
+before a Python object is built per obstacle or point, and at most OBSTACLE_QUEUE messages wait in the middleware.
 """
 
 from __future__ import annotations
@@ -11,33 +15,38 @@ from __future__ import annotations
 import numpy as np
 from costmap_converter_msgs.msg import ObstacleArrayMsg
 from rclpy.node import Node
+from rclpy.qos import QoSProfile
 from rclpy.time import Time
 
 from simplebot_navigation.geometry import transform_points
 from simplebot_navigation.ros.conversions import transform_to_xyyaw
-from simplebot_navigation.ros.costmap.costmap_input import stamp_seconds
 from simplebot_navigation.ros.costmap.costmap_log import Throttle
-from simplebot_navigation.ros.move_base.obstacle_msgs import obstacle_rows
+from simplebot_navigation.ros.move_base.obstacle_msgs import RefusedMessage, read_obstacle_array
 from simplebot_navigation.ros.tf import ExtrapolationException, TransformException, strip_frame
 
 WARNING_PERIOD_S = 5.0
+#: messages the middleware keeps for the subscription: only the latest counts, but move_base's own publications
+#: (one per scan) arrive on the same topic and must not push another node's out while a control cycle runs; the
+#: middleware keeps this many samples of the largest size seen
+OBSTACLE_QUEUE = 5
 
 
 class ExternalObstacles:
     """``current(now, timeout)``: rows [x, y, vx, vy, radius] in `frame`, positions extrapolated to `now`.
-    ``is_own(msg)`` tells the node's own publications, which are skipped."""
+    ``is_own(key)`` tells the node's own publications by ObstacleArray.key; they are skipped."""
 
     def __init__(self, node: Node, topic: str, frame: str, tf_buffer):
         self.node = node
         self.topic = topic
         self.frame = frame
         self.tf = tf_buffer
-        self.is_own = lambda _msg: False
+        self.is_own = lambda _key: False
         self.throttle = Throttle()
         self._rows = np.empty((0, 5))
         self._stamp = 0.0
         self._arrival: float | None = None
-        self.subscription = node.create_subscription(ObstacleArrayMsg, topic, self._on_message, 10)
+        self.subscription = node.create_subscription(ObstacleArrayMsg, topic, self._on_message,
+                                                     QoSProfile(depth=OBSTACLE_QUEUE), raw=True)
 
     def _now(self) -> float:
         return self.node.get_clock().now().nanoseconds * 1e-9
@@ -46,29 +55,34 @@ class ExternalObstacles:
         if self.throttle(key, WARNING_PERIOD_S):
             self.node.get_logger().warning(f"obstacles on {self.topic}: {text}")
 
-    def _on_message(self, msg: ObstacleArrayMsg) -> None:
-        if self.is_own(msg):
+    def _on_message(self, raw: bytes) -> None:
+        try:
+            msg = read_obstacle_array(raw)
+        except RefusedMessage as refused:
+            self._warn(("message", refused.field), f"message of {len(raw)} bytes refused: {refused}")
             return
-        rows, problems = obstacle_rows(msg)
-        for problem in problems:
-            self._warn(("obstacle", problem.split(":")[1]), f"obstacle dropped: {problem}")
-        frame = strip_frame(msg.header.frame_id)
+        if self.is_own(msg.key):
+            return
+        for field, problem in msg.problems:
+            self._warn(("obstacle", field), f"obstacle dropped: {problem}")
+        frame = strip_frame(msg.frame)
         now = self._now()
-        stamp = stamp_seconds(Time.from_msg(msg.header.stamp)) if msg.header.stamp.sec >= 0 else 0.0
+        stamp = msg.sec + msg.nanosec * 1e-9
         stamp = stamp if 0.0 < stamp <= now else now       # unset or future stamps: positions as of now
+        rows = msg.rows
         if len(rows) and frame != self.frame:
-            rows = self._in_planning_frame(rows, frame, msg.header.stamp)
+            rows = self._in_planning_frame(rows, frame, stamp)
             if rows is None:
                 return
         self._rows, self._stamp, self._arrival = rows, stamp, now
 
-    def _in_planning_frame(self, rows: np.ndarray, frame: str, stamp) -> np.ndarray | None:
+    def _in_planning_frame(self, rows: np.ndarray, frame: str, stamp: float) -> np.ndarray | None:
         if not frame:
             self._warn("frame", "message dropped: header.frame_id is empty")
             return None
         try:
             try:
-                tf = self.tf.lookup_transform(self.frame, frame, Time.from_msg(stamp))
+                tf = self.tf.lookup_transform(self.frame, frame, Time(nanoseconds=round(stamp * 1e9)))
             except ExtrapolationException:
                 tf = self.tf.lookup_transform(self.frame, frame, Time())
         except (TransformException, ValueError) as err:

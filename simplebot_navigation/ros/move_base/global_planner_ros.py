@@ -32,6 +32,7 @@ from simplebot_navigation.ros.conversions import occupancy_grid_msg, path_msg
 from simplebot_navigation.ros.move_base.move_base_goal import plan_request
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
 from simplebot_navigation.ros.publishers import create_publisher
+from simplebot_navigation.ros.qos import SERVICE_QOS
 from simplebot_navigation.ros.tf import strip_frame
 
 #: ROS 1 warns about a start or goal off the costmap at most once a second
@@ -68,7 +69,7 @@ class GlobalPlannerROS:
         self.plan_pub = create_publisher(node, Path, f"~/{self.name}/plan", 1)
         self.potential_pub = create_publisher(node, OccupancyGrid, f"~/{self.name}/potential", 1)
         self.make_plan_srv = node.create_service(GetPlan, f"~/{self.name}/make_plan", self._on_make_plan,
-                                                 callback_group=callback_group)
+                                                 callback_group=callback_group, qos_profile=SERVICE_QOS)
 
     def reconfigure(self, config: GlobalPlannerConfig) -> None:
         """New planner parameters (global_planner's dynamic_reconfigure): the next plan is made with them.

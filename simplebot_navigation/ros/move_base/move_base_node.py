@@ -270,6 +270,7 @@ class MoveBaseNode(Node):
 
     def _housekeeping(self) -> None:
         self._housekeeping_ticks += 1
+        self.cycle_stats.account(self.now_s())
         self.supervisor.check_watchdog()
         if self._housekeeping_ticks % STATUS_TICKS == 0:
             self.reports.publish_status()
@@ -277,6 +278,7 @@ class MoveBaseNode(Node):
             self.reports.publish_diagnostics()
 
     def _control_cycle(self) -> None:
+        self.cycle_stats.ran(self.now_s())
         self.supervisor.loop_ran()
         self.live_parameters.apply_pending()
         goal = self.goal

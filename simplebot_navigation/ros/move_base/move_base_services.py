@@ -7,6 +7,7 @@ from std_srvs.srv import Empty
 
 from simplebot_navigation.ros.conversions import path_msg
 from simplebot_navigation.ros.move_base.move_base_goal import plan_request
+from simplebot_navigation.ros.qos import SERVICE_QOS
 
 
 def serve_move_base_services(node) -> None:
@@ -37,5 +38,5 @@ def serve_move_base_services(node) -> None:
         node.get_logger().info("costmaps cleared")
         return response
 
-    node.create_service(GetPlan, "~/make_plan", make_plan)
-    node.create_service(Empty, "~/clear_costmaps", clear_costmaps)
+    node.create_service(GetPlan, "~/make_plan", make_plan, qos_profile=SERVICE_QOS)
+    node.create_service(Empty, "~/clear_costmaps", clear_costmaps, qos_profile=SERVICE_QOS)

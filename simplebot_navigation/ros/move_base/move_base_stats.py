@@ -35,15 +35,20 @@ def navigation_status(stats: MoveBaseStats, hardware_id: str) -> DiagnosticStatu
 
 def control_loop_status(window: CycleSnapshot, total: CycleSnapshot, recent, frequency_hz: float,
                         hardware_id: str) -> DiagnosticStatus:
-    """The cycles since the previous report (window) and since start (total); recent: their compute times."""
+    """The cycles since the previous report (window) and since start (total); recent: their compute times. missed:
+    periods whose cycle overran, or in which none ran (the loop starved), whether a goal was active or not."""
     def ms(seconds):
         return "-" if seconds is None else f"{seconds * 1e3:.1f}"
 
     p50, p95, longest = window.percentile_s(50), window.percentile_s(95), window.longest_s
     status = DiagnosticStatus(name="move_base: control loop", hardware_id=hardware_id)
     status.level = DiagnosticStatus.WARN if window.missed else DiagnosticStatus.OK
-    status.message = (f"{window.cycles} cycles, p95 {ms(p95)} ms, {window.missed} missed the "
-                      f"{1e3 / frequency_hz:.0f} ms period" if window.cycles else "idle")
+    if window.cycles:
+        status.message = (f"{window.cycles} cycles, p95 {ms(p95)} ms, {window.missed} periods of "
+                          f"{1e3 / frequency_hz:.0f} ms missed")
+    else:
+        status.message = f"idle, {window.missed} periods of {1e3 / frequency_hz:.0f} ms without a cycle" \
+            if window.missed else "idle"
     values = {"frequency_hz": f"{frequency_hz:g}", "cycles": str(window.cycles),
               "missed": str(window.missed), "p50_ms": ms(p50), "p95_ms": ms(p95), "max_ms": ms(longest),
               "cycles_total": str(total.cycles), "missed_total": str(total.missed),

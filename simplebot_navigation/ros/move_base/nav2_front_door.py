@@ -30,6 +30,7 @@ from simplebot_navigation.ros.conversions import duration_msg, duration_s, path_
 from simplebot_navigation.ros.costmap.costmap_services import CostmapServices
 from simplebot_navigation.ros.lifecycle_state import serve_lifecycle_state
 from simplebot_navigation.ros.move_base.move_base_goal import MoveBaseGoal, validate_pose
+from simplebot_navigation.ros.qos import SERVICE_QOS
 
 #: the interfaces whose error codes a navigation goal's failure reports (nav2_requests.ERROR_CODES)
 _CODE_SOURCES = {"ComputePathToPose": ComputePathToPose, "FollowPath": FollowPath}
@@ -87,7 +88,8 @@ class Nav2FrontDoor:
         self.servers = [
             ActionServer(node, action, name, execute_callback=execute, callback_group=group,
                          goal_callback=lambda _request: GoalResponse.ACCEPT,
-                         cancel_callback=lambda _handle: CancelResponse.ACCEPT)
+                         cancel_callback=lambda _handle: CancelResponse.ACCEPT, goal_service_qos_profile=SERVICE_QOS,
+                         result_service_qos_profile=SERVICE_QOS, cancel_service_qos_profile=SERVICE_QOS)
             for action, name, execute in (
                 (NavigateToPose, "navigate_to_pose", self._navigate_to_pose),
                 (NavigateThroughPoses, "navigate_through_poses", self._navigate_through_poses),

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import struct
+from dataclasses import dataclass
 
 import numpy as np
 from builtin_interfaces.msg import Time as TimeMsg
@@ -15,6 +17,18 @@ from simplebot_navigation.perception import Track
 
 #: marker height of a tracked obstacle (m)
 MARKER_HEIGHT = 1.0
+#: caps on another node's ObstacleArrayMsg (docs/reference.md §6.4), checked before its obstacles are read: a
+#: message beyond one is refused whole
+MAX_OBSTACLES = 100
+MAX_POLYGON_POINTS = 100
+MAX_POINTS = 1000
+MAX_FRAME_ID_BYTES = 256
+#: an obstacle another node reports is a person or a robot: its circle (radius, or the circle around its polygon)
+#: at most this (m), its speed at most MAX_SPEED_M_S and its points within MAX_COORDINATE_M of the frame's origin;
+#: an obstacle beyond is dropped
+MAX_RADIUS_M = 5.0
+MAX_SPEED_M_S = 10.0
+MAX_COORDINATE_M = 1e4
 
 
 def obstacle_array_msg(tracks: list[Track], frame: str, stamp: TimeMsg) -> ObstacleArrayMsg:
@@ -38,28 +52,137 @@ def obstacle_array_msg(tracks: list[Track], frame: str, stamp: TimeMsg) -> Obsta
     return msg
 
 
-def obstacle_rows(msg: ObstacleArrayMsg) -> tuple[np.ndarray, list[str]]:
-    """Rows [x, y, vx, vy, radius] in the message's frame, and why each dropped obstacle was dropped (naming the
-    field). A polygon of several points becomes the circle around it: its vertices' mean, out to the farthest
-    vertex plus the radius."""
+class RefusedMessage(ValueError):
+    """A message beyond one of the caps, or not a well-formed ObstacleArrayMsg: refused whole. ``field`` names
+    what was wrong (for throttling the warning by it), the text says the value and the bound."""
+
+    def __init__(self, field: str, text: str):
+        super().__init__(f"{field}: {text}")
+        self.field = field
+
+
+@dataclass(frozen=True)
+class ObstacleArray:
+    """Another node's ObstacleArrayMsg as move_base uses it: rows [x, y, vx, vy, radius] in the message's frame,
+    why each dropped obstacle was dropped as (field, text), and the key ObstacleTracking knows its own by."""
+
+    frame: str
+    sec: int
+    nanosec: int
+    ids: tuple
+    rows: np.ndarray
+    problems: list
+
+    @property
+    def key(self) -> tuple:
+        return self.sec, self.nanosec, self.frame, self.ids
+
+
+class _Reader:
+    """XCDR1 as every ROS 2 middleware serializes messages: a 4-byte encapsulation header (00 01 little-endian,
+    00 00 big-endian), then the fields, each aligned to its size counted from after the header."""
+
+    def __init__(self, raw: bytes):
+        if len(raw) < 4 or raw[0] != 0 or raw[1] not in (0, 1):
+            raise RefusedMessage("encapsulation", f"{bytes(raw[:4]).hex()} is not plain CDR (0000 or 0001)")
+        self.raw, self.order, self.pos = raw, "<" if raw[1] else ">", 4
+
+    def skip(self, size: int, align: int, field: str) -> int:
+        """Advance over ``size`` bytes aligned to ``align``; their offset."""
+        self.pos += -(self.pos - 4) % align
+        start, self.pos = self.pos, self.pos + size
+        if self.pos > len(self.raw):
+            raise RefusedMessage(field, f"the message ends at byte {len(self.raw)}, inside {field}")
+        return start
+
+    def read(self, fmt: str, field: str) -> tuple:
+        align = 8 if "d" in fmt or "q" in fmt else 4
+        return struct.unpack_from(self.order + fmt, self.raw, self.skip(struct.calcsize("<" + fmt), align, field))
+
+    def string(self, field: str) -> str:
+        (length,) = self.read("I", field)
+        if length > MAX_FRAME_ID_BYTES + 1:
+            raise RefusedMessage(field, f"has {length - 1} bytes, at most {MAX_FRAME_ID_BYTES}")
+        start = self.skip(length, 1, field)
+        return bytes(self.raw[start:start + max(length - 1, 0)]).decode("utf-8", errors="replace")
+
+
+def _sizes(reader: _Reader, count: int):
+    """Walk the obstacles, checking every length before anything is read: (points offsets and counts, the
+    fixed fields after each polygon)."""
+    offsets, counts, fixed, total = [], [], [], 0
+    for k in range(count):
+        reader.read("iI", f"obstacles[{k}].header.stamp")
+        reader.string(f"obstacles[{k}].header.frame_id")
+        (points,) = reader.read("I", f"obstacles[{k}].polygon.points")
+        if points > MAX_POLYGON_POINTS:
+            raise RefusedMessage("polygon.points", f"obstacles[{k}].polygon.points has {points} points, at most "
+                                 f"{MAX_POLYGON_POINTS}")
+        total += points
+        if total > MAX_POINTS:
+            raise RefusedMessage("points", f"more than {MAX_POINTS} polygon points in all")
+        offsets.append(reader.skip(12 * points, 4, f"obstacles[{k}].polygon.points"))
+        counts.append(points)
+        # radius, id, orientation, velocities.twist (then the covariance, unread)
+        fixed.append(reader.read("dq4d6d", f"obstacles[{k}]"))
+        reader.skip(36 * 8, 8, f"obstacles[{k}].velocities.covariance")
+    return offsets, counts, fixed
+
+
+def read_obstacle_array(raw: bytes) -> ObstacleArray:
+    """A serialized ObstacleArrayMsg, read without building a Python object per obstacle or point, its counts
+    checked before the obstacles are read (raises RefusedMessage). A polygon of several points becomes the circle
+    around it: its vertices' mean, out to the farthest vertex plus the radius. An obstacle with a point that is
+    not finite or beyond MAX_COORDINATE_M, no points, a circle beyond MAX_RADIUS_M or a speed beyond
+    MAX_SPEED_M_S is dropped, and why is in ``problems``."""
+    reader = _Reader(raw)
+    sec, nanosec = reader.read("iI", "header.stamp")
+    frame = reader.string("header.frame_id")
+    (count,) = reader.read("I", "obstacles")
+    if count > MAX_OBSTACLES:
+        raise RefusedMessage("obstacles", f"{count} obstacles, at most {MAX_OBSTACLES}")
+    offsets, counts, fixed = _sizes(reader, count)
+    fixed = np.array(fixed, dtype=float).reshape(-1, 12)
+    counts = np.array(counts, dtype=np.int64)
+    points = np.concatenate([np.zeros((0, 2))] + [
+        np.frombuffer(raw, dtype=reader.order + "f4", count=3 * n, offset=at).reshape(n, 3)[:, :2]
+        for at, n in zip(offsets, counts) if n]).astype(float)
+    owner = np.repeat(np.arange(count), counts)
+    wild = ~(np.abs(points) <= MAX_COORDINATE_M).all(axis=1)              # NaN too
+    points[wild] = 0.0
+    wild = np.bincount(owner, wild, minlength=count) > 0
+    centres = np.stack([np.bincount(owner, points[:, i], minlength=count) for i in (0, 1)], axis=1) \
+        / np.maximum(counts, 1)[:, None]
+    around = np.zeros(count)
+    np.maximum.at(around, owner, np.hypot(*(points - centres[owner]).T))
+    radius, velocity = fixed[:, 0], fixed[:, 6:8]
+    circle = around + radius
     rows, problems = [], []
-    for k, obstacle in enumerate(msg.obstacles):
-        points = np.array([(p.x, p.y) for p in obstacle.polygon.points], dtype=float).reshape(-1, 2)
-        velocity = (obstacle.velocities.twist.linear.x, obstacle.velocities.twist.linear.y)
-        where = f"obstacles[{k}] (id {obstacle.id})"
-        if not len(points):
-            problems.append(f"{where}: polygon has no points")
-        elif not np.isfinite(points).all():
-            problems.append(f"{where}: polygon.points are not all finite")
-        elif not (math.isfinite(obstacle.radius) and obstacle.radius >= 0):
-            problems.append(f"{where}: radius must be finite and >= 0, got {obstacle.radius}")
-        elif not all(math.isfinite(v) for v in velocity):
-            problems.append(f"{where}: velocities.twist.linear is not finite: {velocity}")
+    for k in range(count):
+        why = _problem(counts[k], wild[k], radius[k], circle[k], velocity[k])
+        if why is None:
+            rows.append([centres[k, 0], centres[k, 1], velocity[k, 0], velocity[k, 1], circle[k]])
         else:
-            centre = points.mean(axis=0)
-            around = float(np.hypot(*(points - centre).T).max())
-            rows.append([centre[0], centre[1], velocity[0], velocity[1], around + obstacle.radius])
-    return np.array(rows, dtype=float).reshape(-1, 5), problems
+            problems.append((why[0], f"obstacles[{k}] (id {int(fixed[k, 1])}): {why[1]}"))
+    return ObstacleArray(frame, sec, nanosec, tuple(int(i) for i in fixed[:, 1]),
+                         np.array(rows, dtype=float).reshape(-1, 5), problems)
+
+
+def _problem(points: int, wild: bool, radius: float, circle: float, velocity) -> tuple[str, str] | None:
+    """(field, why) an obstacle is dropped, or None."""
+    if points == 0:
+        return "polygon.points", "polygon has no points"
+    if wild:
+        return "polygon.points", f"polygon.points are not all finite and within {MAX_COORDINATE_M:g} m"
+    if not 0.0 <= radius <= MAX_RADIUS_M:
+        return "radius", f"radius {radius:g} m is not in [0, {MAX_RADIUS_M:g}] m"
+    if not circle <= MAX_RADIUS_M:
+        return "radius", f"the circle around the polygon has radius {circle:g} m, at most {MAX_RADIUS_M:g} m"
+    speed = math.hypot(*velocity)
+    if not speed <= MAX_SPEED_M_S:
+        return "velocities", f"velocities.twist.linear ({velocity[0]:g}, {velocity[1]:g}) has speed {speed:g} m/s, " \
+                             f"at most {MAX_SPEED_M_S:g} m/s"
+    return None
 
 
 def track_markers(tracks: list[Track], frame: str, stamp: TimeMsg) -> MarkerArray:

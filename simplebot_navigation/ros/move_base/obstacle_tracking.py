@@ -109,10 +109,10 @@ class ObstacleTracking:
         if self.markers_pub.get_subscription_count():
             self.markers_pub.publish(track_markers(self.tracker.tracks(), self.frame, stamp))
 
-    def is_own(self, msg: ObstacleArrayMsg) -> bool:
-        """Whether this node published the message. rclpy 7.1's message info carries no publisher gid, so own
-        messages are known by stamp, frame and obstacle ids."""
-        return _key(msg) in self._own
+    def is_own(self, key: tuple) -> bool:
+        """Whether this node published the message of ``key`` (ObstacleArray.key: stamp, frame, obstacle ids).
+        rclpy 7.1's message info carries no publisher gid, so own messages are known by these."""
+        return key in self._own
 
     # -- what the costmaps and the local planner read --------------------------------------------
     def moving_obstacles(self, now: float) -> np.ndarray:
