@@ -14,6 +14,8 @@ from lifecycle_msgs.msg import State
 from lifecycle_msgs.srv import ChangeState, GetState
 from rclpy.node import Node
 
+from simplebot_navigation.ros.qos import SERVICE_QOS
+
 
 def serve_lifecycle_state(node: Node, name: str, is_active: Callable[[], bool]) -> None:
     """``name``/get_state and ``name``/change_state (names relative to the node's namespace, or ``~`` for the
@@ -35,5 +37,5 @@ def serve_lifecycle_state(node: Node, name: str, is_active: Callable[[], bool]) 
         response.success = False
         return response
 
-    node.create_service(GetState, f"{name}/get_state", get_state)
-    node.create_service(ChangeState, f"{name}/change_state", change_state)
+    node.create_service(GetState, f"{name}/get_state", get_state, qos_profile=SERVICE_QOS)
+    node.create_service(ChangeState, f"{name}/change_state", change_state, qos_profile=SERVICE_QOS)

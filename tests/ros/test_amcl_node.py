@@ -21,7 +21,10 @@ from sensor_msgs.msg import LaserScan
 from std_srvs.srv import Empty
 from tf2_msgs.msg import TFMessage
 
+from simplebot_navigation.localization.amcl_params import AmclParams
+from simplebot_navigation.parameters import fields_of
 from simplebot_navigation.paths import package_share
+from simplebot_navigation.ros.amcl.amcl_messages import post_dated
 from simplebot_navigation.ros.amcl.amcl_node import LATCHED, AmclNode
 from simplebot_navigation.ros.conversions import yaw_of
 from simplebot_navigation.ros.map_server_node import MapServerNode
@@ -215,3 +218,50 @@ def test_global_localization_spreads_the_particles_and_the_cloud_is_published(la
     assert len(amcl.amcl.particles) == amcl.params.max_particles and min(spread) > 2.0
     drive(sim, driver, 0.0, 0.3, 0.5)
     assert probe.clouds and probe.clouds[-1].header.frame_id == "map" and len(probe.clouds[-1].poses) > 0
+
+
+def back_to_the_truth(sim, probe, driver) -> None:
+    """The initial pose at the robot's true pose, as a test that disturbed the filter leaves it."""
+    truth = sim.sim.ground_truth()
+    probe.initial_pose.publish(initial_pose_msg(truth.x, truth.y, truth.yaw, cov=covariance(0.01, 0.01, 0.003)))
+    drive(sim, driver, 0.0, 0.2, 1.0)
+
+
+def test_a_burst_of_50_global_localization_calls_is_answered_in_full(lab):
+    sim, amcl, probe, driver = lab
+    client = probe.create_client(Empty, "/global_localization")
+    futures = [client.call_async(Empty.Request()) for _ in range(50)]
+    driver.run_until(driver.time + 5.0, stop=lambda: all(f.done() for f in futures))
+    answered = sum(f.done() for f in futures)
+    probe.destroy_client(client)
+    back_to_the_truth(sim, probe, driver)
+    assert answered == 50
+
+
+def test_every_live_number_beyond_its_physical_bound_is_refused_naming_it_and_the_filter_goes_on(lab):
+    sim, amcl, probe, driver = lab
+    before = amcl.params
+    specs = fields_of(AmclParams)
+    numeric = [name for name, spec in specs.items() if spec.kind in (int, float) and spec.dynamic]
+    for name in numeric:
+        hostile = (2 ** 62, -2 ** 62) if specs[name].kind is int else (1e308, -1e308, float("nan"))
+        for value in hostile:
+            result = amcl.set_parameters([Parameter(name, value=value)])[0]
+            assert not result.successful and name in result.reason and repr(value) in result.reason, \
+                (name, value, result.reason)
+    assert amcl.params == before
+    # the largest legal post-dating: map -> odom still goes out, stamped the scan's stamp + 10 s
+    assert amcl.set_parameters([Parameter("transform_tolerance", value=10.0)])[0].successful
+    sent = len(probe.map_to_odom_stamps)
+    drive(sim, driver, 0.0, 0.1, 0.5)
+    assert len(probe.map_to_odom_stamps) > sent
+    newest_scan = max(stamp for stamp in probe.scan_stamps if stamp <= driver.time * 1e9)   # not a hostile one
+    assert abs(probe.map_to_odom_stamps[-1] - (newest_scan + 10 ** 10)) < 1000
+    assert amcl.set_parameters([Parameter("transform_tolerance", value=0.2)])[0].successful
+
+
+def test_map_to_odom_post_dated_past_the_latest_stamp_saturates_instead_of_raising():
+    latest = (2 ** 31 - 1) * 10 ** 9 + 999_999_999     # the latest stamp a message can carry (sec is an int32)
+    stamp = post_dated(latest - 10 ** 9, 10.0)      # a scan 1 s before the end of time, the largest tolerance
+    assert (stamp.sec, stamp.nanosec) == (2 ** 31 - 1, 999_999_999)
+    assert Time.from_msg(post_dated(5 * 10 ** 9, 0.2)).nanoseconds == 5_200_000_000

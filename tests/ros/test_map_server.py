@@ -241,3 +241,12 @@ def test_map_saver_refuses_bad_arguments_in_one_line(capsys, args, message):
         parse_arguments(args)
     err = capsys.readouterr().err
     assert exit.value.code == 2 and message in err and err.count("\n") == 1, err
+
+
+def test_a_burst_of_50_get_map_requests_is_answered_in_full(graph, maps):
+    graph.server(maps / "office.yaml")
+    client = graph.client("burst_client").create_client(GetMap, "/map_server/map")
+    assert graph.spin_until(client.service_is_ready)
+    futures = [client.call_async(GetMap.Request()) for _ in range(50)]
+    graph.spin_until(lambda: all(f.done() for f in futures), seconds=30.0)
+    assert sum(f.done() for f in futures) == 50

@@ -41,7 +41,7 @@ from simplebot_navigation.ros.node_main import SetUpNode, run_node
 from simplebot_navigation.ros.params import declare_defaults, descriptor, given_parameter_tree
 from simplebot_navigation.ros.lifecycle_state import serve_lifecycle_state
 from simplebot_navigation.ros.publishers import create_publisher
-from simplebot_navigation.ros.qos import LATCHED
+from simplebot_navigation.ros.qos import LATCHED, SERVICE_QOS
 from simplebot_navigation.ros.tf import (Buffer, ExtrapolationException, TransformBroadcaster, TransformException,
                                          TransformListener, strip_frame)
 
@@ -113,8 +113,8 @@ class AmclNode(SetUpNode):
         for topic in topics:
             self.create_subscription(LaserScan, topic, lambda msg, t=topic: self._on_scan(t, msg),
                                      qos_profile_sensor_data)
-        self.create_service(Empty, "global_localization", self._on_global_localization)
-        self.create_service(Empty, "request_nomotion_update", self._on_nomotion_update)
+        self.create_service(Empty, "global_localization", self._on_global_localization, qos_profile=SERVICE_QOS)
+        self.create_service(Empty, "request_nomotion_update", self._on_nomotion_update, qos_profile=SERVICE_QOS)
         # Nav2's scripts wait for amcl/get_state to say active: so it does once it has a map and places the robot.
         serve_lifecycle_state(self, "~", lambda: self.amcl is not None and self._map_to_odom is not None)
         self._retry = self.create_timer(RETRY_PERIOD_S, self._process_pending)
@@ -292,7 +292,7 @@ class AmclNode(SetUpNode):
         self._newest = max(self._newest, t)
         if updated or self._map_to_odom is None:
             self._publish_estimate(odom, msg.header.stamp)
-        self._send_map_to_odom(t)
+        self._send_map_to_odom(stamp.nanoseconds)
         return True
 
     def _warn_dropped(self, topic: str, msg: LaserScan, err: Exception) -> None:
@@ -339,12 +339,12 @@ class AmclNode(SetUpNode):
         if all(math.isfinite(v) and (not name.startswith("initial_cov") or v > 0) for name, v in values.items()):
             self.set_parameters([Parameter(name, value=float(v)) for name, v in values.items()])
 
-    def _send_map_to_odom(self, t: float) -> None:
+    def _send_map_to_odom(self, stamp_ns: int) -> None:
         if self._map_to_odom is None or not self.params.tf_broadcast:
             return
         tf = TransformStamped()
         tf.header.frame_id, tf.child_frame_id = self.global_frame, self.odom_frame
-        tf.header.stamp = Time(nanoseconds=round((t + self.params.transform_tolerance) * 1e9)).to_msg()
+        tf.header.stamp = messages.post_dated(stamp_ns, self.params.transform_tolerance)
         x, y, yaw = self._map_to_odom
         tf.transform.translation.x, tf.transform.translation.y = x, y
         r = tf.transform.rotation
