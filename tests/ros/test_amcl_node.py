@@ -22,15 +22,18 @@ from std_srvs.srv import Empty
 from tf2_msgs.msg import TFMessage
 
 from simplebot_navigation.localization.amcl_params import AmclParams
+from simplebot_navigation.maps import OccupancyMap
 from simplebot_navigation.parameters import fields_of
 from simplebot_navigation.paths import package_share
 from simplebot_navigation.ros.amcl.amcl_messages import post_dated
 from simplebot_navigation.ros.amcl.amcl_node import LATCHED, AmclNode
-from simplebot_navigation.ros.conversions import yaw_of
-from simplebot_navigation.ros.map_server_node import MapServerNode
+from simplebot_navigation.ros.conversions import occupancy_map_msg, yaw_of
+from simplebot_navigation.ros.map_server_node import WORLD_MAP_RESOLUTION, MapServerNode
 from simplebot_navigation.ros.simulator.lockstep import LockstepDriver
 from simplebot_navigation.ros.simulator.simulator_node import SimulatorNode
 from simplebot_navigation.ros.tf import TransformException
+from simplebot_navigation.sim import load_world
+from simplebot_navigation.sim.map_export import export_map
 
 pytestmark = pytest.mark.timeout(180)
 
@@ -265,3 +268,55 @@ def test_map_to_odom_post_dated_past_the_latest_stamp_saturates_instead_of_raisi
     stamp = post_dated(latest - 10 ** 9, 10.0)      # a scan 1 s before the end of time, the largest tolerance
     assert (stamp.sec, stamp.nanosec) == (2 ** 31 - 1, 999_999_999)
     assert Time.from_msg(post_dated(5 * 10 ** 9, 0.2)).nanoseconds == 5_200_000_000
+
+
+def lab_map_msg(driver, noisy_seed=None, occupied_at=None) -> OccupancyGrid:
+    """The lab's map (noisy as a SLAM run's with a seed), with a 1 m square occupied round ``occupied_at``."""
+    lab_map = export_map(load_world("lab"), WORLD_MAP_RESOLUTION, noisy_seed=noisy_seed)
+    if occupied_at is not None:
+        col, row = (int((v - o) / lab_map.resolution) for v, o in zip(occupied_at, lab_map.origin))
+        lab_map.data[row - 10:row + 10, col - 10:col + 10] = 100
+    return occupancy_map_msg(lab_map, Time(seconds=driver.time).to_msg())
+
+
+def test_a_map_swap_and_back_keeps_amcl_localized_whatever_initial_cov_was_saved(lab):
+    """initial_cov_* as wide as save_pose_rate leaves them after global localization (and no saving since): a new map
+    must start from the filter's own spread, not from them."""
+    sim, amcl, probe, driver = lab
+    wide = [Parameter("save_pose_rate", value=-1.0), Parameter("initial_cov_xx", value=25.0),
+            Parameter("initial_cov_yy", value=25.0), Parameter("initial_cov_aa", value=3.0)]
+    assert all(result.successful for result in amcl.set_parameters(wide))
+    try:
+        probe.map.publish(lab_map_msg(driver, noisy_seed=1))
+        drive(sim, driver, 0.3, 0.05, 2.0)
+        assert pose_error(sim, amcl)[0] < 0.15
+        probe.map.publish(lab_map_msg(driver))
+        drive(sim, driver, 0.3, -0.05, 2.0)
+        error, yaw_error = pose_error(sim, amcl)
+        assert error < 0.15 and yaw_error < math.radians(5)
+    finally:
+        amcl.set_parameters([Parameter("save_pose_rate", value=0.5)])
+        back_to_the_truth(sim, probe, driver)
+
+
+def test_a_new_map_without_room_at_the_estimate_says_so(lab):
+    sim, amcl, probe, driver = lab
+    truth = sim.sim.ground_truth()
+    probe.map.publish(lab_map_msg(driver, occupied_at=(truth.x, truth.y)))
+    driver.run_until(driver.time + 0.2)
+    assert any("is not in free space of the new map" in line for line in probe.logs), probe.logs[-5:]
+    probe.map.publish(lab_map_msg(driver))
+    back_to_the_truth(sim, probe, driver)
+
+
+def test_a_map_beyond_the_bound_is_refused_naming_it_and_the_old_map_stays(lab):
+    sim, amcl, probe, driver = lab
+    before = amcl.amcl
+    big = OccupancyMap(np.zeros((2000, 2001), np.int8), 0.05)
+    probe.map.publish(occupancy_map_msg(big, Time(seconds=driver.time).to_msg()))
+    driver.run_until(driver.time + 0.5)
+    assert amcl.amcl is before
+    assert any("map ignored: 2001 x 2000 = 4002000 cells, more than amcl's bound of 4000000" in line
+               for line in probe.logs), probe.logs[-5:]
+    drive(sim, driver, 0.0, 0.2, 0.5)
+    assert pose_error(sim, amcl)[0] < 0.15

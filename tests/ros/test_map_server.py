@@ -43,6 +43,8 @@ BAD_MAPS = {
                      "garbage.pgm: garbage PGM header: width b'\\x00\\x01"),
     "huge.yaml": ("huge.pgm", b"P5\n50000 50000\n255\n" + bytes(100), "image",
                   "huge.pgm: image is 50000 x 50000 pixels"),
+    "big.yaml": ("big.pgm", b"P5\n2001 2000\n255\n" + bytes(100), "image",
+                 "big.pgm: image is 2001 x 2000 pixels; a map has 1 to 16384 a side and at most 4000000 cells"),
 }
 
 

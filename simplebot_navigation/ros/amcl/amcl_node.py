@@ -14,7 +14,6 @@ move_base stops the robot.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import sys
 from collections import deque
@@ -32,6 +31,7 @@ from std_srvs.srv import Empty
 from simplebot_navigation.geometry import yaw_to_quaternion
 from simplebot_navigation.localization.amcl import Amcl
 from simplebot_navigation.localization.amcl_params import AmclParams
+from simplebot_navigation.maps import MAX_CELLS
 from simplebot_navigation.parameters import ParameterError, fields_of
 from simplebot_navigation.parameters.spec import Param
 from simplebot_navigation.ros.amcl import amcl_messages as messages
@@ -58,8 +58,6 @@ MAX_PENDING = 16
 MAX_SCAN_AHEAD_S = 1.0
 #: a scan stamped this much before the newest one means time went back
 TIME_JUMP_BACK_S = 1.0
-#: the largest map the filter takes (cells; map_server's own bound)
-MAX_MAP_CELLS = 100_000_000
 RETRY_PERIOD_S = 0.02
 
 
@@ -156,10 +154,14 @@ class AmclNode(SetUpNode):
         if self.amcl is not None and self.params.first_map_only:
             return
         info = msg.info
-        if not (math.isfinite(info.resolution) and info.resolution > 0) or \
-                not 0 < info.width * info.height <= MAX_MAP_CELLS:
+        if info.width * info.height > MAX_CELLS:
+            self.get_logger().warn(f"map ignored: {info.width} x {info.height} = {info.width * info.height} cells, "
+                                   f"more than amcl's bound of {MAX_CELLS} (docs/reference.md §7.1); "
+                                   + ("the old map stays" if self.amcl is not None else "still no map"))
+            return
+        if not (math.isfinite(info.resolution) and info.resolution > 0) or info.width * info.height == 0:
             self.get_logger().warn(f"map ignored: {info.width} x {info.height} cells of {info.resolution} m "
-                                   f"(at most {MAX_MAP_CELLS} cells of a positive size)")
+                                   "(cells and a positive size needed)")
             return
         try:
             grid = occupancy_map_from_msg(msg)
@@ -169,18 +171,21 @@ class AmclNode(SetUpNode):
         if strip_frame(msg.header.frame_id) not in ("", self.global_frame):
             self.get_logger().warn(f"map is in frame '{msg.header.frame_id}', not global_frame_id "
                                    f"'{self.global_frame}': it is taken as {self.global_frame}")
-        params = self.params
-        if self.amcl is not None:    # a new map: start again around the last estimate
-            last = self.amcl.estimate()
-            params = dataclasses.replace(params, initial_pose_x=last.x, initial_pose_y=last.y, initial_pose_a=last.yaw)
         try:
-            self.amcl = Amcl(params, grid.data, grid.resolution, grid.origin)
+            if self.amcl is None:
+                self.amcl, free = Amcl(self.params, grid.data, grid.resolution, grid.origin), True
+            else:               # a new map: the same belief, round the last estimate with its spread
+                self.amcl, free = self.amcl.on_new_map(grid.data, grid.resolution, grid.origin)
         except ValueError as err:      # a non-finite origin, no free cell: the filter stays as it was
             self.get_logger().warn(f"map ignored: {err}")
             return
+        p = self.amcl.params
         self.get_logger().info(f"map of {grid.width} x {grid.height} cells; {len(self.amcl.particles)} particles "
-                               f"around ({params.initial_pose_x:.2f}, {params.initial_pose_y:.2f}, "
-                               f"{params.initial_pose_a:.2f})")
+                               f"around ({p.initial_pose_x:.2f}, {p.initial_pose_y:.2f}, {p.initial_pose_a:.2f})")
+        if not free:
+            self.get_logger().warn(f"the estimate ({p.initial_pose_x:.2f}, {p.initial_pose_y:.2f}) is not in free "
+                                   "space of the new map: the particles start round it all the same; give an "
+                                   "initial pose or call global_localization")
         if self._pending_pose is not None:
             self._set_pose(*self._pending_pose)
             self._pending_pose = None
