@@ -62,15 +62,19 @@ class Probe(Node):
                                     if (t.header.frame_id, t.child_frame_id) == ("map", "odom")]
 
 
+def shipped_parameters(**extra) -> list[Parameter]:
+    """config/map/amcl.yaml, on the simulator's clock."""
+    shipped = yaml.safe_load((Path(package_share("simplebot_navigation")) / "config/map/amcl.yaml").read_text())
+    return [Parameter(name, value=value) for name, value in {"use_sim_time": True, **shipped, **extra}.items()]
+
+
 @pytest.fixture(scope="module")
 def lab(context):
     sim = SimulatorNode(context=context, parameter_overrides=[
         Parameter("world", value="lab"), Parameter("real_time_factor", value=0.0),
         Parameter("odom_scale_std", value=0.02), Parameter("seed", value=3)])
     map_server = MapServerNode(context=context, parameter_overrides=[Parameter("yaml_filename", value="lab")])
-    shipped = yaml.safe_load((Path(package_share("simplebot_navigation")) / "config/map/amcl.yaml").read_text())
-    amcl = AmclNode(context=context, parameter_overrides=[Parameter("use_sim_time", value=True)] + [
-        Parameter(name, value=value) for name, value in shipped.items()])
+    amcl = AmclNode(context=context, parameter_overrides=shipped_parameters())
     probe = Probe(context)
     driver = LockstepDriver(sim, [map_server, amcl, probe])
     yield sim, amcl, probe, driver
@@ -287,13 +291,16 @@ def test_a_map_swap_and_back_keeps_amcl_localized_whatever_initial_cov_was_saved
             Parameter("initial_cov_yy", value=25.0), Parameter("initial_cov_aa", value=3.0)]
     assert all(result.successful for result in amcl.set_parameters(wide))
     try:
-        probe.map.publish(lab_map_msg(driver, noisy_seed=1))
-        drive(sim, driver, 0.3, 0.05, 2.0)
-        assert pose_error(sim, amcl)[0] < 0.15
-        probe.map.publish(lab_map_msg(driver))
-        drive(sim, driver, 0.3, -0.05, 2.0)
-        error, yaw_error = pose_error(sim, amcl)
-        assert error < 0.15 and yaw_error < math.radians(5)
+        for noisy_seed in (1, None):            # to a SLAM run's map of the lab and back
+            before = amcl.amcl
+            probe.map.publish(lab_map_msg(driver, noisy_seed=noisy_seed))
+            assert driver.run_until(driver.time + 1.0, stop=lambda: amcl.amcl is not before)
+            truth, particles = sim.sim.ground_truth(), amcl.amcl.particles
+            assert max(particles[:, :2].std(axis=0)) < 0.5          # as sure as before, not spread 5 m wide
+            assert np.linalg.norm(particles[:, :2].mean(axis=0) - (truth.x, truth.y)) < 0.2
+            drive(sim, driver, 0.0, 0.4, 1.5)
+            error, yaw_error = pose_error(sim, amcl)
+            assert error < 0.2 and yaw_error < math.radians(10)
     finally:
         amcl.set_parameters([Parameter("save_pose_rate", value=0.5)])
         back_to_the_truth(sim, probe, driver)
@@ -320,3 +327,39 @@ def test_a_map_beyond_the_bound_is_refused_naming_it_and_the_old_map_stays(lab):
                for line in probe.logs), probe.logs[-5:]
     drive(sim, driver, 0.0, 0.2, 0.5)
     assert pose_error(sim, amcl)[0] < 0.15
+    probe.map.publish(lab_map_msg(driver))        # the latched map a later amcl gets
+
+
+def test_a_respawned_amcl_starts_where_the_robot_is_not_from_the_launch_pose(lab, context, tmp_path, monkeypatch):
+    """The launcher's run folder holds the last estimate; a new amcl (the launch's initial pose is the lab's start)
+    resumes from it, though the robot drove on while no amcl ran."""
+    sim, amcl, probe, driver = lab
+    monkeypatch.setenv("SIMPLEBOT_RUN_DIR", str(tmp_path))
+    driver.remove_node(amcl)                      # the fixture's amcl rests meanwhile
+    truth = sim.sim.ground_truth()
+    first = AmclNode(context=context, parameter_overrides=shipped_parameters(
+        initial_pose_x=truth.x, initial_pose_y=truth.y, initial_pose_a=truth.yaw, save_pose_rate=2.0))
+    driver.add_node(first)
+    respawned = None
+    try:
+        drive(sim, driver, 0.0, 0.5, 3.0)
+        assert (tmp_path / "amcl.pose.yaml").is_file()
+        driver.remove_node(first)                 # killed
+        first.destroy_node()
+        first = None
+        drive(sim, driver, 0.0, -0.5, 2.0)           # the odometry goes on while no amcl runs
+        respawned = AmclNode(context=context, parameter_overrides=shipped_parameters())
+        driver.add_node(respawned)
+        driver.run_until(driver.time + 1.0, stop=lambda: respawned.amcl is not None and respawned._map_to_odom)
+        truth = sim.sim.ground_truth()
+        # the launch's initial pose, (0, 0, 0), is far from the truth
+        assert math.hypot(truth.x, truth.y) > 0.5 and abs(math.remainder(truth.yaw, 2 * math.pi)) > 0.5
+        error, yaw_error = pose_error(sim, respawned)
+        assert error < 0.1 and yaw_error < math.radians(3)
+    finally:
+        for node in (first, respawned):
+            if node is not None:
+                driver.remove_node(node)
+                node.destroy_node()
+        driver.add_node(amcl)
+        back_to_the_truth(sim, probe, driver)
