@@ -77,6 +77,17 @@ def pose_in_frame(frame, pose) -> tuple[float, float, float]:
     return x, y, math.remainder(pose[2] - frame[2], 2 * math.pi)
 
 
+def compose2(a, b) -> tuple[float, float, float]:
+    """a * b of two (x, y, yaw): b expressed in a's parent frame (yaw wrapped)."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], math.remainder(a[2] + b[2], 2 * math.pi)
+
+
+def inverse2(a) -> tuple[float, float, float]:
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return -c * a[0] - s * a[1], s * a[0] - c * a[1], -a[2]
+
+
 # -- SE(3): transforms (x, y, z, qx, qy, qz, qw) ------------------------------------------------------
 def quaternion_multiply(a, b) -> tuple[float, float, float, float]:
     ax, ay, az, aw = a

@@ -129,7 +129,8 @@ class ProcessLauncher:
             sink = open(proc.log_file, "a", encoding="utf-8")  # noqa: SIM115 - the pump closes it
         proc.popen = subprocess.Popen(proc.command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                       stdin=subprocess.DEVNULL, start_new_session=True,
-                                      env={**os.environ, "SIMPLEBOT_LAUNCHER_PID": str(os.getpid())})
+                                      env={**os.environ, "SIMPLEBOT_LAUNCHER_PID": str(os.getpid()),
+                                           "SIMPLEBOT_RUN_DIR": self.run_dir})
         proc.exit_code = None
         proc.restart_at = None
         thread = threading.Thread(target=self._pump, args=(proc, proc.popen.stdout, sink), daemon=True)

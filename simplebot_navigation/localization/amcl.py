@@ -30,6 +30,10 @@ from simplebot_navigation.localization.laser_models import LaserModel, RangeScan
 from simplebot_navigation.localization.map_grid import AmclMap
 from simplebot_navigation.localization.motion_model import angle_diff, sample_motion
 from simplebot_navigation.localization.particle_filter import ParticleFilter
+from simplebot_navigation.parameters import fields_of
+
+#: the narrowest spread a filter restarted on a new map keeps (m^2 and rad^2: 1 cm, 0.6 deg)
+MIN_RESTART_VARIANCE = 1e-4
 
 
 class Amcl:
@@ -158,6 +162,20 @@ class Amcl:
         if laser_changed:      # the likelihood field is the model's costly part: kept unless the laser changed
             self.laser = LaserModel(params, self.map)
         self.filter.params = params
+
+    def on_new_map(self, map_data, resolution: float, origin=(0.0, 0.0, 0.0)) -> tuple[Amcl, bool]:
+        """The filter for a new map, starting round this one's estimate with its spread (each variance within
+        initial_cov_*'s bounds, at least MIN_RESTART_VARIANCE), and whether the estimate lies in the new map's free
+        space (if not, the new filter's particles start round a pose the new map has no room for). ValueError for
+        a map the filter cannot take; this filter stays as it was."""
+        last = self.estimate()
+        specs = fields_of(AmclParams)
+        variances = {name: float(np.clip(last.covariance[i, i], MIN_RESTART_VARIANCE, specs[name].high))
+                     for i, name in enumerate(("initial_cov_xx", "initial_cov_yy", "initial_cov_aa"))}
+        params = dataclasses.replace(self.params, initial_pose_x=last.x, initial_pose_y=last.y,
+                                     initial_pose_a=last.yaw, **variances)
+        new = Amcl(params, map_data, resolution, origin)
+        return new, new.map.is_free(last.x, last.y)
 
     def estimate(self) -> clusters.PoseEstimate:
         """The heaviest cluster's mean with the whole filter's covariance, as amcl publishes on amcl_pose."""

@@ -50,6 +50,11 @@ class AmclMap:
         out[:, 2] = poses[:, 2] - self.origin[2]
         return out
 
+    def is_free(self, x: float, y: float) -> bool:
+        """Whether the point (global frame) lies in a free cell of the map."""
+        col, row = np.floor(self.to_grid(np.array([[x, y, 0.0]]))[0, :2])
+        return bool(0 <= col < self.width and 0 <= row < self.height and self.free[int(row), int(col)])
+
     def cell_centres(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
         """(K, 2) global-frame centres of the given cells."""
         gx, gy = (cols + 0.5) * self.resolution, (rows + 0.5) * self.resolution

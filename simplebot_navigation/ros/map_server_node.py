@@ -28,7 +28,7 @@ from simplebot_navigation.ros.conversions import occupancy_map_msg
 from simplebot_navigation.ros.node_main import SetUpNode, run_node
 from simplebot_navigation.ros.params import descriptor, refuse_unknown_parameters
 from simplebot_navigation.ros.publishers import create_publisher
-from simplebot_navigation.ros.qos import LATCHED
+from simplebot_navigation.ros.qos import LATCHED, SERVICE_QOS
 
 #: metres per cell of a world's map served by name
 WORLD_MAP_RESOLUTION = 0.05
@@ -49,7 +49,7 @@ class MapServerNode(SetUpNode):
         self.map = self._load(**values)
         self.map_pub = create_publisher(self, OccupancyGrid, "map", LATCHED)
         self.metadata_pub = create_publisher(self, MapMetaData, "map_metadata", LATCHED)
-        self.create_service(GetMap, "~/map", self._on_get_map)
+        self.create_service(GetMap, "~/map", self._on_get_map, qos_profile=SERVICE_QOS)
         refuse_unknown_parameters(self)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self._publish(values["yaml_filename"])

@@ -21,13 +21,19 @@ from sensor_msgs.msg import LaserScan
 from std_srvs.srv import Empty
 from tf2_msgs.msg import TFMessage
 
+from simplebot_navigation.localization.amcl_params import AmclParams
+from simplebot_navigation.maps import OccupancyMap
+from simplebot_navigation.parameters import fields_of
 from simplebot_navigation.paths import package_share
+from simplebot_navigation.ros.amcl.amcl_messages import post_dated
 from simplebot_navigation.ros.amcl.amcl_node import LATCHED, AmclNode
-from simplebot_navigation.ros.conversions import yaw_of
-from simplebot_navigation.ros.map_server_node import MapServerNode
+from simplebot_navigation.ros.conversions import occupancy_map_msg, yaw_of
+from simplebot_navigation.ros.map_server_node import WORLD_MAP_RESOLUTION, MapServerNode
 from simplebot_navigation.ros.simulator.lockstep import LockstepDriver
 from simplebot_navigation.ros.simulator.simulator_node import SimulatorNode
 from simplebot_navigation.ros.tf import TransformException
+from simplebot_navigation.sim import load_world
+from simplebot_navigation.sim.map_export import export_map
 
 pytestmark = pytest.mark.timeout(180)
 
@@ -56,15 +62,19 @@ class Probe(Node):
                                     if (t.header.frame_id, t.child_frame_id) == ("map", "odom")]
 
 
+def shipped_parameters(**extra) -> list[Parameter]:
+    """config/map/amcl.yaml, on the simulator's clock."""
+    shipped = yaml.safe_load((Path(package_share("simplebot_navigation")) / "config/map/amcl.yaml").read_text())
+    return [Parameter(name, value=value) for name, value in {"use_sim_time": True, **shipped, **extra}.items()]
+
+
 @pytest.fixture(scope="module")
 def lab(context):
     sim = SimulatorNode(context=context, parameter_overrides=[
         Parameter("world", value="lab"), Parameter("real_time_factor", value=0.0),
         Parameter("odom_scale_std", value=0.02), Parameter("seed", value=3)])
     map_server = MapServerNode(context=context, parameter_overrides=[Parameter("yaml_filename", value="lab")])
-    shipped = yaml.safe_load((Path(package_share("simplebot_navigation")) / "config/map/amcl.yaml").read_text())
-    amcl = AmclNode(context=context, parameter_overrides=[Parameter("use_sim_time", value=True)] + [
-        Parameter(name, value=value) for name, value in shipped.items()])
+    amcl = AmclNode(context=context, parameter_overrides=shipped_parameters())
     probe = Probe(context)
     driver = LockstepDriver(sim, [map_server, amcl, probe])
     yield sim, amcl, probe, driver
@@ -215,3 +225,141 @@ def test_global_localization_spreads_the_particles_and_the_cloud_is_published(la
     assert len(amcl.amcl.particles) == amcl.params.max_particles and min(spread) > 2.0
     drive(sim, driver, 0.0, 0.3, 0.5)
     assert probe.clouds and probe.clouds[-1].header.frame_id == "map" and len(probe.clouds[-1].poses) > 0
+
+
+def back_to_the_truth(sim, probe, driver) -> None:
+    """The initial pose at the robot's true pose, as a test that disturbed the filter leaves it."""
+    truth = sim.sim.ground_truth()
+    probe.initial_pose.publish(initial_pose_msg(truth.x, truth.y, truth.yaw, cov=covariance(0.01, 0.01, 0.003)))
+    drive(sim, driver, 0.0, 0.2, 1.0)
+
+
+def test_a_burst_of_50_global_localization_calls_is_answered_in_full(lab):
+    sim, amcl, probe, driver = lab
+    client = probe.create_client(Empty, "/global_localization")
+    futures = [client.call_async(Empty.Request()) for _ in range(50)]
+    driver.run_until(driver.time + 5.0, stop=lambda: all(f.done() for f in futures))
+    answered = sum(f.done() for f in futures)
+    probe.destroy_client(client)
+    back_to_the_truth(sim, probe, driver)
+    assert answered == 50
+
+
+def test_every_live_number_beyond_its_physical_bound_is_refused_naming_it_and_the_filter_goes_on(lab):
+    sim, amcl, probe, driver = lab
+    before = amcl.params
+    specs = fields_of(AmclParams)
+    numeric = [name for name, spec in specs.items() if spec.kind in (int, float) and spec.dynamic]
+    for name in numeric:
+        hostile = (2 ** 62, -2 ** 62) if specs[name].kind is int else (1e308, -1e308, float("nan"))
+        for value in hostile:
+            result = amcl.set_parameters([Parameter(name, value=value)])[0]
+            assert not result.successful and name in result.reason and repr(value) in result.reason, \
+                (name, value, result.reason)
+    assert amcl.params == before
+    # the largest legal post-dating: map -> odom still goes out, stamped the scan's stamp + 10 s
+    assert amcl.set_parameters([Parameter("transform_tolerance", value=10.0)])[0].successful
+    sent = len(probe.map_to_odom_stamps)
+    drive(sim, driver, 0.0, 0.1, 0.5)
+    assert len(probe.map_to_odom_stamps) > sent
+    newest_scan = max(stamp for stamp in probe.scan_stamps if stamp <= driver.time * 1e9)   # not a hostile one
+    assert abs(probe.map_to_odom_stamps[-1] - (newest_scan + 10 ** 10)) < 1000
+    assert amcl.set_parameters([Parameter("transform_tolerance", value=0.2)])[0].successful
+
+
+def test_map_to_odom_post_dated_past_the_latest_stamp_saturates_instead_of_raising():
+    latest = (2 ** 31 - 1) * 10 ** 9 + 999_999_999     # the latest stamp a message can carry (sec is an int32)
+    stamp = post_dated(latest - 10 ** 9, 10.0)      # a scan 1 s before the end of time, the largest tolerance
+    assert (stamp.sec, stamp.nanosec) == (2 ** 31 - 1, 999_999_999)
+    assert Time.from_msg(post_dated(5 * 10 ** 9, 0.2)).nanoseconds == 5_200_000_000
+
+
+def lab_map_msg(driver, noisy_seed=None, occupied_at=None) -> OccupancyGrid:
+    """The lab's map (noisy as a SLAM run's with a seed), with a 1 m square occupied round ``occupied_at``."""
+    lab_map = export_map(load_world("lab"), WORLD_MAP_RESOLUTION, noisy_seed=noisy_seed)
+    if occupied_at is not None:
+        col, row = (int((v - o) / lab_map.resolution) for v, o in zip(occupied_at, lab_map.origin))
+        lab_map.data[row - 10:row + 10, col - 10:col + 10] = 100
+    return occupancy_map_msg(lab_map, Time(seconds=driver.time).to_msg())
+
+
+def test_a_map_swap_and_back_keeps_amcl_localized_whatever_initial_cov_was_saved(lab):
+    """initial_cov_* as wide as save_pose_rate leaves them after global localization (and no saving since): a new map
+    must start from the filter's own spread, not from them."""
+    sim, amcl, probe, driver = lab
+    wide = [Parameter("save_pose_rate", value=-1.0), Parameter("initial_cov_xx", value=25.0),
+            Parameter("initial_cov_yy", value=25.0), Parameter("initial_cov_aa", value=3.0)]
+    assert all(result.successful for result in amcl.set_parameters(wide))
+    try:
+        for noisy_seed in (1, None):            # to a SLAM run's map of the lab and back
+            before = amcl.amcl
+            probe.map.publish(lab_map_msg(driver, noisy_seed=noisy_seed))
+            assert driver.run_until(driver.time + 1.0, stop=lambda: amcl.amcl is not before)
+            truth, particles = sim.sim.ground_truth(), amcl.amcl.particles
+            assert max(particles[:, :2].std(axis=0)) < 0.5          # as sure as before, not spread 5 m wide
+            assert np.linalg.norm(particles[:, :2].mean(axis=0) - (truth.x, truth.y)) < 0.2
+            drive(sim, driver, 0.0, 0.4, 1.5)
+            error, yaw_error = pose_error(sim, amcl)
+            assert error < 0.2 and yaw_error < math.radians(10)
+    finally:
+        amcl.set_parameters([Parameter("save_pose_rate", value=0.5)])
+        back_to_the_truth(sim, probe, driver)
+
+
+def test_a_new_map_without_room_at_the_estimate_says_so(lab):
+    sim, amcl, probe, driver = lab
+    truth = sim.sim.ground_truth()
+    probe.map.publish(lab_map_msg(driver, occupied_at=(truth.x, truth.y)))
+    driver.run_until(driver.time + 0.2)
+    assert any("is not in free space of the new map" in line for line in probe.logs), probe.logs[-5:]
+    probe.map.publish(lab_map_msg(driver))
+    back_to_the_truth(sim, probe, driver)
+
+
+def test_a_map_beyond_the_bound_is_refused_naming_it_and_the_old_map_stays(lab):
+    sim, amcl, probe, driver = lab
+    before = amcl.amcl
+    big = OccupancyMap(np.zeros((2000, 2001), np.int8), 0.05)
+    probe.map.publish(occupancy_map_msg(big, Time(seconds=driver.time).to_msg()))
+    driver.run_until(driver.time + 0.5)
+    assert amcl.amcl is before
+    assert any("map ignored: 2001 x 2000 = 4002000 cells, more than amcl's bound of 4000000" in line
+               for line in probe.logs), probe.logs[-5:]
+    drive(sim, driver, 0.0, 0.2, 0.5)
+    assert pose_error(sim, amcl)[0] < 0.15
+    probe.map.publish(lab_map_msg(driver))        # the latched map a later amcl gets
+
+
+def test_a_respawned_amcl_starts_where_the_robot_is_not_from_the_launch_pose(lab, context, tmp_path, monkeypatch):
+    """The launcher's run folder holds the last estimate; a new amcl (the launch's initial pose is the lab's start)
+    resumes from it, though the robot drove on while no amcl ran."""
+    sim, amcl, probe, driver = lab
+    monkeypatch.setenv("SIMPLEBOT_RUN_DIR", str(tmp_path))
+    driver.remove_node(amcl)                      # the fixture's amcl rests meanwhile
+    truth = sim.sim.ground_truth()
+    first = AmclNode(context=context, parameter_overrides=shipped_parameters(
+        initial_pose_x=truth.x, initial_pose_y=truth.y, initial_pose_a=truth.yaw, save_pose_rate=2.0))
+    driver.add_node(first)
+    respawned = None
+    try:
+        drive(sim, driver, 0.0, 0.5, 3.0)
+        assert (tmp_path / "amcl.pose.yaml").is_file()
+        driver.remove_node(first)                 # killed
+        first.destroy_node()
+        first = None
+        drive(sim, driver, 0.0, -0.5, 2.0)           # the odometry goes on while no amcl runs
+        respawned = AmclNode(context=context, parameter_overrides=shipped_parameters())
+        driver.add_node(respawned)
+        driver.run_until(driver.time + 1.0, stop=lambda: respawned.amcl is not None and respawned._map_to_odom)
+        truth = sim.sim.ground_truth()
+        # the launch's initial pose, (0, 0, 0), is far from the truth
+        assert math.hypot(truth.x, truth.y) > 0.5 and abs(math.remainder(truth.yaw, 2 * math.pi)) > 0.5
+        error, yaw_error = pose_error(sim, respawned)
+        assert error < 0.1 and yaw_error < math.radians(3)
+    finally:
+        for node in (first, respawned):
+            if node is not None:
+                driver.remove_node(node)
+                node.destroy_node()
+        driver.add_node(amcl)
+        back_to_the_truth(sim, probe, driver)

@@ -43,6 +43,8 @@ BAD_MAPS = {
                      "garbage.pgm: garbage PGM header: width b'\\x00\\x01"),
     "huge.yaml": ("huge.pgm", b"P5\n50000 50000\n255\n" + bytes(100), "image",
                   "huge.pgm: image is 50000 x 50000 pixels"),
+    "big.yaml": ("big.pgm", b"P5\n2001 2000\n255\n" + bytes(100), "image",
+                 "big.pgm: image is 2001 x 2000 pixels; a map has 1 to 16384 a side and at most 4000000 cells"),
 }
 
 
@@ -241,3 +243,12 @@ def test_map_saver_refuses_bad_arguments_in_one_line(capsys, args, message):
         parse_arguments(args)
     err = capsys.readouterr().err
     assert exit.value.code == 2 and message in err and err.count("\n") == 1, err
+
+
+def test_a_burst_of_50_get_map_requests_is_answered_in_full(graph, maps):
+    graph.server(maps / "office.yaml")
+    client = graph.client("burst_client").create_client(GetMap, "/map_server/map")
+    assert graph.spin_until(client.service_is_ready)
+    futures = [client.call_async(GetMap.Request()) for _ in range(50)]
+    graph.spin_until(lambda: all(f.done() for f in futures), seconds=30.0)
+    assert sum(f.done() for f in futures) == 50

@@ -5,16 +5,19 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from builtin_interfaces.msg import Time as TimeMsg
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from sensor_msgs.msg import LaserScan
 
+
 from simplebot_navigation.geometry import quaternion_to_yaw
+from simplebot_navigation.localization.amcl_params import MAX_BEAMS
 from simplebot_navigation.localization.clusters import PoseEstimate, covariance_from_ros
 from simplebot_navigation.localization.laser_models import RangeScan
 from simplebot_navigation.ros.conversions import xyyaw_to_pose
 
-#: the most beams a scan may have (a LaserScan of more is refused, not allocated)
-MAX_BEAMS = 100_000
+#: the latest stamp a message can carry (builtin_interfaces/Time's sec is an int32)
+LATEST_STAMP_NS = (2 ** 31 - 1) * 10 ** 9 + 999_999_999
 
 
 def range_scan(msg: LaserScan, sensor_pose: tuple[float, float, float]) -> RangeScan:
@@ -28,6 +31,13 @@ def range_scan(msg: LaserScan, sensor_pose: tuple[float, float, float]) -> Range
                      float(msg.range_min), float(msg.range_max), sensor_pose)
     scan.check()
     return scan
+
+
+def post_dated(stamp_ns: int, seconds: float) -> TimeMsg:
+    """The stamp ``seconds`` after ``stamp_ns``, saturating at the latest stamp a message can carry (a scan near it
+    with the largest transform_tolerance would otherwise not fit in the message)."""
+    ns = min(stamp_ns + round(seconds * 1e9), LATEST_STAMP_NS)
+    return TimeMsg(sec=ns // 10 ** 9, nanosec=ns % 10 ** 9)
 
 
 def initial_pose(msg: PoseWithCovarianceStamped) -> tuple[float, float, float, np.ndarray]:

@@ -14,8 +14,8 @@ move_base stops the robot.
 
 from __future__ import annotations
 
-import dataclasses
 import math
+import os
 import sys
 from collections import deque
 
@@ -29,9 +29,11 @@ from rclpy.time import Time
 from sensor_msgs.msg import LaserScan
 from std_srvs.srv import Empty
 
-from simplebot_navigation.geometry import yaw_to_quaternion
+from simplebot_navigation.geometry import compose2, inverse2, yaw_to_quaternion
 from simplebot_navigation.localization.amcl import Amcl
+from simplebot_navigation.localization import pose_state
 from simplebot_navigation.localization.amcl_params import AmclParams
+from simplebot_navigation.maps import MAX_CELLS
 from simplebot_navigation.parameters import ParameterError, fields_of
 from simplebot_navigation.parameters.spec import Param
 from simplebot_navigation.ros.amcl import amcl_messages as messages
@@ -41,7 +43,7 @@ from simplebot_navigation.ros.node_main import SetUpNode, run_node
 from simplebot_navigation.ros.params import declare_defaults, descriptor, given_parameter_tree
 from simplebot_navigation.ros.lifecycle_state import serve_lifecycle_state
 from simplebot_navigation.ros.publishers import create_publisher
-from simplebot_navigation.ros.qos import LATCHED
+from simplebot_navigation.ros.qos import LATCHED, SERVICE_QOS
 from simplebot_navigation.ros.tf import (Buffer, ExtrapolationException, TransformBroadcaster, TransformException,
                                          TransformListener, strip_frame)
 
@@ -58,19 +60,9 @@ MAX_PENDING = 16
 MAX_SCAN_AHEAD_S = 1.0
 #: a scan stamped this much before the newest one means time went back
 TIME_JUMP_BACK_S = 1.0
-#: the largest map the filter takes (cells; map_server's own bound)
-MAX_MAP_CELLS = 100_000_000
 RETRY_PERIOD_S = 0.02
-
-
-def compose2(a, b) -> tuple[float, float, float]:
-    c, s = math.cos(a[2]), math.sin(a[2])
-    return a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], math.remainder(a[2] + b[2], 2 * math.pi)
-
-
-def inverse2(a) -> tuple[float, float, float]:
-    c, s = math.cos(a[2]), math.sin(a[2])
-    return -c * a[0] - s * a[1], s * a[0] - c * a[1], -a[2]
+#: the launch's run folder (set by the launcher), where the node keeps its last estimate for a respawn
+RUN_DIR_ENV = "SIMPLEBOT_RUN_DIR"
 
 
 class AmclNode(SetUpNode):
@@ -103,6 +95,7 @@ class AmclNode(SetUpNode):
         self._map_to_odom: tuple[float, float, float] | None = None
         self._newest = -math.inf
         self._pose_saved_at = -math.inf
+        self._state_path, self._resume = self._saved_state()
         self.tf = Buffer(node=self)
         self._listener = TransformListener(self.tf, self)
         self.tf_broadcaster = TransformBroadcaster(self)
@@ -113,8 +106,8 @@ class AmclNode(SetUpNode):
         for topic in topics:
             self.create_subscription(LaserScan, topic, lambda msg, t=topic: self._on_scan(t, msg),
                                      qos_profile_sensor_data)
-        self.create_service(Empty, "global_localization", self._on_global_localization)
-        self.create_service(Empty, "request_nomotion_update", self._on_nomotion_update)
+        self.create_service(Empty, "global_localization", self._on_global_localization, qos_profile=SERVICE_QOS)
+        self.create_service(Empty, "request_nomotion_update", self._on_nomotion_update, qos_profile=SERVICE_QOS)
         # Nav2's scripts wait for amcl/get_state to say active: so it does once it has a map and places the robot.
         serve_lifecycle_state(self, "~", lambda: self.amcl is not None and self._map_to_odom is not None)
         self._retry = self.create_timer(RETRY_PERIOD_S, self._process_pending)
@@ -122,6 +115,22 @@ class AmclNode(SetUpNode):
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.get_logger().info(f"waiting for a map on {self.resolve_topic_name('map')}; scans from "
                                f"{', '.join(self.resolve_topic_name(t) for t in topics)}")
+
+    def _saved_state(self) -> tuple[str | None, pose_state.PoseState | None]:
+        """Where this node keeps its last estimate (in the launch's run folder, when the launcher started it), and
+        the estimate a previous run of it left there, if any and valid."""
+        run_dir = os.environ.get(RUN_DIR_ENV, "")
+        if not run_dir:
+            return None, None
+        path = os.path.join(run_dir, self.get_fully_qualified_name().strip("/").replace("/", "__") + ".pose.yaml")
+        try:
+            state = pose_state.load(path, self.global_frame)
+        except ValueError as err:
+            self.get_logger().warn(f"saved pose ignored: {err}; starting from initial_pose_*")
+            return path, None
+        if state is not None:
+            self.get_logger().info(f"restarted: resuming from the estimate saved at {state.stamp:.2f} s in {path}")
+        return path, state
 
     # -- parameters -----------------------------------------------------------------------------
     def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
@@ -156,10 +165,14 @@ class AmclNode(SetUpNode):
         if self.amcl is not None and self.params.first_map_only:
             return
         info = msg.info
-        if not (math.isfinite(info.resolution) and info.resolution > 0) or \
-                not 0 < info.width * info.height <= MAX_MAP_CELLS:
+        if info.width * info.height > MAX_CELLS:
+            self.get_logger().warn(f"map ignored: {info.width} x {info.height} = {info.width * info.height} cells, "
+                                   f"more than amcl's bound of {MAX_CELLS} (docs/reference.md §7.1); "
+                                   + ("the old map stays" if self.amcl is not None else "still no map"))
+            return
+        if not (math.isfinite(info.resolution) and info.resolution > 0) or info.width * info.height == 0:
             self.get_logger().warn(f"map ignored: {info.width} x {info.height} cells of {info.resolution} m "
-                                   f"(at most {MAX_MAP_CELLS} cells of a positive size)")
+                                   "(cells and a positive size needed)")
             return
         try:
             grid = occupancy_map_from_msg(msg)
@@ -169,18 +182,21 @@ class AmclNode(SetUpNode):
         if strip_frame(msg.header.frame_id) not in ("", self.global_frame):
             self.get_logger().warn(f"map is in frame '{msg.header.frame_id}', not global_frame_id "
                                    f"'{self.global_frame}': it is taken as {self.global_frame}")
-        params = self.params
-        if self.amcl is not None:    # a new map: start again around the last estimate
-            last = self.amcl.estimate()
-            params = dataclasses.replace(params, initial_pose_x=last.x, initial_pose_y=last.y, initial_pose_a=last.yaw)
         try:
-            self.amcl = Amcl(params, grid.data, grid.resolution, grid.origin)
+            if self.amcl is None:
+                self.amcl, free = Amcl(self.params, grid.data, grid.resolution, grid.origin), True
+            else:               # a new map: the same belief, round the last estimate with its spread
+                self.amcl, free = self.amcl.on_new_map(grid.data, grid.resolution, grid.origin)
         except ValueError as err:      # a non-finite origin, no free cell: the filter stays as it was
             self.get_logger().warn(f"map ignored: {err}")
             return
+        p = self.amcl.params
         self.get_logger().info(f"map of {grid.width} x {grid.height} cells; {len(self.amcl.particles)} particles "
-                               f"around ({params.initial_pose_x:.2f}, {params.initial_pose_y:.2f}, "
-                               f"{params.initial_pose_a:.2f})")
+                               f"around ({p.initial_pose_x:.2f}, {p.initial_pose_y:.2f}, {p.initial_pose_a:.2f})")
+        if not free:
+            self.get_logger().warn(f"the estimate ({p.initial_pose_x:.2f}, {p.initial_pose_y:.2f}) is not in free "
+                                   "space of the new map: the particles start round it all the same; give an "
+                                   "initial pose or call global_localization")
         if self._pending_pose is not None:
             self._set_pose(*self._pending_pose)
             self._pending_pose = None
@@ -199,6 +215,7 @@ class AmclNode(SetUpNode):
         except (ValueError, TransformException) as err:
             self.get_logger().warn(f"initialpose ignored: {err}")
             return
+        self._resume = None         # a pose given now wins over the one a previous run saved
         if self.amcl is None:
             self._pending_pose = (x, y, yaw, covariance)
             return
@@ -283,6 +300,8 @@ class AmclNode(SetUpNode):
         except TransformException as err:
             self._warn_dropped(topic, msg, err)
             return True
+        if self._resume is not None:
+            self._resume_saved(t, odom)
         try:
             self.amcl.odometry_update(odom)
             updated = self.amcl.sensor_update([scan], source=topic)
@@ -292,8 +311,18 @@ class AmclNode(SetUpNode):
         self._newest = max(self._newest, t)
         if updated or self._map_to_odom is None:
             self._publish_estimate(odom, msg.header.stamp)
-        self._send_map_to_odom(t)
+        self._send_map_to_odom(stamp.nanoseconds)
         return True
+
+    def _resume_saved(self, t: float, odom: tuple[float, float, float]) -> None:
+        """The first scan after a restart: the saved map -> odom with the odometry now is where the robot is (the
+        odometry kept running while this node was down), unless the scans are older than the saved estimate."""
+        state, self._resume = self._resume, None
+        if t < state.stamp - TIME_JUMP_BACK_S:
+            self.get_logger().warn(f"saved pose ignored: it is of {state.stamp:.2f} s, the scans of {t:.2f} s (the "
+                                   "simulation restarted); starting from initial_pose_*")
+            return
+        self._set_pose(*compose2(state.map_to_odom, odom), np.diag(state.variances))
 
     def _warn_dropped(self, topic: str, msg: LaserScan, err: Exception) -> None:
         """Every 5 s at most per topic, frame and kind of problem: a new problem is told at once, a repeated one
@@ -320,15 +349,16 @@ class AmclNode(SetUpNode):
     # -- outputs --------------------------------------------------------------------------------
     def _publish_estimate(self, odom: tuple[float, float, float], stamp) -> None:
         estimate = self.amcl.estimate()
-        self._save_pose(estimate)
         self._map_to_odom = compose2((estimate.x, estimate.y, estimate.yaw), inverse2(odom))
+        self._save_pose(estimate, Time.from_msg(stamp).nanoseconds * 1e-9)
         self.pose_pub.publish(messages.estimate_msg(estimate, self.global_frame, stamp))
         if self.cloud_pub.get_subscription_count():
             self.cloud_pub.publish(pose_array_msg(self.amcl.particles, self.global_frame, stamp))
 
-    def _save_pose(self, estimate) -> None:
+    def _save_pose(self, estimate, t: float) -> None:
         """save_pose_rate: the estimate becomes the initial_pose_* and initial_cov_* parameters, so that a restart
-        of the filter (a new map, time going back) or of the node with these parameters starts from it."""
+        of the filter (time going back) starts from it, and map -> odom with the spread goes to the state file, from
+        which a respawned node starts."""
         rate, now = self.params.save_pose_rate, self.get_clock().now().nanoseconds * 1e-9
         if rate <= 0 or now - self._pose_saved_at < 1.0 / rate:
             return
@@ -336,15 +366,25 @@ class AmclNode(SetUpNode):
         cov = estimate.covariance
         values = {"initial_pose_x": estimate.x, "initial_pose_y": estimate.y, "initial_pose_a": estimate.yaw,
                   "initial_cov_xx": cov[0, 0], "initial_cov_yy": cov[1, 1], "initial_cov_aa": cov[2, 2]}
-        if all(math.isfinite(v) and (not name.startswith("initial_cov") or v > 0) for name, v in values.items()):
-            self.set_parameters([Parameter(name, value=float(v)) for name, v in values.items()])
+        if not all(math.isfinite(v) and (not name.startswith("initial_cov") or v > 0) for name, v in values.items()):
+            return
+        self.set_parameters([Parameter(name, value=float(v)) for name, v in values.items()])
+        if self._state_path is None:
+            return
+        state = pose_state.PoseState(self.global_frame, t, self._map_to_odom, (cov[0, 0], cov[1, 1], cov[2, 2]))
+        try:
+            pose_state.save(self._state_path, state)
+        except OSError as err:
+            if self._throttle(("state file", type(err).__name__), 60.0):
+                self.get_logger().warn(f"{self._state_path}: the estimate cannot be saved ({err.strerror or err}); a "
+                                       "respawned amcl would start from initial_pose_*")
 
-    def _send_map_to_odom(self, t: float) -> None:
+    def _send_map_to_odom(self, stamp_ns: int) -> None:
         if self._map_to_odom is None or not self.params.tf_broadcast:
             return
         tf = TransformStamped()
         tf.header.frame_id, tf.child_frame_id = self.global_frame, self.odom_frame
-        tf.header.stamp = Time(nanoseconds=round((t + self.params.transform_tolerance) * 1e9)).to_msg()
+        tf.header.stamp = messages.post_dated(stamp_ns, self.params.transform_tolerance)
         x, y, yaw = self._map_to_odom
         tf.transform.translation.x, tf.transform.translation.y = x, y
         r = tf.transform.rotation
