@@ -20,6 +20,9 @@ class TrackerParams:
                                ge=0.0, le=0.5)
     max_obstacle_size: float = param(1.2, "m", "clusters wider than this are static structure (walls), never "
                                      "tracked", gt=0.0, le=10.0)
+    structure_time: float = param(1.0, "s", "returns that keep landing on the same 0.1 m cells for about this "
+                                  "long mark structure, and clusters lying on it are never tracked (pieces of a wall a "
+                                  "moving robot sees break up); 0: off", ge=0.0, le=10.0)
     association_gate: float = param(0.6, "m", "farthest a cluster centre may lie from a track's predicted "
                                     "centre to update it", gt=0.0, le=5.0)
     acceleration_noise: float = param(1.5, "m/s^2", "process noise of the constant-velocity model of a moving "

@@ -38,6 +38,11 @@ class Scan:
         angles = yaw + angle_min + angle_increment * np.arange(len(r))
         return cls(np.array([x, y], dtype=float), angles, r, float(range_min), float(range_max))
 
+    def points(self) -> np.ndarray:
+        """(N, 2) every beam's return in the tracking frame; NaN for a beam without one."""
+        r = np.where(self.valid(), self.ranges, np.nan)
+        return self.origin + r[:, None] * np.stack([np.cos(self.angles), np.sin(self.angles)], axis=1)
+
     def valid(self) -> np.ndarray:
         with np.errstate(invalid="ignore"):
             return np.isfinite(self.ranges) & (self.ranges >= max(self.range_min, 0.0)) & \
@@ -46,35 +51,39 @@ class Scan:
 
 @dataclass
 class Clusters:
-    """K clusters: centre (K, 2), radius (K,), width (K,), count (K,), occluded (K,)."""
+    """K clusters: centre (K, 2), radius (K,), width (K,), count (K,), occluded (K,), and structure (K,): the
+    share of each cluster's returns that lie on structure (StructureMap)."""
     centre: np.ndarray
     radius: np.ndarray
     width: np.ndarray
     count: np.ndarray
     occluded: np.ndarray
+    structure: np.ndarray
 
     @classmethod
     def empty(cls) -> Clusters:
-        return cls(np.empty((0, 2)), np.empty(0), np.empty(0), np.empty(0, dtype=int), np.empty(0, dtype=bool))
+        return cls(np.empty((0, 2)), np.empty(0), np.empty(0), np.empty(0, dtype=int), np.empty(0, dtype=bool),
+                   np.empty(0))
 
     @classmethod
     def concatenate(cls, parts: list[Clusters]) -> Clusters:
         if not parts:
             return cls.empty()
         return cls(*(np.concatenate([getattr(p, name) for p in parts])
-                     for name in ("centre", "radius", "width", "count", "occluded")))
+                     for name in ("centre", "radius", "width", "count", "occluded", "structure")))
 
     def __len__(self) -> int:
         return len(self.radius)
 
     def select(self, mask: np.ndarray) -> Clusters:
         return Clusters(self.centre[mask], self.radius[mask], self.width[mask], self.count[mask],
-                        self.occluded[mask])
+                        self.occluded[mask], self.structure[mask])
 
 
 def segment(scan: Scan, breakpoint_angle: float, breakpoint_distance: float, range_noise: float,
-            min_points: int) -> Clusters:
-    """The clusters of one scan with at least min_points returns."""
+            min_points: int, structure: np.ndarray | None = None) -> Clusters:
+    """The clusters of one scan with at least min_points returns; structure: per beam, whether its return lies
+    on structure (none: no return does)."""
     beams = np.flatnonzero(scan.valid())
     if len(beams) < max(min_points, 1):
         return Clusters.empty()
@@ -94,7 +103,9 @@ def segment(scan: Scan, breakpoint_angle: float, breakpoint_distance: float, ran
     centre, radius = _circles(scan.origin, r, a, starts, ends, counts, beam_step)
     keep = counts >= min_points
     occluded = _occluded_ends(scan, beams, r, starts[keep], ends[keep])
-    return Clusters(centre[keep], radius[keep], 2.0 * radius[keep], counts[keep], occluded)
+    on_structure = np.zeros(len(beams)) if structure is None else structure[beams].astype(float)
+    share = np.add.reduceat(on_structure, starts) / counts
+    return Clusters(centre[keep], radius[keep], 2.0 * radius[keep], counts[keep], occluded, share[keep])
 
 
 def _circles(origin, r, a, starts, ends, counts, beam_step: float) -> tuple[np.ndarray, np.ndarray]:

@@ -19,6 +19,7 @@ from scipy.optimize import linear_sum_assignment
 from simplebot_navigation.perception import kalman
 from simplebot_navigation.perception.params import TrackerParams
 from simplebot_navigation.perception.segmentation import Clusters, Scan, segment
+from simplebot_navigation.perception.structure import StructureMap
 from simplebot_navigation.perception.trail import ClearingTrail
 
 #: how fast a track's radius follows its clusters' (exponential smoothing factor)
@@ -27,6 +28,8 @@ RADIUS_SMOOTHING = 0.3
 FRAGMENT_MARGIN = 0.1
 #: the smallest radius reported
 MIN_RADIUS = 0.05
+#: a cluster with this share of its returns on structure is structure
+STRUCTURE_SHARE = 0.5
 
 
 @dataclass(frozen=True)
@@ -44,7 +47,7 @@ class Track:
 
 
 _FIELDS = ("ids", "state", "cov", "radius", "born", "last_seen", "hits", "missed", "confirmed", "moving",
-           "since", "motion_updates")
+           "since", "motion_updates", "on_structure")
 
 
 class ObstacleTracker:
@@ -54,12 +57,14 @@ class ObstacleTracker:
     def __init__(self, params: TrackerParams | None = None):
         self.params = params or TrackerParams()
         self.trail = ClearingTrail(self.params.clearing_time)
+        self.structure = StructureMap(self.params.structure_time)
         self.reset()
 
     def reconfigure(self, params: TrackerParams) -> None:
         """New parameters from the next update on; the tracks stay."""
         self.params = params
         self.trail.keep = params.clearing_time
+        self.structure.time_constant = params.structure_time
 
     def reset(self) -> None:
         """Forget every track (time jumped back, tracking switched off)."""
@@ -75,9 +80,11 @@ class ObstacleTracker:
         self.moving = np.empty(0, dtype=bool)
         self.since = np.empty(0)                  # when the moving flag's opposite condition began (nan: not)
         self.motion_updates = np.empty(0, dtype=np.int64)   # whole-cluster updates of the filter
+        self.on_structure = np.empty(0, dtype=bool)         # its last cluster lay on structure
         self.stamp: float | None = None
         self._next_id = 0
         self.trail.clear()
+        self.structure.clear()
 
     # -- the update --------------------------------------------------------------------------
     def update(self, scans: list[Scan], stamp: float) -> bool:
@@ -89,8 +96,11 @@ class ObstacleTracker:
         kalman.predict(self.state, self.cov, 0.0 if self.stamp is None else stamp - self.stamp,
                        np.where(self.moving, p.acceleration_noise, p.static_acceleration_noise))
         self.stamp = stamp
+        points = [s.points() for s in scans]
         clusters = Clusters.concatenate([segment(s, p.breakpoint_angle, p.breakpoint_distance, p.range_noise,
-                                                 p.min_points) for s in scans])
+                                                 p.min_points, self.structure.structure(xy, stamp))
+                                         for s, xy in zip(scans, points)])
+        self.structure.add(np.concatenate(points) if points else np.empty((0, 2)), stamp)
         clusters = clusters.select(clusters.width <= p.max_obstacle_size)
         track_of, cluster_of = self._associate(clusters)
         self._correct(clusters, track_of, cluster_of, stamp)
@@ -122,6 +132,7 @@ class ObstacleTracker:
     def _correct(self, clusters: Clusters, track_of: np.ndarray, cluster_of: np.ndarray, stamp: float) -> None:
         seen = cluster_of >= 0
         self.last_seen[seen] = stamp
+        self.on_structure[seen] = clusters.structure[cluster_of[seen]] >= STRUCTURE_SHARE
         self.hits[seen] += 1
         self.missed[seen] = 0
         matched = cluster_of[seen]
@@ -153,7 +164,7 @@ class ObstacleTracker:
             self._keep(~drop)
 
     def _start_tracks(self, clusters: Clusters, cluster_of: np.ndarray, stamp: float) -> None:
-        fresh = np.ones(len(clusters), dtype=bool)
+        fresh = clusters.structure < STRUCTURE_SHARE
         fresh[cluster_of[cluster_of >= 0]] = False
         if len(self.ids) and fresh.any():
             distance = np.hypot(*(clusters.centre[:, None, :] - self.state[None, :, :2]).transpose(2, 0, 1))
@@ -169,15 +180,18 @@ class ObstacleTracker:
                      radius=np.maximum(new.radius, MIN_RADIUS), born=np.full(n, stamp), last_seen=np.full(n, stamp),
                      hits=np.ones(n, dtype=np.int64), missed=np.zeros(n, dtype=np.int64),
                      confirmed=np.full(n, p.confirm_hits <= 1), moving=np.zeros(n, dtype=bool),
-                     since=np.full(n, np.nan), motion_updates=(~new.occluded).astype(np.int64))
+                     since=np.full(n, np.nan), motion_updates=(~new.occluded).astype(np.int64),
+                     on_structure=np.zeros(n, dtype=bool))
         self._next_id += n
 
     def _judge_motion(self, stamp: float) -> None:
         """The moving flag flips once the opposite condition has held for moving_hold: above moving_speed by one
-        sigma (with a filter that has seen enough whole clusters) to turn moving, below static_speed to stop."""
+        sigma (with a filter that has seen enough whole clusters, off structure) to turn moving, below static_speed
+        to stop."""
         p = self.params
         speed, sigma = kalman.speed_and_sigma(self.state, self.cov)
-        fast = self.confirmed & (self.motion_updates >= p.confirm_hits) & (speed - sigma > p.moving_speed)
+        fast = self.confirmed & (self.motion_updates >= p.confirm_hits) & (speed - sigma > p.moving_speed) & \
+            ~self.on_structure
         opposite = np.where(self.moving, speed < p.static_speed, fast)
         self.since = np.where(opposite, np.where(np.isnan(self.since), stamp, self.since), np.nan)
         flip = opposite & (stamp - self.since >= p.moving_hold)
