@@ -69,6 +69,8 @@ class CommandSource(Node):
 
 def start(context, world, robot="box", yaw=0.0, namespace="", monitor=True, v=1.0, max_speed=None, **monitor_params):
     drive = [] if max_speed is None else [Parameter("max_speed", value=float(max_speed))]
+    if max_speed is not None:                       # as the launch files give it
+        monitor_params.setdefault("max_linear_speed", float(max_speed))
     sim = SimulatorNode(context=context, parameter_overrides=SIM_TIME + drive + [
         Parameter("world", value=world), Parameter("robot", value=robot), Parameter("real_time_factor", value=0.0),
         Parameter("namespaces", value=namespace), Parameter("starts", value=f"0,0,{yaw}")])
@@ -160,7 +162,7 @@ def test_a_hostile_command_becomes_zero(context, world, v, w):
     driver.run_until(1.2)
     assert source.sent_to_base[-1][1:] == (0.0, 0.0)
     source.command = (0.5, 0.0)
-    driver.run_until(1.4)
+    driver.run_until(1.6)                                          # speeding up from zero at 1.75 m/s^2
     assert source.sent_to_base[-1][1] == pytest.approx(0.5)       # the node is still there and working
     driver.executor.shutdown()
 
@@ -200,9 +202,9 @@ def scan_message(frame: str, stamp: float, distance: float = 3.0) -> LaserScan:
 @pytest.fixture
 def bare_monitor(context):
     """A monitor fed by direct calls, its output recorded: what it does with time."""
-    monitor = CollisionMonitorNode(context=context, parameter_overrides=[
+    monitor = CollisionMonitorNode(context=context, parameter_overrides=[   # a drive that reaches 0.4 m/s at once
         Parameter("robot_radius", value=0.3), Parameter("scan_silence_timeout", value=0.2),
-        Parameter("use_sim_time", value=True)])
+        Parameter("max_linear_accel", value=10.0), Parameter("use_sim_time", value=True)])
     sent = []
     monitor.cmd_pub.publish = lambda twist: sent.append(twist.linear.x)
     transforms = []
@@ -220,7 +222,7 @@ def bare_monitor(context):
     def command(v: float) -> float:
         twist = Twist()
         twist.linear.x = v
-        monitor._on_command(twist)
+        monitor._on_command(twist, teleop=False)
         return sent[-1]
 
     yield monitor, scans, command
