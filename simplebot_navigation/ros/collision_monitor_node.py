@@ -30,7 +30,7 @@ from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
 
 from simplebot_navigation.geometry import quaternion_to_rotation_matrix
-from simplebot_navigation.parameters.spec import Param
+from simplebot_navigation.parameters.spec import Param, ParameterError
 from simplebot_navigation.ros.node_main import SetUpNode, run_node
 from simplebot_navigation.ros.params import descriptor, refuse_unknown_parameters
 from simplebot_navigation.ros.publishers import create_publisher, drop_event_handlers_of_best_effort_subscriptions
@@ -126,28 +126,36 @@ class CollisionMonitorNode(SetUpNode):
     # -- parameters -----------------------------------------------------------------------------
     def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
         """Every change checked in full before it is taken (the body must hold the one the node started with);
-        the new judgement replaces the old one whole, and each change is logged at WARN with both values."""
-        fixed = [p.name for p in params if p.name == "use_sim_time"
-                 or not {**PARAMETERS, **AT_START}[p.name].dynamic]
-        if fixed:
-            return SetParametersResult(successful=False, reason=f"{', '.join(fixed)}: requires restart (the "
-                                       "monitor's switch, topics and drive limits do not change while it runs)")
+        the new judgement replaces the old one whole. Each change is logged at WARN with both values, each
+        refusal with its reason."""
         try:
-            changes = {p.name: PARAMETERS[p.name].check(p.value, f"collision_monitor parameter '{p.name}'")
-                       for p in params}
-            monitor = CollisionMonitor(dataclasses.replace(self.monitor.config, **changes))
+            monitor = self._changed(params)
         except Exception as err:   # noqa: BLE001 -- any failure of a check is a refusal with its reason
+            self._warn("parameters", f"parameter change refused: {err}")
             return SetParametersResult(successful=False, reason=str(err))
-        if not monitor.holds(self.body):
-            return SetParametersResult(successful=False, reason=(
-                "footprint/robot_radius: the body must hold the robot's, as the node started with "
-                f"({self.body.config.footprint or f'radius {self.body.radius:g} m'!s})"))
         old = self.monitor.config
-        for name, value in changes.items():
-            if getattr(old, name) != value:
-                self.get_logger().warn(f"parameter {name} changed live: {getattr(old, name)!r} -> {value!r}")
+        for name in (p.name for p in params):
+            if getattr(old, name) != getattr(monitor.config, name):
+                self.get_logger().warn(f"parameter {name} changed live: {getattr(old, name)!r} -> "
+                                       f"{getattr(monitor.config, name)!r}")
         self.monitor = monitor
         return SetParametersResult(successful=True)
+
+    def _changed(self, params: list[Parameter]) -> CollisionMonitor:
+        """The judgement with ``params``, or ParameterError."""
+        specs = {**PARAMETERS, **AT_START}
+        fixed = [p.name for p in params if p.name == "use_sim_time" or not specs[p.name].dynamic]
+        if fixed:
+            raise ParameterError(f"{', '.join(fixed)}: requires restart (the monitor's switch, topics and drive "
+                                 "limits do not change while it runs)")
+        changes = {p.name: PARAMETERS[p.name].check(p.value, f"collision_monitor parameter '{p.name}'")
+                   for p in params}
+        monitor = CollisionMonitor(dataclasses.replace(self.monitor.config, **changes))
+        if not monitor.holds(self.body):
+            started = self.body.config.footprint or f"radius {self.body.radius:g} m"
+            raise ParameterError("collision_monitor footprint/robot_radius: the body must hold the robot's, as "
+                                 f"the node started with ({started})")
+        return monitor
 
     # -- inputs ---------------------------------------------------------------------------------
     def _on_tf_static(self, msg: TFMessage) -> None:
@@ -260,7 +268,7 @@ class CollisionMonitorNode(SetUpNode):
         """(v, w) at most at the drive's accelerations, and (unless it brakes) at most at max_output_rate."""
         config, now = self.monitor.config, self._now
         v, w = ramp(self._out, (v, w), now - self._out_time, config.linear_accel(), config.max_angular_accel)
-        if not brakes(self._out, (v, w)) and not self._rate.allow(now, config.max_output_rate):
+        if not self._rate.allow(now, config.max_output_rate, braking=brakes(self._out, (v, w))):
             self._warn("rate", f"commands come faster than max_output_rate {config.max_output_rate:g} Hz: the "
                                "excess is not published")
             return

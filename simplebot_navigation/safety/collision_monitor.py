@@ -64,7 +64,8 @@ MIN_ACCEL = 0.5
 @dataclass(frozen=True)
 class CollisionMonitorConfig:
     footprint: list = param([], "m", "outline of the body in base_frame, [[x, y], ...] or its string form "
-                            "(empty: robot_radius); live, it must hold the body the node started with", kind=(list, str))
+                            "(empty: robot_radius); live, it must hold the body the node started with",
+                            kind=(list, str))
     robot_radius: float = param(0.0, "m", "radius of a round body, used when footprint is empty", ge=0.0, le=5.0)
     stop_distance: float = param(0.02, "m", "contact within this much travel along the commanded arc stops the "
                                  "robot", ge=MIN_STOP_DISTANCE, le=2.0)

@@ -8,7 +8,7 @@
   from zero); slowing down and stopping pass at once. Commands alternating between
   +1 and -1 m/s at 1 kHz then move the robot by a few millimetres, not at full speed in either direction.
 - ``RateLimit``: at most ``rate`` outputs per second of the monitor's (scan) time, a scan period's worth at
-  once; braking is never held back (``brakes``).
+  once; braking (``brakes``) is never held back, it takes its share from the outputs after it.
 """
 
 from __future__ import annotations
@@ -45,19 +45,20 @@ def brakes(last: tuple[float, float], new: tuple[float, float]) -> bool:
 
 
 class RateLimit:
-    """A token bucket filled by the monitor's time: ``allow`` says whether one more output may go now."""
+    """A token bucket filled by the monitor's time: ``allow`` says whether one more output may go now. A
+    braking output never waits: it borrows from the outputs to come (down to a burst's worth)."""
 
     def __init__(self):
         self.tokens = math.inf
         self.time = -math.inf
 
-    def allow(self, now: float, rate: float) -> bool:
+    def allow(self, now: float, rate: float, braking: bool = False) -> bool:
         burst = 1.0 + rate * SCAN_PERIOD_S
         if now > self.time:
             self.tokens += rate * (now - self.time)
         self.time = now                   # time going back starts the count there
         self.tokens = min(self.tokens, burst)
-        if self.tokens >= 1.0:
-            self.tokens -= 1.0
-            return True
-        return False
+        if self.tokens < 1.0 and not braking:
+            return False
+        self.tokens = max(self.tokens - 1.0, -burst)
+        return True
