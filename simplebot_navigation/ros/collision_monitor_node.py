@@ -37,7 +37,7 @@ from simplebot_navigation.ros.publishers import create_publisher, drop_event_han
 from simplebot_navigation.ros.tf import TF_STATIC_LISTENER_QOS, Buffer, TransformException
 from simplebot_navigation.safety.collision_monitor import (PARAMETERS, Action, CollisionMonitor,
                                                            CollisionMonitorConfig, moved_by)
-from simplebot_navigation.safety.command_limits import RateLimit, brakes, clamp, ramp
+from simplebot_navigation.safety.command_limits import Ramp, RateLimit, brakes, clamp
 
 #: read at start-up only: the topics, the frame the scans are turned into, the wall-clock guard
 AT_START = {
@@ -97,8 +97,7 @@ class CollisionMonitorNode(SetUpNode):
         self._last_scan_wall = time.monotonic()
         self._last_command = None          # sensor time of the last command received
         self._out = (0.0, 0.0)             # the last command published
-        self._out_time = -math.inf         # and its sensor time
-        self._rate = RateLimit()
+        self._ramp, self._rate = Ramp(), RateLimit()
         self._teleop_at = -math.inf        # sensor time of the last teleop command
         self._holder = ""                  # the input the last command passed came from
         self._bypass: set[str] = set()     # other publishers on the output, warned about once
@@ -201,7 +200,8 @@ class CollisionMonitorNode(SetUpNode):
             for other in self.sources:
                 other.points, other.stamp = None, -math.inf
             self._last_command, self._now = None, stamp
-            self._out_time, self._teleop_at = stamp, -math.inf
+            self._teleop_at = -math.inf
+            self._ramp.restart(stamp)
         self._now = max(self._now, stamp)
         self._last_scan_wall = time.monotonic()
         source.points, source.stamp = points, stamp
@@ -227,6 +227,7 @@ class CollisionMonitorNode(SetUpNode):
             return
         config = self.monitor.config
         v, w = clamp(v, w, config.max_linear_speed, config.max_angular_speed)
+        v, w = self._ramp.limit((v, w), now, (config.linear_accel(), config.max_angular_accel))
         self._last_command = now
         silent = time.monotonic() - self._last_scan_wall
         if 0 < self.scan_silence_timeout < silent:
@@ -265,17 +266,20 @@ class CollisionMonitorNode(SetUpNode):
 
     # -- output ---------------------------------------------------------------------------------
     def _publish(self, v: float, w: float, state: str) -> None:
-        """(v, w) at most at the drive's accelerations, and (unless it brakes) at most at max_output_rate."""
+        """(v, w), within the drive's accelerations (_on_command), at most at max_output_rate unless it brakes."""
         config, now = self.monitor.config, self._now
-        v, w = ramp(self._out, (v, w), now - self._out_time, config.linear_accel(), config.max_angular_accel)
         if not self._rate.allow(now, config.max_output_rate, braking=brakes(self._out, (v, w))):
             self._warn("rate", f"commands come faster than max_output_rate {config.max_output_rate:g} Hz: the "
                                "excess is not published")
-            return
+            if not any(new * old < 0 for new, old in zip((v, w), self._out)):
+                return
+            v, w = 0.0, 0.0              # a reversal that has to wait: the robot stands meanwhile (braking goes)
+            self._rate.allow(now, config.max_output_rate, braking=True)
         twist = Twist()
         twist.linear.x, twist.angular.z = float(v), float(w)
         self.cmd_pub.publish(twist)
-        self._out, self._out_time = (float(v), float(w)), now
+        self._out = (float(v), float(w))
+        self._ramp.published(self._out, now)
         kind, was = state.partition(":")[0], self._state.partition(":")[0]
         if kind and kind != was:
             self._warn(kind, f"{state}: {self._cmd_out} limited to ({v:.2f} m/s, {w:.2f} rad/s)")

@@ -3,9 +3,9 @@
 - ``clamp``: a command beyond the drive's top speed or yaw rate is scaled down along its curvature, as the
   drive itself does (sim/diff_drive.py). The monitor judges what the robot can do: the approach check's
   steps of 100 m/s would jump over the wall they should find.
-- ``ramp``: the output speeds up at most at the drive's accelerations over the time since the last one
-  (a sign change counts from zero; at most a scan period counts, so after a standstill the robot starts
-  from zero); slowing down and stopping pass at once. Commands alternating between
+- ``Ramp``: the output speeds up at most at the drive's accelerations (at most a scan period's worth per step
+  of the monitor's time, so after a standstill the robot starts from zero); slowing down and stopping pass at
+  once. Commands alternating between
   +1 and -1 m/s at 1 kHz then move the robot by a few millimetres, not at full speed in either direction.
 - ``RateLimit``: at most ``rate`` outputs per second of the monitor's (scan) time, a scan period's worth at
   once; braking (``brakes``) is never held back, it takes its share from the outputs after it.
@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import math
 
-#: the monitor's time (its scans' stamps) moves in steps of up to this (s): two lidars at 10 Hz. The ramp counts
-#: at most this since the last output, and the rate limit lets this much time's outputs out at once.
+#: the monitor's time (its scans' stamps) moves in steps of up to this (s): lidars at 10 Hz. The ramp counts at
+#: most this per step, and the rate limit lets this much time's outputs out at once.
 SCAN_PERIOD_S = 0.1
 
 
@@ -26,17 +26,40 @@ def clamp(v: float, w: float, top_v: float, top_w: float) -> tuple[float, float]
     return v * k, w * k
 
 
-def ramp(last: tuple[float, float], target: tuple[float, float], dt: float, accel_v: float,
-         accel_w: float) -> tuple[float, float]:
-    """``target`` scaled along its curvature so that neither component grows by more than its acceleration
-    times ``dt`` from ``last``."""
-    dt = min(dt, SCAN_PERIOD_S) if dt > 0 else 0.0    # NaN (no time yet) or time going back: no speeding up
-    k = 1.0
-    for before, want, accel in ((last[0], target[0], accel_v), (last[1], target[1], accel_w)):
-        allowed = (abs(before) if before * want > 0 else 0.0) + accel * dt
-        if abs(want) > allowed:
-            k = min(k, allowed / abs(want))
-    return target[0] * k, target[1] * k
+class Ramp:
+    """The output's acceleration limit, per component, in the monitor's time, which moves in scan-period steps:
+    every output within a step may differ from the reference (the last output before the step) by acceleration
+    x the step, speeding up or reversing; slowing down towards zero is always allowed, and a component that
+    slows down becomes its reference at once (one that reverses, zero: it went through it). So two commands between two scans both speed up (a
+    planner at 20 Hz beside 10 Hz scans is not held back every other command), and a flood alternating between
+    +1 and -1 m/s gets no further than one step's worth before a reversal pins it. The monitor limits the
+    command before judging it, so what it judged is what goes out."""
+
+    def __init__(self):
+        self.last, self.last_time = [0.0, 0.0], -math.inf
+        self.ref, self.ref_time = [0.0, 0.0], [-math.inf, -math.inf]
+
+    def restart(self, now: float) -> None:
+        """Time went back: the last output is the reference from now on."""
+        self.last_time, self.ref, self.ref_time = now, list(self.last), [now, now]
+
+    def limit(self, target: tuple[float, float], now: float, accel: tuple[float, float]) -> tuple[float, float]:
+        """``target`` with each component clipped to what its acceleration allows now."""
+        if now > self.last_time:
+            self.ref, self.ref_time = list(self.last), [self.last_time] * 2
+        out = []
+        for i, (want, a) in enumerate(zip(target, accel)):
+            dt = now - self.ref_time[i]
+            dt = min(dt, SCAN_PERIOD_S) if dt > 0 else 0.0      # NaN (no time yet) or time going back: no step
+            ref = self.ref[i]
+            out.append(min(max(want, min(ref - a * dt, 0.0)), max(ref + a * dt, 0.0)))
+        return out[0], out[1]
+
+    def published(self, out: tuple[float, float], now: float) -> None:
+        for i, (o, r) in enumerate(zip(out, self.ref)):
+            if o * r < 0 or abs(o) < abs(r):          # a reversal went through zero: it counts from there
+                self.ref[i], self.ref_time[i] = (0.0 if o * r < 0 else o), now
+        self.last, self.last_time = list(out), now
 
 
 def brakes(last: tuple[float, float], new: tuple[float, float]) -> bool:

@@ -4,6 +4,7 @@ A publisher that knows nothing of the world drives the robot at a wall at 1 m/s:
 robot stops short of it, for both bodies, forward and in reverse; without it, it hits the wall.
 """
 
+import dataclasses
 import math
 import time
 
@@ -16,6 +17,7 @@ from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
 
 from simplebot_navigation.ros.collision_monitor_node import CollisionMonitorNode
+from simplebot_navigation.safety.collision_monitor import CollisionMonitor
 from simplebot_navigation.ros.simulator.lockstep import LockstepDriver
 from simplebot_navigation.ros.simulator.simulator_node import SimulatorNode
 from tests.conftest import fresh_context
@@ -313,6 +315,7 @@ def test_a_flood_of_alternating_commands_is_clamped_ramped_and_thinned(bare_moni
     second and drove the robot 2.95 m backwards. Now: within the drive's top speed, speeding up at its
     acceleration (so the alternation cancels within millimetres) and at most max_output_rate (50 Hz) a second."""
     monitor, scans, command = bare_monitor
+    monitor.monitor = CollisionMonitor(dataclasses.replace(monitor.monitor.config, max_linear_accel=0.0))   # 1.75
     out, published = [], []
     monitor.cmd_pub.publish = lambda twist: published.append(twist.linear.x)
     for ms in range(3000):                        # the scans at 10 Hz, the flood at 1 kHz (1 ms apart)

@@ -2,7 +2,7 @@
 
 import pytest
 
-from simplebot_navigation.safety.command_limits import SCAN_PERIOD_S, RateLimit, brakes, clamp, ramp
+from simplebot_navigation.safety.command_limits import SCAN_PERIOD_S, Ramp, RateLimit, brakes, clamp
 
 
 def test_a_command_beyond_the_top_speeds_is_scaled_down_along_its_curvature():
@@ -11,23 +11,42 @@ def test_a_command_beyond_the_top_speeds_is_scaled_down_along_its_curvature():
     assert clamp(0.5, 0.2, 1.05, 4.0) == (0.5, 0.2)
 
 
+def ramp(ref, target, dt):
+    """What may follow the output ``ref`` (the reference) dt seconds later."""
+    limiter = Ramp()
+    limiter.ref, limiter.last = list(ref), list(ref)
+    limiter.ref_time, limiter.last_time = [0.0, 0.0], 0.0
+    return limiter.limit(target, dt, (1.75, 8.0))
+
+
 def test_the_output_speeds_up_at_the_acceleration_and_slows_down_at_once():
-    assert ramp((0.0, 0.0), (1.0, 0.0), 0.05, 1.75, 8.0) == pytest.approx((0.0875, 0.0))
-    # the yaw rate may grow by 0.4 rad/s in 0.05 s, not 0.5: both are scaled, the curvature stays
-    assert ramp((0.5, 0.5), (0.6, 1.0), 0.05, 1.75, 8.0) == pytest.approx((0.54, 0.9))
-    assert ramp((0.5, 0.2), (0.0, 0.0), 0.0, 1.75, 8.0) == (0.0, 0.0)          # a stop, at once
-    assert ramp((1.0, 0.0), (0.2, 0.0), 0.0, 1.75, 8.0) == (0.2, 0.0)
-    assert ramp((0.0, 0.0), (1.0, 0.0), 60.0, 1.75, 8.0) == pytest.approx((1.75 * SCAN_PERIOD_S, 0.0))
+    assert ramp((0.0, 0.0), (1.0, 0.0), 0.05) == pytest.approx((0.0875, 0.0))
+    assert ramp((0.5, 0.5), (0.6, 1.0), 0.05) == pytest.approx((0.5875, 0.9))   # each by its acceleration
+    assert ramp((0.5, 0.2), (0.0, 0.0), 0.0) == (0.0, 0.0)          # a stop, at once
+    assert ramp((1.0, 0.0), (0.2, 0.0), 0.0) == (0.2, 0.0)
+    assert ramp((0.5, 0.0), (-1.0, 0.0), 0.1) == (0.0, 0.0)         # a reversal: through zero at the acceleration
+    assert ramp((0.0, 0.0), (1.0, 0.0), 60.0) == pytest.approx((1.75 * SCAN_PERIOD_S, 0.0))
+
+
+def test_commands_between_two_scans_both_speed_up():
+    """A planner at 20 Hz and scans at 10 Hz: the second command of a scan period is not held back."""
+    limiter, out = Ramp(), []
+    for k in range(10):
+        for want in (0.05 * (2 * k + 1), 0.05 * (2 * k + 2)):   # 1 m/s^2 asked for
+            limiter.published(limiter.limit((want, 0.01 * (-1) ** k), 0.1 * k, (1.75, 8.0)), 0.1 * k)
+            out.append(limiter.last[0])       # a yaw rate flickering around zero holds nothing back
+    assert out[1:] == pytest.approx([0.05 * (n + 2) for n in range(19)])
 
 
 def test_commands_alternating_at_1_khz_hardly_move_the_robot():
-    """+1 and -1 m/s a millisecond apart with the monitor's time moving in 0.1 s steps (its scans)."""
-    out, at, travel = (0.0, 0.0), 0.0, 0.0
+    """+1, -1, +100, -100 m/s a millisecond apart with the monitor's time moving in 0.1 s steps (its scans)."""
+    limiter, travel = Ramp(), 0.0
     for i in range(3000):
         now = 0.1 * (i // 100)
-        new = ramp(out, (1.0 if i % 2 else -1.0, 0.0), now - at, 1.75, 8.0)
-        travel += new[0] * 0.001
-        out, at = new, now
+        want = clamp((1.0, -1.0, 100.0, -100.0)[i % 4], 0.0, 1.05, 4.0)
+        out = limiter.limit(want, now, (1.75, 8.0))
+        limiter.published(out, now)
+        travel += out[0] * 0.001
     assert abs(travel) < 0.01
 
 
