@@ -86,6 +86,8 @@ LAUNCH = [
             Param("footprint", BOX_FOOTPRINT, unless=ROUND),
             Param("robot_radius", "$(arg radius)", if_=ROUND),
             Param("base_frame", PREFIX + "base_link", if_=NAMESPACED),
+            # The drive's top speed (and with it, its acceleration: docs/reference.md §5.3, §11).
+            Param("max_linear_speed", "$(arg max_speed)", if_="$(eval max_speed != '')"),
         ]),
     ]),
 ]

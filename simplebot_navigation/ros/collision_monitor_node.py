@@ -1,8 +1,10 @@
 """collision_monitor: the last word on every velocity command, in its own process (docs/reference.md §5).
 
-It takes the planner's commands on ``cmd_vel_nav`` and the raw scans, and publishes what may reach the
-wheels on ``simplebot_controller/cmd_vel`` (both relative, so they follow the namespace). Its only
-transforms are the lasers' static ones.
+It takes the planner's commands on ``cmd_vel_nav``, a teleop's on ``cmd_vel_teleop`` (which, as in twist_mux,
+hold the output while they are fresher than ``teleop_timeout``) and the raw scans, and publishes what may reach
+the wheels on ``simplebot_controller/cmd_vel`` (all relative, so they follow the namespace): within the drive's
+top speeds and accelerations, at a bounded rate. Its only transforms are the lasers' static ones. It cannot
+be switched off, nor its body shrunk, while it runs; every accepted live change is logged at WARN.
 
 Its clock is its scans' stamps (the newest seen): simulated time under a simulator, wall time on a robot,
 without following /clock, whose 100 messages a second alone cost a Python node more than the monitor's
@@ -28,18 +30,21 @@ from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
 
 from simplebot_navigation.geometry import quaternion_to_rotation_matrix
-from simplebot_navigation.parameters.spec import Param
+from simplebot_navigation.parameters.spec import Param, ParameterError
 from simplebot_navigation.ros.node_main import SetUpNode, run_node
 from simplebot_navigation.ros.params import descriptor, refuse_unknown_parameters
 from simplebot_navigation.ros.publishers import create_publisher, drop_event_handlers_of_best_effort_subscriptions
 from simplebot_navigation.ros.tf import TF_STATIC_LISTENER_QOS, Buffer, TransformException
 from simplebot_navigation.safety.collision_monitor import (PARAMETERS, Action, CollisionMonitor,
                                                            CollisionMonitorConfig, moved_by)
+from simplebot_navigation.safety.command_limits import Ramp, RateLimit, brakes, clamp
 
 #: read at start-up only: the topics, the frame the scans are turned into, the wall-clock guard
 AT_START = {
     "base_frame": Param(str, "base_link", "", "the robot frame the body is given in", dynamic=False),
     "cmd_vel_in_topic": Param(str, "cmd_vel_nav", "", "the planner's commands", dynamic=False),
+    "cmd_vel_teleop_topic": Param(str, "cmd_vel_teleop", "", "a teleop's commands: guarded as the planner's, "
+                                  "they hold the output while fresher than teleop_timeout", dynamic=False),
     "cmd_vel_out_topic": Param(str, "simplebot_controller/cmd_vel", "", "the base's commands", dynamic=False),
     "scan_topics": Param(list, ["front_laser/front_scan", "back_laser/back_scan"], "",
                          "the LaserScan topics to watch (at most 8)", dynamic=False),
@@ -81,12 +86,21 @@ class CollisionMonitorNode(SetUpNode):
         self.base_frame = values.pop("base_frame").lstrip("/")
         self.scan_silence_timeout = values.pop("scan_silence_timeout")
         cmd_in, cmd_out = values.pop("cmd_vel_in_topic"), values.pop("cmd_vel_out_topic")
+        teleop = values.pop("cmd_vel_teleop_topic")
         self.monitor = CollisionMonitor(CollisionMonitorConfig(**values))
+        self.body = self.monitor          # the body it started with: a live footprint must hold it
+        if not self.monitor.config.enabled:
+            self.get_logger().warn("enabled is false: commands pass unjudged (the drive's limits and the timeouts "
+                                   "still apply); it cannot be switched on or off while running")
         self.tf = Buffer(node=self)
         self._now = -math.inf              # sensor time: the newest scan stamp, seconds
         self._last_scan_wall = time.monotonic()
         self._last_command = None          # sensor time of the last command received
         self._out = (0.0, 0.0)             # the last command published
+        self._ramp, self._rate = Ramp(), RateLimit()
+        self._teleop_at = -math.inf        # sensor time of the last teleop command
+        self._holder = ""                  # the input the last command passed came from
+        self._bypass: set[str] = set()     # other publishers on the output, warned about once
         self._state = ""                   # what the last verdict was, to log changes only
         self._logged: dict[str, float] = {}  # kind -> monotonic time of its last line
         self.sources = [_Source(topic) for topic in topics]
@@ -95,7 +109,9 @@ class CollisionMonitorNode(SetUpNode):
         for source in self.sources:
             self.create_subscription(LaserScan, source.topic, lambda msg, s=source: self._on_scan(s, msg),
                                      qos_profile_sensor_data)
-        self.create_subscription(Twist, cmd_in, self._on_command, 1)
+        self._topics = {False: self.resolve_topic_name(cmd_in), True: self.resolve_topic_name(teleop)}
+        self.create_subscription(Twist, cmd_in, lambda msg: self._on_command(msg, teleop=False), 1)
+        self.create_subscription(Twist, teleop, lambda msg: self._on_command(msg, teleop=True), 1)
         if self.get_parameter("use_sim_time").value:
             self.set_parameters([Parameter("use_sim_time", value=False)])   # drops the /clock subscription
             self.get_logger().info("use_sim_time is not used: the scans' stamps are this node's clock")
@@ -103,23 +119,42 @@ class CollisionMonitorNode(SetUpNode):
         refuse_unknown_parameters(self)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self._cmd_out = self.resolve_topic_name(cmd_out)
-        self.get_logger().info(f"{self.resolve_topic_name(cmd_in)} -> {self._cmd_out}, watching "
-                               f"{', '.join(self.resolve_topic_name(t) for t in topics)}")
+        self.get_logger().info(f"{self._topics[False]} (and {self._topics[True]} over it) -> {self._cmd_out}, "
+                               f"watching {', '.join(self.resolve_topic_name(t) for t in topics)}")
 
     # -- parameters -----------------------------------------------------------------------------
     def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
-        """Every change checked in full before it is taken; the new judgement replaces the old one whole."""
-        fixed = [p.name for p in params if p.name in AT_START or p.name == "use_sim_time"]
-        if fixed:
-            return SetParametersResult(successful=False, reason=f"{', '.join(fixed)}: requires restart")
+        """Every change checked in full before it is taken (the body must hold the one the node started with);
+        the new judgement replaces the old one whole. Each change is logged at WARN with both values, each
+        refusal with its reason."""
         try:
-            changes = {p.name: PARAMETERS[p.name].check(p.value, f"collision_monitor parameter '{p.name}'")
-                       for p in params}
-            monitor = CollisionMonitor(dataclasses.replace(self.monitor.config, **changes))
+            monitor = self._changed(params)
         except Exception as err:   # noqa: BLE001 -- any failure of a check is a refusal with its reason
+            self._warn("parameters", f"parameter change refused: {err}")
             return SetParametersResult(successful=False, reason=str(err))
+        old = self.monitor.config
+        for name in (p.name for p in params):
+            if getattr(old, name) != getattr(monitor.config, name):
+                self.get_logger().warn(f"parameter {name} changed live: {getattr(old, name)!r} -> "
+                                       f"{getattr(monitor.config, name)!r}")
         self.monitor = monitor
         return SetParametersResult(successful=True)
+
+    def _changed(self, params: list[Parameter]) -> CollisionMonitor:
+        """The judgement with ``params``, or ParameterError."""
+        specs = {**PARAMETERS, **AT_START}
+        fixed = [p.name for p in params if p.name == "use_sim_time" or not specs[p.name].dynamic]
+        if fixed:
+            raise ParameterError(f"{', '.join(fixed)}: requires restart (the monitor's switch, topics and drive "
+                                 "limits do not change while it runs)")
+        changes = {p.name: PARAMETERS[p.name].check(p.value, f"collision_monitor parameter '{p.name}'")
+                   for p in params}
+        monitor = CollisionMonitor(dataclasses.replace(self.monitor.config, **changes))
+        if not monitor.holds(self.body):
+            started = self.body.config.footprint or f"radius {self.body.radius:g} m"
+            raise ParameterError("collision_monitor footprint/robot_radius: the body must hold the robot's, as "
+                                 f"the node started with ({started})")
+        return monitor
 
     # -- inputs ---------------------------------------------------------------------------------
     def _on_tf_static(self, msg: TFMessage) -> None:
@@ -165,18 +200,34 @@ class CollisionMonitorNode(SetUpNode):
             for other in self.sources:
                 other.points, other.stamp = None, -math.inf
             self._last_command, self._now = None, stamp
+            self._teleop_at = -math.inf
+            self._ramp.restart(stamp)
         self._now = max(self._now, stamp)
         self._last_scan_wall = time.monotonic()
         source.points, source.stamp = points, stamp
         self._check_silence()
+        if self._due("publishers"):
+            self._check_publishers()
 
-    def _on_command(self, msg: Twist) -> None:
+    def _on_command(self, msg: Twist, teleop: bool) -> None:
+        """A command from the planner or (teleop) the teleop; the teleop's hold the output while fresh."""
         now = self._now
+        if teleop:
+            self._teleop_at = now
+        elif now - self._teleop_at <= self.monitor.config.teleop_timeout:
+            return
+        if self._holder != self._topics[teleop]:
+            self._holder = self._topics[teleop]
+            self.get_logger().info(f"commands from {self._holder}")
         v, w = msg.linear.x, msg.angular.z
         if not (math.isfinite(v) and math.isfinite(w) and abs(v) <= MAX_COMMAND and abs(w) <= MAX_COMMAND):
-            self._warn("command", f"command (linear.x {v!r}, angular.z {w!r}) is not a velocity: zero published")
+            self._warn("command", f"{self._holder}: command (linear.x {v!r}, angular.z {w!r}) is not a velocity: "
+                                  "zero published")
             self._publish(0.0, 0.0, "stop: the last command was not a velocity")
             return
+        config = self.monitor.config
+        v, w = clamp(v, w, config.max_linear_speed, config.max_angular_speed)
+        v, w = self._ramp.limit((v, w), now, (config.linear_accel(), config.max_angular_accel))
         self._last_command = now
         silent = time.monotonic() - self._last_scan_wall
         if 0 < self.scan_silence_timeout < silent:
@@ -215,16 +266,35 @@ class CollisionMonitorNode(SetUpNode):
 
     # -- output ---------------------------------------------------------------------------------
     def _publish(self, v: float, w: float, state: str) -> None:
+        """(v, w), within the drive's accelerations (_on_command), at most at max_output_rate unless it brakes."""
+        config, now = self.monitor.config, self._now
+        if not self._rate.allow(now, config.max_output_rate, braking=brakes(self._out, (v, w))):
+            self._warn("rate", f"commands come faster than max_output_rate {config.max_output_rate:g} Hz: the "
+                               "excess is not published")
+            if not any(new * old < 0 for new, old in zip((v, w), self._out)):
+                return
+            v, w = 0.0, 0.0              # a reversal that has to wait: the robot stands meanwhile (braking goes)
+            self._rate.allow(now, config.max_output_rate, braking=True)
         twist = Twist()
         twist.linear.x, twist.angular.z = float(v), float(w)
         self.cmd_pub.publish(twist)
         self._out = (float(v), float(w))
+        self._ramp.published(self._out, now)
         kind, was = state.partition(":")[0], self._state.partition(":")[0]
         if kind and kind != was:
             self._warn(kind, f"{state}: {self._cmd_out} limited to ({v:.2f} m/s, {w:.2f} rad/s)")
         elif was and not kind and self._due(""):
             self.get_logger().info(f"{was} cleared: commands pass")
         self._state = state
+
+    def _check_publishers(self) -> None:
+        """Warn once about each other node publishing on the base's input: its commands bypass the monitor."""
+        for info in self.get_publishers_info_by_topic(self._cmd_out):
+            name = f"{info.node_namespace.rstrip('/')}/{info.node_name}"
+            if name != self.get_fully_qualified_name() and name not in self._bypass:
+                self._bypass.add(name)
+                self.get_logger().warn(f"{name} publishes on {self._cmd_out}: its commands bypass the collision "
+                                       f"monitor; publish them on {self._topics[True]} instead")
 
     def _due(self, kind: str) -> bool:
         now = time.monotonic()

@@ -19,7 +19,7 @@ from simplebot_navigation.geometry_kernels import inside_polygon
 
 
 @njit(cache=True, nogil=True)
-def _inside(qx, qy, vertices, radius):
+def inside_body(qx, qy, vertices, radius):
     """Distance for a circle, the even-odd rule for a polygon."""
     if radius > 0.0:
         return qx * qx + qy * qy <= radius * radius
@@ -33,7 +33,7 @@ def first_contact_step(points, v, w, dt, steps, vertices, radius, reach, min_poi
     n = points.shape[0]
     outside = np.empty(n, dtype=np.bool_)
     for p in range(n):
-        outside[p] = not _inside(points[p, 0], points[p, 1], vertices, radius)
+        outside[p] = not inside_body(points[p, 0], points[p, 1], vertices, radius)
     reach2 = reach * reach
     for k in range(1, steps + 1):
         t = k * dt
@@ -52,7 +52,7 @@ def first_contact_step(points, v, w, dt, steps, vertices, radius, reach, min_poi
             dx, dy = points[p, 0] - x, points[p, 1] - y
             if dx * dx + dy * dy > reach2:
                 continue
-            if _inside(c * dx + s * dy, -s * dx + c * dy, vertices, radius):
+            if inside_body(c * dx + s * dy, -s * dx + c * dy, vertices, radius):
                 hits += 1
                 if hits >= min_points:
                     return k

@@ -41,31 +41,77 @@ MAX_APPROACH_STEPS = 200
 TOUCH_MARGIN = 0.005
 #: the stop and slowdown zones are walked along the arc in steps of this length (m)
 ZONE_STEP = 0.01
+#: the stop zone covers at least a zone step and a centimetre of lidar noise and creep (m)
+MIN_STOP_DISTANCE = 0.02
+#: a 3 cm table leg 1 m away gives about 5 returns of the simulated lidars (0.35 degrees apart)
+MAX_MIN_POINTS = 5
+#: the approach check places the body at most this far apart (m): closer than the thinnest post it must see
+MAX_APPROACH_STRIDE = 0.1
+#: the planner's command period (20 Hz): a command acts this long before the next can brake
+COMMAND_PERIOD = 0.05
+#: (top speed m/s, acceleration m/s^2) of the simulator's drives (docs/reference.md §11; not imported from
+#: sim/diff_drive.py, which would load pybullet into this process; tests/safety checks they agree)
+LAB_DRIVE = (1.05, 1.75)
+JACKAL_DRIVE = (2.0, 2.5)
+#: a live body may leave this much of the body the monitor started with uncovered (m): rounding
+BODY_TOLERANCE = 0.001
+#: the body's outline is checked at points this far apart (m)
+OUTLINE_STEP = 0.005
+#: an acceleration limit below this is not a drive's (m/s^2)
+MIN_ACCEL = 0.5
 
 
 @dataclass(frozen=True)
 class CollisionMonitorConfig:
     footprint: list = param([], "m", "outline of the body in base_frame, [[x, y], ...] or its string form "
-                            "(empty: robot_radius)", kind=(list, str))
+                            "(empty: robot_radius); live, it must hold the body the node started with",
+                            kind=(list, str))
     robot_radius: float = param(0.0, "m", "radius of a round body, used when footprint is empty", ge=0.0, le=5.0)
     stop_distance: float = param(0.02, "m", "contact within this much travel along the commanded arc stops the "
-                                 "robot", ge=0.0, le=2.0)
+                                 "robot", ge=MIN_STOP_DISTANCE, le=2.0)
     slowdown_distance: float = param(0.1, "m", "contact within this much travel slows the robot", ge=0.0, le=5.0)
     slowdown_ratio: float = param(0.5, "", "factor on the command while a point is in the slowdown zone",
                                   gt=0.0, le=1.0)
     time_before_collision: float = param(0.5, "s", "how far ahead the approach check drives the body along "
-                                         "the command (0: no approach check)", ge=0.0, le=10.0)
+                                         "the command; at least the time to stop from max_linear_speed",
+                                         ge=0.0, le=10.0)
     simulation_time_step: float = param(0.05, "s", "time step of the approach check", gt=0.0, le=1.0)
-    min_points: int = param(3, "", "points a zone or the approach check needs to act", ge=1, le=1000)
-    source_timeout: float = param(0.3, "s", "a command or scan older than this stops the robot", gt=0.0, le=10.0)
-    stop_pub_timeout: float = param(2.0, "s", "how long zero is published after the commands stop", ge=0.0,
+    min_points: int = param(3, "", "points a zone or the approach check needs to act", ge=1, le=MAX_MIN_POINTS)
+    source_timeout: float = param(0.3, "s", "a command or scan older than this stops the robot", ge=0.1, le=1.0)
+    stop_pub_timeout: float = param(2.0, "s", "how long zero is published after the commands stop", ge=0.2,
                                     le=60.0)
-    enabled: bool = param(True, "", "false: commands pass unchanged (the timeouts still stop the robot)")
+    teleop_timeout: float = param(0.5, "s", "the teleop input holds the output while its last command is "
+                                  "newer than this", ge=0.1, le=5.0)
+    max_output_rate: float = param(50.0, "Hz", "commands published per second of scan time at most (braking "
+                                   "always passes)", ge=20.0, le=200.0)
+    max_linear_speed: float = param(LAB_DRIVE[0], "m/s", "the drive's top speed: faster commands are scaled "
+                                    "down along their curvature", gt=0.0, le=2.0, restart=True)
+    max_linear_accel: float = param(0.0, "m/s^2", "the drive's acceleration: the output speeds up no faster "
+                                    f"(0: the simulated drive's, {LAB_DRIVE[1]:g} up to {LAB_DRIVE[0]:g} m/s, "
+                                    f"{JACKAL_DRIVE[1]:g} above)", ge=0.0, le=10.0, restart=True)
+    max_angular_speed: float = param(4.0, "rad/s", "the drive's top yaw rate", gt=0.0, le=10.0, restart=True)
+    max_angular_accel: float = param(8.0, "rad/s^2", "the drive's yaw acceleration", gt=0.0, le=50.0,
+                                     restart=True)
+    enabled: bool = param(True, "", "false: commands pass unchanged (the timeouts and the drive's limits "
+                          "still apply)", restart=True)
 
     def __post_init__(self):
         if self.slowdown_distance < self.stop_distance:
             raise ParameterError(f"slowdown_distance ({self.slowdown_distance:g} m) must be >= stop_distance "
                                  f"({self.stop_distance:g} m): the slowdown zone holds the stop zone")
+        if 0.0 < self.max_linear_accel < MIN_ACCEL:
+            raise ParameterError(f"max_linear_accel must be 0 (the simulated drive's) or >= {MIN_ACCEL:g} "
+                                 f"m/s^2, got {self.max_linear_accel:g}")
+        floor = self.stopping_time() + COMMAND_PERIOD
+        if self.time_before_collision < floor - 1e-9:
+            raise ParameterError(
+                f"time_before_collision ({self.time_before_collision:g} s) must be >= {floor:.3g} s: stopping "
+                f"from {self.max_linear_speed:g} m/s at {self.linear_accel():g} m/s^2 and a command period")
+        stride = self.simulation_time_step * self.max_linear_speed
+        if stride > MAX_APPROACH_STRIDE + 1e-9:
+            raise ParameterError(f"simulation_time_step ({self.simulation_time_step:g} s) must be <= "
+                                 f"{MAX_APPROACH_STRIDE / self.max_linear_speed:.3g} s: at {self.max_linear_speed:g} "
+                                 f"m/s the approach check would step {stride:.2f} m, past thin obstacles")
         steps = math.ceil(self.time_before_collision / self.simulation_time_step - 1e-9)
         if steps > MAX_APPROACH_STEPS:
             raise ParameterError(f"time_before_collision / simulation_time_step must be <= {MAX_APPROACH_STEPS} "
@@ -80,6 +126,16 @@ class CollisionMonitorConfig:
         if vertices.size:
             return vertices, 0.0
         return np.empty((0, 2)), self.robot_radius
+
+    def linear_accel(self) -> float:
+        """max_linear_accel, or (0) that of the simulated drive that max_linear_speed implies (docs §11)."""
+        if self.max_linear_accel > 0:
+            return self.max_linear_accel
+        return LAB_DRIVE[1] if self.max_linear_speed <= LAB_DRIVE[0] + 1e-9 else JACKAL_DRIVE[1]
+
+    def stopping_time(self) -> float:
+        """Seconds the drive takes to stop from its top speed."""
+        return self.max_linear_speed / (2.0 * self.linear_accel())
 
 
 PARAMETERS = fields_of(CollisionMonitorConfig)
@@ -117,6 +173,24 @@ class CollisionMonitor:
         self.config = config
         self.vertices, self.radius = config.body()
         self.circumradius = self.radius if self.radius > 0 else footprint_radii(self.vertices)[1]
+
+    def outline(self) -> np.ndarray:
+        """(N, 2) points along the body's edge, OUTLINE_STEP apart at most."""
+        if self.radius > 0:
+            angles = np.linspace(0.0, 2 * math.pi, max(64, math.ceil(2 * math.pi * self.radius / OUTLINE_STEP)),
+                                 endpoint=False)
+            return self.radius * np.stack([np.cos(angles), np.sin(angles)], axis=1)
+        a, b = self.vertices, np.roll(self.vertices, -1, axis=0)
+        return np.concatenate([a[i] + np.linspace(0.0, 1.0, max(1, math.ceil(np.hypot(*(b[i] - a[i])) / OUTLINE_STEP)),
+                                                  endpoint=False)[:, None] * (b[i] - a[i]) for i in range(len(a))])
+
+    def holds(self, other: CollisionMonitor) -> bool:
+        """Whether this body covers all of ``other``'s (to BODY_TOLERANCE): a smaller body than the robot's
+        lets the robot touch what the monitor believes is still outside it."""
+        outline = other.outline()
+        lengths = np.maximum(np.linalg.norm(outline, axis=1, keepdims=True), 1e-9)
+        inward = outline - BODY_TOLERANCE * outline / lengths
+        return all(kernels.inside_body(x, y, self.vertices, self.radius) for x, y in inward)
 
     def scan_points(self, ranges, angle_min: float, angle_increment: float, range_min: float, range_max: float,
                     sensor: np.ndarray) -> np.ndarray:

@@ -4,6 +4,7 @@ A publisher that knows nothing of the world drives the robot at a wall at 1 m/s:
 robot stops short of it, for both bodies, forward and in reverse; without it, it hits the wall.
 """
 
+import dataclasses
 import math
 import time
 
@@ -16,6 +17,7 @@ from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
 
 from simplebot_navigation.ros.collision_monitor_node import CollisionMonitorNode
+from simplebot_navigation.safety.collision_monitor import CollisionMonitor
 from simplebot_navigation.ros.simulator.lockstep import LockstepDriver
 from simplebot_navigation.ros.simulator.simulator_node import SimulatorNode
 from tests.conftest import fresh_context
@@ -48,8 +50,8 @@ def world(tmp_path_factory):
 class CommandSource(Node):
     """Publishes (v, w) at 20 Hz of sim time on ``topic`` until told to stop; records what the base is sent."""
 
-    def __init__(self, context, topic: str, v: float, w: float = 0.0, namespace: str = ""):
-        super().__init__("command_source", namespace=namespace, context=context, parameter_overrides=SIM_TIME)
+    def __init__(self, context, topic: str, v: float, w: float = 0.0, namespace: str = "", name="command_source"):
+        super().__init__(name, namespace=namespace, context=context, parameter_overrides=SIM_TIME)
         self.command = (v, w)
         self.sending = True
         self.pub = self.create_publisher(Twist, topic, 1)
@@ -67,8 +69,11 @@ class CommandSource(Node):
         self.sent_to_base.append((self.get_clock().now().nanoseconds * 1e-9, msg.linear.x, msg.angular.z))
 
 
-def start(context, world, robot="box", yaw=0.0, namespace="", monitor=True, v=1.0, max_speed=None, **monitor_params):
+def start(context, world, robot="box", yaw=0.0, namespace="", monitor=True, v=1.0, max_speed=None, others=(),
+          **monitor_params):
     drive = [] if max_speed is None else [Parameter("max_speed", value=float(max_speed))]
+    if max_speed is not None:                       # as the launch files give it
+        monitor_params.setdefault("max_linear_speed", float(max_speed))
     sim = SimulatorNode(context=context, parameter_overrides=SIM_TIME + drive + [
         Parameter("world", value=world), Parameter("robot", value=robot), Parameter("real_time_factor", value=0.0),
         Parameter("namespaces", value=namespace), Parameter("starts", value=f"0,0,{yaw}")])
@@ -82,7 +87,7 @@ def start(context, world, robot="box", yaw=0.0, namespace="", monitor=True, v=1.
             Parameter(k, value=val) for k, val in {**body, **monitor_params}.items()]))
     source = CommandSource(context, "cmd_vel_nav" if monitor else "simplebot_controller/cmd_vel", v,
                            namespace=namespace)
-    driver = LockstepDriver(sim, [*nodes, source])
+    driver = LockstepDriver(sim, [*nodes, source, *(make(context) for make in others)])
     return sim, nodes, source, driver
 
 
@@ -160,12 +165,12 @@ def test_a_hostile_command_becomes_zero(context, world, v, w):
     driver.run_until(1.2)
     assert source.sent_to_base[-1][1:] == (0.0, 0.0)
     source.command = (0.5, 0.0)
-    driver.run_until(1.4)
+    driver.run_until(1.6)                                          # speeding up from zero at 1.75 m/s^2
     assert source.sent_to_base[-1][1] == pytest.approx(0.5)       # the node is still there and working
     driver.executor.shutdown()
 
 
-def test_live_parameters_are_checked_in_full(context, world):
+def test_live_parameters_are_checked_in_full(context, world, capfd):
     _, (monitor,), _, driver = start(context, world, "box", v=0.0)
 
     def refused(name, value):
@@ -185,6 +190,63 @@ def test_live_parameters_are_checked_in_full(context, world):
     assert refused("time_before_collision", 0.8) is None
     assert monitor.monitor.config.time_before_collision == 0.8
     assert monitor.monitor.config.stop_distance == 0.02                          # the refusals changed nothing
+    assert refused("footprint", "[[0.5, 0.35], [0.5, -0.35], [-0.5, -0.35], [-0.5, 0.35]]") is None   # it may grow
+    log = capfd.readouterr().err
+    assert "parameter time_before_collision changed live: 0.5 -> 0.8" in log       # at WARN, old and new
+    assert "parameter footprint changed live" in log
+    assert "parameter change refused: collision_monitor parameter 'min_points': expected an integer" in log
+    driver.executor.shutdown()
+
+
+TWO_CM = "[[0.01, 0.01], [0.01, -0.01], [-0.01, -0.01], [-0.01, 0.01]]"
+
+
+@pytest.mark.parametrize("hostile", [{"enabled": False}, {"footprint": TWO_CM}, {"min_points": 1000},
+                                     {"time_before_collision": 0.0},
+                                     {"stop_distance": 0.0, "slowdown_distance": 0.0}])
+def test_no_live_parameter_lets_a_command_drive_the_robot_into_a_wall(context, world, hostile):
+    """Issue 43: each of these, set live with no trace, switched the monitor off; 0.3 m/s then hit the wall."""
+    sim, (monitor,), source, driver = start(context, world, "box", v=0.3)
+    driver.run_until(0.5)
+    results = [monitor.set_parameters([Parameter(name, value=value)])[0] for name, value in hostile.items()]
+    assert [(r.successful, bool(r.reason)) for r in results] == [(False, True)] * len(hostile)
+    driver.run_until(16.0)                       # 3.55 m to the wall at 0.3 m/s
+    assert sim.sim.collisions(0).count == 0
+    assert 0.0 < wall_gap(sim, "box") < 0.3 and abs(source.sent_to_base[-1][1]) < 0.01
+    driver.executor.shutdown()
+
+
+def test_a_teleop_holds_the_output_over_the_planner_while_it_speaks(context, world):
+    """twist_mux's rule: cmd_vel_teleop's commands win while fresher than teleop_timeout (0.5 s)."""
+    teleop = []
+    _, _, source, driver = start(context, world, "round", v=0.3, others=[lambda c: teleop.append(
+        CommandSource(c, "cmd_vel_teleop", -0.2, name="teleop")) or teleop[0]])
+    teleop[0].sending = False
+    driver.run_until(1.5)
+    assert source.sent_to_base[-1][1] == pytest.approx(0.3)
+    teleop[0].sending = True
+    driver.run_until(3.0)
+    held = [v for t, v, _ in source.sent_to_base if 2.0 < t <= 3.0]
+    assert held and all(v == pytest.approx(-0.2) for v in held)        # the planner's 0.3 does not get through
+    teleop[0].sending = False
+    driver.run_until(4.5)
+    assert source.sent_to_base[-1][1] == pytest.approx(0.3)            # the planner's again
+    driver.executor.shutdown()
+
+
+def test_another_publisher_on_the_base_input_is_named_in_a_warning(context, world, capfd):
+    """A teleop on simplebot_controller/cmd_vel bypasses the monitor: the user is told which node it is."""
+    rogue = []
+
+    def keyboard(c):
+        rogue.append(Node("teleop_twist_keyboard", context=c, parameter_overrides=SIM_TIME))
+        rogue[0].create_publisher(Twist, "simplebot_controller/cmd_vel", 1)
+        return rogue[0]
+
+    _, _, _, driver = start(context, world, "round", v=0.0, others=[keyboard])
+    driver.run_until(1.0)
+    assert "/teleop_twist_keyboard publishes on /simplebot_controller/cmd_vel: its commands bypass the " \
+           "collision monitor; publish them on /cmd_vel_teleop instead" in capfd.readouterr().err
     driver.executor.shutdown()
 
 
@@ -200,9 +262,9 @@ def scan_message(frame: str, stamp: float, distance: float = 3.0) -> LaserScan:
 @pytest.fixture
 def bare_monitor(context):
     """A monitor fed by direct calls, its output recorded: what it does with time."""
-    monitor = CollisionMonitorNode(context=context, parameter_overrides=[
+    monitor = CollisionMonitorNode(context=context, parameter_overrides=[   # a drive that reaches 0.4 m/s at once
         Parameter("robot_radius", value=0.3), Parameter("scan_silence_timeout", value=0.2),
-        Parameter("use_sim_time", value=True)])
+        Parameter("max_linear_accel", value=10.0), Parameter("use_sim_time", value=True)])
     sent = []
     monitor.cmd_pub.publish = lambda twist: sent.append(twist.linear.x)
     transforms = []
@@ -220,7 +282,7 @@ def bare_monitor(context):
     def command(v: float) -> float:
         twist = Twist()
         twist.linear.x = v
-        monitor._on_command(twist)
+        monitor._on_command(twist, teleop=False)
         return sent[-1]
 
     yield monitor, scans, command
@@ -246,6 +308,26 @@ def test_commands_while_every_lidar_is_silent_are_stopped_by_wall_time(bare_moni
     assert command(0.4) == 0.0
     scans(5.1)
     assert command(0.4) == pytest.approx(0.4)
+
+
+def test_a_flood_of_alternating_commands_is_clamped_ramped_and_thinned(bare_monitor):
+    """Issue 43: ±1 and ±100 m/s alternating at 1 kHz on cmd_vel_nav for 3 s were forwarded at 437 messages a
+    second and drove the robot 2.95 m backwards. Now: within the drive's top speed, speeding up at its
+    acceleration (so the alternation cancels within millimetres) and at most max_output_rate (50 Hz) a second."""
+    monitor, scans, command = bare_monitor
+    monitor.monitor = CollisionMonitor(dataclasses.replace(monitor.monitor.config, max_linear_accel=0.0))   # 1.75
+    out, published = [], []
+    monitor.cmd_pub.publish = lambda twist: published.append(twist.linear.x)
+    for ms in range(3000):                        # the scans at 10 Hz, the flood at 1 kHz (1 ms apart)
+        if ms % 100 == 0:
+            scans(5.0 + ms / 1000)
+        twist = Twist()
+        twist.linear.x = (1.0, -1.0, 100.0, -100.0)[ms % 4]
+        monitor._on_command(twist, teleop=False)
+        out.append(monitor._out[0])
+    assert max(abs(v) for v in out) <= 1.05
+    assert abs(sum(out) * 0.001) < 0.05           # metres, had the robot followed every output for 1 ms
+    assert len(published) <= 3 * 50 + 20
 
 
 def test_time_going_back_starts_every_source_again(bare_monitor):

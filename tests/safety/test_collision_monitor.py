@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from simplebot_navigation.parameters.spec import ParameterError
-from simplebot_navigation.safety.collision_monitor import (Action, CollisionMonitor, CollisionMonitorConfig,
-                                                           moved_by)
+from simplebot_navigation.safety.collision_monitor import (PARAMETERS, Action, CollisionMonitor,
+                                                           CollisionMonitorConfig, moved_by)
 
 BOX = [[0.45, 0.3], [0.45, -0.3], [-0.45, -0.3], [-0.45, 0.3]]
 
@@ -129,3 +129,43 @@ def test_returns_below_range_min_are_points_the_robot_is_about_to_hit(monitor):
 def test_bad_configurations_are_refused_with_the_reason(given, message):
     with pytest.raises((ParameterError, ValueError), match=message):
         CollisionMonitorConfig(**given)
+
+
+@pytest.mark.parametrize("given, message", [
+    ({"min_points": 1000}, "min_points"),
+    ({"time_before_collision": 0.0}, "time_before_collision"),
+    ({"time_before_collision": 0.4, "max_linear_speed": 2.0}, "stopping from 2 m/s at 2.5 m/s"),
+    ({"stop_distance": 0.0, "slowdown_distance": 0.0}, "stop_distance"),
+    ({"simulation_time_step": 0.25, "time_before_collision": 1.0}, "past thin obstacles"),
+    ({"source_timeout": 10.0}, "source_timeout"),
+    ({"max_linear_accel": 0.01}, "max_linear_accel"),
+])
+def test_parameters_that_would_let_the_robot_hit_a_wall_are_refused(given, message):
+    with pytest.raises(ParameterError, match=message):
+        CollisionMonitorConfig(robot_radius=0.3, **{name: PARAMETERS[name].check(value, name)
+                                                    for name, value in given.items()})
+
+
+def test_the_stopping_time_follows_the_simulated_drive():
+    from simplebot_navigation.sim.diff_drive import JACKAL_ACCEL, JACKAL_MAX_SPEED, DiffDriveParams
+
+    lab = DiffDriveParams()
+    assert (lab.max_wheel_speed * 0.07, lab.max_wheel_accel * 0.07) == pytest.approx((1.05, 1.75))
+    assert CollisionMonitorConfig(robot_radius=0.3).stopping_time() == pytest.approx(1.05 / (2 * 1.75))
+    jackal = CollisionMonitorConfig(robot_radius=0.3, max_linear_speed=JACKAL_MAX_SPEED)
+    assert jackal.linear_accel() == JACKAL_ACCEL
+
+
+def test_a_body_holds_another_only_when_it_covers_all_of_it():
+    box = CollisionMonitor(CollisionMonitorConfig(footprint=BOX))
+    two_cm = CollisionMonitor(CollisionMonitorConfig(footprint=[[0.01, 0.01], [0.01, -0.01], [-0.01, -0.01],
+                                                                [-0.01, 0.01]]))
+    longer = CollisionMonitor(CollisionMonitorConfig(footprint=[[0.6, 0.3], [0.6, -0.3], [-0.45, -0.3],
+                                                                [-0.45, 0.3]]))
+    notched = CollisionMonitor(CollisionMonitorConfig(footprint=[[0.45, 0.3], [0.45, 0.01], [0.3, 0.0],
+                                                                 [0.45, -0.01], [0.45, -0.3], [-0.45, -0.3],
+                                                                 [-0.45, 0.3]]))
+    circle = CollisionMonitor(CollisionMonitorConfig(robot_radius=0.3))
+    around = CollisionMonitor(CollisionMonitorConfig(robot_radius=0.55))
+    assert box.holds(box) and longer.holds(box) and around.holds(box) and box.holds(circle)
+    assert not two_cm.holds(box) and not notched.holds(box) and not circle.holds(box) and not box.holds(longer)
