@@ -39,13 +39,11 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 
-from move_base_msgs.action import MoveBase  # noqa: E402
 from simplebot_navigation.maps.map_io import save_map  # noqa: E402
-from simplebot_navigation.ros.conversions import quaternion_msg  # noqa: E402
 from simplebot_navigation.scenarios.process_session import ProcessSession  # noqa: E402
 from simplebot_navigation.scenarios.localization import errors_against_truth, relocalization_time  # noqa: E402
 from simplebot_navigation.scenarios.runner import run_goal, time_budget  # noqa: E402
-from simplebot_navigation.scenarios.session import NavigationSession, ScenarioClient  # noqa: E402
+from simplebot_navigation.scenarios.session import NavigationSession, ScenarioClient, goal_in_map  # noqa: E402
 from simplebot_navigation.sim.map_export import export_map  # noqa: E402
 from simplebot_navigation.sim.world import Pose2D  # noqa: E402
 from simplebot_navigation.sim.world_loader import load_world  # noqa: E402
@@ -134,7 +132,7 @@ def multi_robot_run() -> list[str]:
             session.executor.add_node(client)
         if not session.spin_wall(240.0, lambda: all(c.action.server_is_ready() and c.localized for c in clients)):
             return ["two robots: the robots never became ready"]
-        sent = [client.action.send_goal_async(goal_message_in_map(goal)) for client, goal in zip(clients, goals)]
+        sent = [client.action.send_goal_async(goal_in_map(goal)) for client, goal in zip(clients, goals)]
         session.spin_wall(30.0, lambda: all(f.done() for f in sent))
         results = [f.result().get_result_async() for f in sent]
         session.spin_wall(240.0, lambda: all(r.done() for r in results))
@@ -147,14 +145,6 @@ def multi_robot_run() -> list[str]:
                          f"{100 * np.sqrt(np.mean(position ** 2)):.1f} cm RMS / {100 * position.max():.1f} cm max, "
                          f"yaw {np.degrees(np.sqrt(np.mean(heading ** 2))):.2f} deg RMS ({len(position)} poses)")
     return lines
-
-
-def goal_message_in_map(pose: Pose2D) -> MoveBase.Goal:
-    goal = MoveBase.Goal()
-    goal.target_pose.header.frame_id = "map"
-    goal.target_pose.pose.position.x, goal.target_pose.pose.position.y = pose.x, pose.y
-    goal.target_pose.pose.orientation = quaternion_msg(pose.yaw)
-    return goal
 
 
 def main() -> None:

@@ -30,6 +30,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[0] = str(ROOT)
 
+from bench.probes._common import set_parameter  # noqa: E402
 from simplebot_navigation.scenarios.campaign.execution import domain_lease  # noqa: E402
 
 MOVE_BASE_PROBES = [
@@ -74,16 +75,6 @@ def short(value, width: int = 46) -> str:
     return text if len(text) <= width else text[:width - 3] + "..."
 
 
-def set_parameter(session, client, name, value) -> tuple[bool, str]:
-    from rclpy.parameter import Parameter
-
-    future = client.set_parameters([Parameter(name, value=value)])
-    if not session.spin_wall(30.0, future.done):
-        return False, "NO ANSWER within 30 s"
-    result = future.result().results[0]
-    return result.successful, result.reason
-
-
 def handshake(port: int, origin: str | None, host: str) -> str:
     from websockets.exceptions import InvalidStatus
     from websockets.sync.client import connect
@@ -122,7 +113,7 @@ def hostile_drive(session) -> tuple[str, str, str, bool]:
 def area_probes() -> list:
     """The ``run(session)`` of every module in bench/probes/, in name order."""
     runs = []
-    for path in sorted((ROOT / "bench" / "probes").glob("*.py")):
+    for path in sorted((ROOT / "bench" / "probes").glob("[!_]*.py")):
         spec = importlib.util.spec_from_file_location(f"probes_{path.stem}", path)
         module = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(module)

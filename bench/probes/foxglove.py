@@ -127,20 +127,17 @@ def _ids_not_uint32(port: int) -> list[tuple[str, str, str, bool]]:
 
 
 def _parameters(session) -> list[tuple[str, str, str, bool]]:
-    from rclpy.parameter import Parameter
     from rclpy.parameter_client import AsyncParameterClient
+
+    from bench.probes._common import set_parameter
 
     client = AsyncParameterClient(session.client, "/foxglove_bridge")
     rows = []
     for name, value in (("allowed_origins", "null"), ("allowed_origins", " ".join(["https://a.example"] * 65)),
                         ("port", 9000), ("host", "0.0.0.0")):
-        future = client.set_parameters([Parameter(name, value=value)])
-        if not session.spin_wall(30.0, future.done):
-            rows.append((f"param set /foxglove_bridge {name}", repr(value)[:46], "NO ANSWER within 30 s", False))
-            continue
-        result = future.result().results[0]
-        rows.append((f"param set /foxglove_bridge {name}", repr(value)[:46], result.reason or "successful",
-                     not result.successful and name in result.reason))
+        ok, reason = set_parameter(session, client, name, value)
+        rows.append((f"param set /foxglove_bridge {name}", repr(value)[:46], reason or "successful",
+                     not ok and name in reason))
     return rows
 
 

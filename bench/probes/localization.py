@@ -15,19 +15,13 @@ from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
 from std_srvs.srv import Empty
 
+from bench.probes._common import set_parameters
 from simplebot_navigation.localization.amcl_params import AmclParams
 from simplebot_navigation.maps import MAX_CELLS
 from simplebot_navigation.parameters import fields_of
 from simplebot_navigation.ros.qos import LATCHED, SERVICE_QOS
 
 WAIT_S = 30.0
-
-
-def _set(session, client, params: list[Parameter]) -> list:
-    future = client.set_parameters(params)
-    if not session.spin_wall(WAIT_S, future.done):
-        return []
-    return list(future.result().results)
 
 
 def _hostile_values(spec) -> list:
@@ -47,7 +41,7 @@ def _hostile_amcl_parameters(session) -> list[tuple[str, str, str, bool]]:
     accepted: dict[str, list] = {name: [] for name in hostile}
     for round_ in range(max(map(len, hostile.values()))):
         params = [Parameter(name, value=values[round_]) for name, values in hostile.items() if len(values) > round_]
-        for param, result in zip(params, _set(session, client, params)):
+        for param, result in zip(params, set_parameters(session, client, params)):
             if result.successful:
                 accepted[param.name].append(param.value)
             else:
@@ -74,7 +68,7 @@ def _hostile_map_server_parameters(session, folder: Path) -> list[tuple[str, str
     for name, value in (("yaml_filename", str(_big_map(folder))), ("yaml_filename", "/dev/zero"),
                         ("yaml_filename", str(folder / "missing.yaml")), ("yaml_filename", "atlantis"),
                         ("frame_id", ""), ("frame_id", "/")):
-        results = _set(session, client, [Parameter(name, value=value)])
+        results = set_parameters(session, client, [Parameter(name, value=value)])
         ok = bool(results) and not results[0].successful and bool(results[0].reason)
         rows.append((f"param set /map_server {name}", value[-46:], results[0].reason if results else "NO ANSWER", ok))
     return rows

@@ -12,6 +12,8 @@ from __future__ import annotations
 import math
 import time
 
+from bench.probes._common import set_parameter
+
 NODE = "/collision_monitor"
 TWO_CM = "[[0.01, 0.01], [0.01, -0.01], [-0.01, -0.01], [-0.01, 0.01]]"
 HOSTILE = [("enabled", False), ("footprint", TWO_CM), ("min_points", 1000), ("time_before_collision", 0.0),
@@ -33,16 +35,6 @@ def twist(v: float, w: float = 0.0):
     msg = Twist()
     msg.linear.x, msg.angular.z = float(v), float(w)
     return msg
-
-
-def set_parameter(session, client, name, value) -> tuple[bool, str]:
-    from rclpy.parameter import Parameter
-
-    future = client.set_parameters([Parameter(name, value=value)])
-    if not session.spin_wall(30.0, future.done):
-        return False, "NO ANSWER within 30 s"
-    result = future.result().results[0]
-    return result.successful, result.reason
 
 
 def moved(a, b) -> float:

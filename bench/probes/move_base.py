@@ -51,7 +51,7 @@ class LoopWatch:
 
 def flood(session, publisher, raw: bytes, watch: LoopWatch) -> tuple[int, int]:
     """Publish raw at FLOOD_HZ for FLOOD_S (wall), then wait for two reports: (missed periods, periods)."""
-    missed, cycles = watch.missed, watch.cycles
+    missed = watch.missed
     for _ in range(int(FLOOD_S * FLOOD_HZ)):
         publisher.publish(raw)
         session.spin_wall(1.0 / FLOOD_HZ)

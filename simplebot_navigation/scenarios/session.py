@@ -71,6 +71,16 @@ class GoalRun:
         return self.status is not None
 
 
+def goal_in_map(pose: Pose2D) -> MoveBase.Goal:
+    """A MoveBase goal in the ``map`` frame: a world's, which every robot's odom hangs from, and a map's exported
+    from it."""
+    goal = MoveBase.Goal()
+    goal.target_pose.header.frame_id = "map"
+    goal.target_pose.pose.position.x, goal.target_pose.pose.position.y = pose.x, pose.y
+    goal.target_pose.pose.orientation = quaternion_msg(pose.yaw)
+    return goal
+
+
 class ScenarioClient(Node):
     """The user's side: goals through the action, ground truth, collisions and status from topics.
 

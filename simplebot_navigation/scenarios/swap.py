@@ -8,8 +8,6 @@ from __future__ import annotations
 import itertools
 import math
 
-from move_base_msgs.action import MoveBase
-from simplebot_navigation.ros.conversions import quaternion_msg
 from simplebot_navigation.sim.world import Pose2D
 
 NAMESPACES = ("robot1", "robot2", "robot3")
@@ -24,15 +22,6 @@ Truth = list[tuple[float, float, float, float]]      # (t, x, y, yaw) in the wor
 def swap_goals(starts: list[Pose2D]) -> list[Pose2D]:
     """Each robot's goal: the next robot's start."""
     return starts[1:] + starts[:1]
-
-
-def goal_in_map(pose: Pose2D) -> MoveBase.Goal:
-    """A MoveBase goal in the common ``map`` frame (the world's, which every robot's odom hangs from)."""
-    goal = MoveBase.Goal()
-    goal.target_pose.header.frame_id = "map"
-    goal.target_pose.pose.position.x, goal.target_pose.pose.position.y = pose.x, pose.y
-    goal.target_pose.pose.orientation = quaternion_msg(pose.yaw)
-    return goal
 
 
 def closest_approach(truths: list[Truth]) -> float:

@@ -17,9 +17,8 @@ import sys
 import pytest
 
 from simplebot_navigation.scenarios.process_session import ProcessSession
-from simplebot_navigation.scenarios.session import WARM_UP_S, NavigationSession, ScenarioClient
-from simplebot_navigation.scenarios.swap import (NAMESPACES, OVERRIDES, closest_approach, goal_in_map,
-                                                 longest_standstill, swap_goals)
+from simplebot_navigation.scenarios.session import WARM_UP_S, NavigationSession, ScenarioClient, goal_in_map
+from simplebot_navigation.scenarios.swap import NAMESPACES, OVERRIDES, closest_approach, longest_standstill, swap_goals
 from simplebot_navigation.sim.world import Pose2D
 
 pytestmark = [pytest.mark.timeout(900), pytest.mark.e2e]
