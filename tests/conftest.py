@@ -184,3 +184,4 @@ def fresh_context():
 @pytest.fixture(scope="module")
 def context():
     yield from fresh_context()
+
