@@ -266,9 +266,12 @@ class CollisionMonitorNode(SetUpNode):
 
     # -- output ---------------------------------------------------------------------------------
     def _publish(self, v: float, w: float, state: str) -> None:
-        """(v, w), within the drive's accelerations (_on_command), at most at max_output_rate unless it brakes."""
+        """(v, w), within the drive's accelerations (_on_command), at most at max_output_rate unless it brakes or
+        stands: the rate counts the scans' time, which stops with the scans, and the robot must go on being told
+        to stand (move_base's watchdog repeats its zero)."""
         config, now = self.monitor.config, self._now
-        if not self._rate.allow(now, config.max_output_rate, braking=brakes(self._out, (v, w))):
+        standing = v == 0.0 and w == 0.0
+        if not self._rate.allow(now, config.max_output_rate, braking=standing or brakes(self._out, (v, w))):
             self._warn("rate", f"commands come faster than max_output_rate {config.max_output_rate:g} Hz: the "
                                "excess is not published")
             if not any(new * old < 0 for new, old in zip((v, w), self._out)):
