@@ -6,6 +6,9 @@ is hit in scan after scan at the same place; a walking person covers a 0.1 m cel
 cell keeps an exponential average of "a return landed here" over ``time_constant``; a return on a cell (or a
 neighbour of it) whose average is at least STRUCTURE_SCORE lies on structure. A cluster that lies mostly on
 structure is not tracked, however small it is.
+
+The cells form a square window around the sensors, moved along with them in whole cells: a dense array, so an
+update costs a few array operations however much the robot has seen.
 """
 
 from __future__ import annotations
@@ -16,63 +19,63 @@ import numpy as np
 
 #: cell side of the map, metres
 CELL = 0.1
+#: cells along a side of the window: 14.4 m, the lidars' 5.6 m range around the robot with room to drive
+SIDE = 144
+#: the window moves once its centre is this many cells from the sensors
+RECENTRE_CELLS = 5
 #: average at or above which a cell is structure: hit in every scan for about 0.7 time constants, or in half of
 #: the scans for long
 STRUCTURE_SCORE = 0.5
-#: cells whose average fell below this are forgotten (about 4 time constants after their last return)
-FORGET_SCORE = 0.02
 #: the longest gap between two updates that still counts as scan to scan (a longer one weighs like this)
 MAX_STEP_S = 0.5
-#: cell indices are clipped to +-this (100 km at 0.1 m), so any coordinate gives a key
-INDEX_LIMIT = 1 << 20
-_SPAN = 2 * INDEX_LIMIT + 1
-_NEIGHBOURS = np.array([dx * _SPAN + dy for dx in (-1, 0, 1) for dy in (-1, 0, 1)], dtype=np.int64)
+_OFFSETS = [(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1)]
 
 
 class StructureMap:
-    """``structure(points, stamp)`` before ``add(points, stamp)``, per update; points (N, 2) in the tracking frame,
-    NaN rows for beams without a return."""
+    """``update(points, stamp, centre)`` per tracker update: points (N, 2) in the tracking frame, NaN rows for beams
+    without a return; centre: where the sensors are."""
 
     def __init__(self, time_constant: float):
         self.time_constant = float(time_constant)
         self.clear()
 
     def clear(self) -> None:
-        self.keys = np.empty(0, dtype=np.int64)      # sorted
-        self.score = np.empty(0)                     # as of self.stamp
+        self.score = np.zeros((SIDE + 2, SIDE + 2))     # a border of never-hit cells around the window
+        self.corner = np.zeros(2)                      # the window's first cell's corner (x, y), metres
         self.stamp: float | None = None
 
-    def structure(self, points: np.ndarray, stamp: float) -> np.ndarray:
-        """(N,) whether each point lies on (or next to) a cell that returns have kept hitting."""
+    def update(self, points: np.ndarray, stamp: float, centre: np.ndarray) -> np.ndarray:
+        """(N,) whether each point lies on (or next to) a cell that returns had kept hitting before this update;
+        then every cell decays and the cells these points hit gain one step's weight."""
         found = np.zeros(len(points), dtype=bool)
-        if not len(self.keys) or self.time_constant <= 0:
+        if self.time_constant <= 0 or not np.isfinite(centre).all() or abs(centre).max() > 1e9:
             return found
-        finite = np.isfinite(points).all(axis=1)
-        keys = _keys(points[finite])
-        decay = math.exp(-max(stamp - self.stamp, 0.0) / self.time_constant)
-        best = np.zeros(len(keys))
-        for offset in _NEIGHBOURS:
-            candidate = keys + offset
-            index = np.minimum(np.searchsorted(self.keys, candidate), len(self.keys) - 1)
-            best = np.maximum(best, np.where(self.keys[index] == candidate, self.score[index], 0.0))
-        found[finite] = best * decay >= STRUCTURE_SCORE
+        elapsed = 0.1 if self.stamp is None else max(stamp - self.stamp, 0.0)
+        decay = 0.0 if self.stamp is None else math.exp(-elapsed / self.time_constant)
+        self._follow(centre)
+        with np.errstate(invalid="ignore"):
+            cell = np.floor((points - self.corner) / CELL)                # NaN rows stay NaN
+            inside = (cell[:, 0] >= 0) & (cell[:, 0] < SIDE) & (cell[:, 1] >= 0) & (cell[:, 1] < SIDE)
+        row, col = cell[inside, 1].astype(np.int64) + 1, cell[inside, 0].astype(np.int64) + 1
+        self.score *= decay
+        best = np.zeros(len(row))
+        for dy, dx in _OFFSETS:
+            best = np.maximum(best, self.score[row + dy, col + dx])
+        found[inside] = best >= STRUCTURE_SCORE
+        self.score[row, col] += 1.0 - math.exp(-min(elapsed, MAX_STEP_S) / self.time_constant)   # once per cell
+        self.stamp = float(stamp)
         return found
 
-    def add(self, points: np.ndarray, stamp: float) -> None:
-        """The returns of the update at `stamp`: every cell decays, the cells hit gain one step's weight."""
-        if self.time_constant <= 0:
+    def _follow(self, centre: np.ndarray) -> None:
+        """Move the window by whole cells so that it stays centred on the sensors; cells it leaves are forgotten."""
+        wanted = (np.floor(centre / CELL) - SIDE // 2) * CELL
+        shift = np.rint((wanted - self.corner) / CELL).astype(np.int64)
+        if self.stamp is not None and np.abs(shift).max() <= RECENTRE_CELLS:
             return
-        step = 0.1 if self.stamp is None else min(max(stamp - self.stamp, 0.0), MAX_STEP_S)
-        decay = 1.0 if self.stamp is None else math.exp(-max(stamp - self.stamp, 0.0) / self.time_constant)
-        hit = np.unique(_keys(points[np.isfinite(points).all(axis=1)]))
-        keys = np.union1d(self.keys, hit)
-        score = np.zeros(len(keys))
-        score[np.searchsorted(keys, self.keys)] = self.score * decay
-        score[np.searchsorted(keys, hit)] += 1.0 - math.exp(-step / self.time_constant)
-        keep = score >= FORGET_SCORE
-        self.keys, self.score, self.stamp = keys[keep], score[keep], float(stamp)
-
-
-def _keys(points: np.ndarray) -> np.ndarray:
-    index = np.clip(np.floor(points / CELL), -INDEX_LIMIT, INDEX_LIMIT).astype(np.int64)
-    return index[:, 0] * _SPAN + index[:, 1]
+        moved = np.zeros_like(self.score)
+        sx, sy = int(shift[0]), int(shift[1])
+        if self.stamp is not None and abs(sx) < SIDE and abs(sy) < SIDE:
+            inner, kept = self.score[1:-1, 1:-1], moved[1:-1, 1:-1]
+            kept[max(-sy, 0):SIDE - max(sy, 0), max(-sx, 0):SIDE - max(sx, 0)] = \
+                inner[max(sy, 0):SIDE - max(-sy, 0), max(sx, 0):SIDE - max(-sx, 0)]
+        self.score, self.corner = moved, wanted

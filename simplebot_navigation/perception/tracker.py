@@ -96,11 +96,12 @@ class ObstacleTracker:
         kalman.predict(self.state, self.cov, 0.0 if self.stamp is None else stamp - self.stamp,
                        np.where(self.moving, p.acceleration_noise, p.static_acceleration_noise))
         self.stamp = stamp
-        points = [s.points() for s in scans]
+        on_structure = np.split(self.structure.update(
+            np.concatenate([s.points() for s in scans]) if scans else np.empty((0, 2)), stamp,
+            np.mean([s.origin for s in scans], axis=0) if scans else np.full(2, np.nan)),
+            np.cumsum([len(s.ranges) for s in scans])[:-1])
         clusters = Clusters.concatenate([segment(s, p.breakpoint_angle, p.breakpoint_distance, p.range_noise,
-                                                 p.min_points, self.structure.structure(xy, stamp))
-                                         for s, xy in zip(scans, points)])
-        self.structure.add(np.concatenate(points) if points else np.empty((0, 2)), stamp)
+                                                 p.min_points, flags) for s, flags in zip(scans, on_structure)])
         clusters = clusters.select(clusters.width <= p.max_obstacle_size)
         track_of, cluster_of = self._associate(clusters)
         self._correct(clusters, track_of, cluster_of, stamp)
