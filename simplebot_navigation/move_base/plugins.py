@@ -167,7 +167,8 @@ class LocalPlannerPlugin(Controller, Protocol):
     what live parameter changes call, on the same thread between cycles.
 
     Built once at start-up as ``cls(node, plugin_type, costmap_ros, tf_buffer, controller_frequency,
-    plan_frame)``, plan_frame being the global costmap's frame the plans come in."""
+    plan_frame, obstacle_feed)``, plan_frame being the global costmap's frame the plans come in and obstacle_feed
+    the MovingObstacleFeed (perception/feed.py) every moving obstacle comes from."""
 
     def reconfigure(self, config) -> None:
         """New values of its namespace, already checked (the registration's ``config`` built them)."""

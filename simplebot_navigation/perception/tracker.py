@@ -227,6 +227,16 @@ class ObstacleTracker:
         state = self.state[moving]
         return np.column_stack([state[:, :2] + dt * state[:, 2:], state[:, 2:], self.radius[moving]])
 
+    def moving_covariances(self, now: float | None = None) -> np.ndarray:
+        """(K, 4, 4) covariances over x, y, vx, vy of the rows of moving_obstacles, propagated to `now` by the
+        motion model alone (no process noise)."""
+        moving = self.confirmed & self.moving
+        cov = self.cov[moving].copy()
+        dt = 0.0 if now is None or self.stamp is None else max(float(now) - self.stamp, 0.0)
+        f = np.eye(4)
+        f[0, 2] = f[1, 3] = dt
+        return f @ cov @ f.T
+
     def moving_ids(self) -> np.ndarray:
         """The ids of the rows of moving_obstacles, in the same order."""
         return self.ids[self.confirmed & self.moving]

@@ -29,7 +29,8 @@ def pure_pursuit_config(given):
 
 
 class PurePursuit:
-    def __init__(self, node, plugin_type, costmap_ros, tf_buffer, controller_frequency: float, plan_frame: str):
+    def __init__(self, node, plugin_type, costmap_ros, tf_buffer, controller_frequency: float, plan_frame: str,
+                 obstacle_feed):
         self.name = plugin_namespace(plugin_type)
         self.costmap_ros = costmap_ros
         self.plan_frame = plan_frame

@@ -53,7 +53,7 @@ def answered(session, futures) -> int:
 
 
 def test_obstacle_messages_beyond_the_caps_are_refused_and_the_robot_still_drives(session, monkeypatch):
-    external = session.move_base.controller.external_obstacles
+    external = session.move_base.external_obstacles
     warned = []
     original = external._warn
     monkeypatch.setattr(external, "_warn", lambda key, text: (warned.append(text), original(key, text)))
@@ -63,7 +63,7 @@ def test_obstacle_messages_beyond_the_caps_are_refused_and_the_robot_still_drive
     for what, raw in messages:
         publisher.publish(raw)
         session.run_for(0.1, wall_timeout_s=WALL_GUARD_S)
-        assert external.current(session.move_base.controller._now(), 1.0).size == 0, what
+        assert len(external.moving_obstacles(session.move_base.controller._now())) == 0, what
     said = "\n".join(warned)
     for field, value, bound in (("obstacles", "100000 obstacles", "at most 100"),
                                 ("polygon.points", "has 10000 points", "at most 100"),

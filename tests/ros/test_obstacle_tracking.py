@@ -1,6 +1,7 @@
 """move_base's obstacle tracking over real topics: a fake robot publishes TF and both lidars' scans of a person
-walking past (10 Hz, wall clock); move_base publishes the person on TebLocalPlannerROS/obstacles with one id and
-its velocity, clears its marks from the local costmap, and takes other nodes' obstacles, dropping bad ones."""
+walking past (10 Hz, wall clock); move_base publishes the person on obstacle_tracks with one id and its velocity,
+hands it to the local planner through the obstacle feed, clears its marks from the local costmap, and takes other
+nodes' obstacles (on TebLocalPlannerROS/obstacles) into the same feed, dropping bad ones."""
 
 from __future__ import annotations
 
@@ -27,6 +28,7 @@ from simplebot_navigation.testing.lidar_scenes import Cylinder, lidars, scans_at
 from tests.ros.test_costmap_ros import transform
 
 pytestmark = pytest.mark.timeout(120)
+TRACKS = "/move_base/obstacle_tracks"
 OBSTACLES = "/move_base/TebLocalPlannerROS/obstacles"
 PERSON = Cylinder(0.25, (1.8, -2.2), (0.0, 1.0))
 WALL = [(2.6, -3.0, 2.6, 3.0)]
@@ -83,7 +85,7 @@ def lab():
     robot = FakeRobot(context)
     listener = Node("listener", context=context)
     received: list[ObstacleArrayMsg] = []
-    listener.create_subscription(ObstacleArrayMsg, OBSTACLES, received.append, 10)
+    listener.create_subscription(ObstacleArrayMsg, TRACKS, received.append, 10)
     executor = SingleThreadedExecutor(context=context)
     for node in (move_base, robot, listener):
         executor.add_node(node)
@@ -104,13 +106,15 @@ def test_a_person_walking_past_is_published_with_one_id_and_its_marks_cleared(la
     move_base, robot, _listener, received, executor = lab
     spin_until(executor, lambda: robot.elapsed() > 4.0, 30.0)
     moving = [(msg, o) for msg in received for o in msg.obstacles]
-    assert moving, f"no moving obstacle in {len(received)} messages on {OBSTACLES}"
+    assert moving, f"no moving obstacle in {len(received)} messages on {TRACKS}"
     assert {o.id for _, o in moving} == {moving[0][1].id}
     msg, last = moving[-1]
     assert msg.header.frame_id == "odom"
     assert abs(last.velocities.twist.linear.y - 1.0) < 0.2 and abs(last.velocities.twist.linear.x) < 0.2
     assert len(last.polygon.points) == 1 and last.radius > 0.1
-    rows = move_base.controller._dynamic_obstacles()
+    feed = move_base.obstacle_feed.moving_obstacles(move_base.controller._now(), "odom")
+    rows = feed.rows
+    assert feed.covariance.shape == (1, 4, 4) and np.all(np.linalg.eigvalsh(feed.covariance[0]) > 0)
     true = truth_at(robot.elapsed(), [PERSON])[0][0]
     assert len(rows) == 1 and np.hypot(*(rows[0, :2] - true)) < 0.3
     costmap = move_base.local_costmap
@@ -135,12 +139,13 @@ def test_other_nodes_obstacles_are_used_and_bad_ones_dropped(lab):
     publisher.publish(msg)
     unknown = ObstacleArrayMsg(obstacles=[obstacle([(3.0, 3.0)])])
     unknown.header.frame_id = "nowhere"
-    spin_until(executor, lambda: len(move_base.controller.external_obstacles.current(
-        move_base.controller._now(), 1.0)) > 0, 5.0)
+    external = move_base.external_obstacles
+    spin_until(executor, lambda: len(external.moving_obstacles(move_base.controller._now())) > 0, 5.0)
     publisher.publish(unknown)
     spin_until(executor, lambda: False, 0.2)
-    rows = move_base.controller.external_obstacles.current(move_base.controller._now(), 1.0)
+    rows = external.moving_obstacles(move_base.controller._now()).rows
     assert len(rows) == 1
     x, y, vx, vy, radius = rows[0]
     assert abs(x - 1.1) < 0.2 and abs(y - 1.0667) < 0.05 and (vx, vy) == (0.5, 0.0) and 0.2 < radius < 0.25
-    assert move_base.controller.external_obstacles.current(move_base.controller._now() + 2.0, 0.5).size == 0
+    external.timeout = 0.5
+    assert len(external.moving_obstacles(move_base.controller._now() + 2.0)) == 0

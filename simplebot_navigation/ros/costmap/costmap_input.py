@@ -137,8 +137,6 @@ class CostmapInput:
                          for layer, source in owner.cm.observation_sources()]
         self._static_layers = owner.cm.static_layers()
         self._static_subscriptions: list = []
-        #: called with (source, LaserScan, sensor -> global transform) for every scan the costmap takes
-        self.scan_listeners: list = []
         self._retry_timer = owner.node.create_timer(MESSAGE_FILTER_RETRY_S, self._retry_pending,
                                                     callback_group=owner.callback_group)
         self._retry_timer.cancel()
@@ -263,8 +261,8 @@ class CostmapInput:
                     owner.cm.add_laser_scan(inp.key, np.asarray(msg.ranges, dtype=np.float32), msg.angle_min,
                                             msg.angle_increment, msg.range_min, msg.range_max, origin, stamp,
                                             sensor_rotation=rotation)
-                for listener in self.scan_listeners:
-                    listener(src, msg, tf)
+                if owner.scan_observer is not None:
+                    owner.scan_observer(src, msg, tf)
                 return
             try:
                 points = point_cloud_xyz(msg)

@@ -44,10 +44,15 @@ class RobotPose(NamedTuple):
 
 
 class Costmap2DROS:
-    """One costmap of a node: `Costmap2DROS(node, 'local_costmap', tf_buffer)`."""
+    """One costmap of a node: `Costmap2DROS(node, 'local_costmap', tf_buffer)`. With an `obstacle_feed`
+    (perception/feed.py) each update first clears where moving obstacles are and just were; a `scan_observer` is
+    called with (source, LaserScan, sensor -> global transform) for every scan the costmap takes in."""
 
-    def __init__(self, node: Node, name: str, tf_buffer: Buffer, callback_group=None):
+    def __init__(self, node: Node, name: str, tf_buffer: Buffer, callback_group=None, obstacle_feed=None,
+                 scan_observer=None):
         self.node = node
+        self.obstacle_feed = obstacle_feed
+        self.scan_observer = scan_observer
         self.name = name
         self.tf = tf_buffer
         self.logger = node.get_logger()
@@ -85,8 +90,6 @@ class Costmap2DROS:
                                                            self._on_footprint, 1,
                                                            callback_group=callback_group)
         self.input = CostmapInput(self)
-        #: returns the circles (K, 3: x, y, radius in global_frame) whose marks the next update clears
-        self.clearing_source = None
         self._tf_wait_timer = node.create_timer(TF_WAIT_POLL_S, self._wait_for_tf, callback_group=callback_group,
                                                 clock=Clock(clock_type=ClockType.STEADY_TIME))
         self._update_timer = None
@@ -283,7 +286,8 @@ class Costmap2DROS:
         pose = self.get_robot_pose()
         if pose is None:
             return False
-        circles = self.clearing_source() if self.clearing_source is not None else None
+        circles = None if self.obstacle_feed is None else \
+            self.obstacle_feed.clearing_circles(self.now_s(), self.global_frame)
         with speaking_for(self), self.lock:
             self._update_static_transforms()
             if circles is not None:

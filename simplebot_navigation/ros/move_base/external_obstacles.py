@@ -19,28 +19,28 @@ from rclpy.qos import QoSProfile
 from rclpy.time import Time
 
 from simplebot_navigation.geometry import transform_points
+from simplebot_navigation.perception.feed import MovingObstacles
 from simplebot_navigation.ros.conversions import transform_to_xyyaw
 from simplebot_navigation.ros.costmap.costmap_log import Throttle
 from simplebot_navigation.ros.move_base.obstacle_msgs import RefusedMessage, read_obstacle_array
 from simplebot_navigation.ros.tf import ExtrapolationException, TransformException, strip_frame
 
 WARNING_PERIOD_S = 5.0
-#: messages the middleware keeps for the subscription: only the latest counts, but move_base's own publications
-#: (one per scan) arrive on the same topic and must not push another node's out while a control cycle runs; the
-#: middleware keeps this many samples of the largest size seen
+#: messages the middleware keeps for the subscription: only the latest counts, but two publishers must not push
+#: each other's out while a control cycle runs; the middleware keeps this many samples of the largest size seen
 OBSTACLE_QUEUE = 5
 
 
 class ExternalObstacles:
-    """``current(now, timeout)``: rows [x, y, vx, vy, radius] in `frame`, positions extrapolated to `now`.
-    ``is_own(key)`` tells the node's own publications by ObstacleArray.key; they are skipped."""
+    """An ObstacleSource (perception/feed.py): the latest message's obstacles in `frame`, for `timeout` seconds
+    after it arrived. Their covariance is taken as zero (the message's twist covariance is not read)."""
 
-    def __init__(self, node: Node, topic: str, frame: str, tf_buffer):
+    def __init__(self, node: Node, topic: str, frame: str, tf_buffer, timeout: float):
         self.node = node
         self.topic = topic
         self.frame = frame
         self.tf = tf_buffer
-        self.is_own = lambda _key: False
+        self.timeout = timeout
         self.throttle = Throttle()
         self._rows = np.empty((0, 5))
         self._stamp = 0.0
@@ -60,8 +60,6 @@ class ExternalObstacles:
             msg = read_obstacle_array(raw)
         except RefusedMessage as refused:
             self._warn(("message", refused.field), f"message of {len(raw)} bytes refused: {refused}")
-            return
-        if self.is_own(msg.key):
             return
         for field, problem in msg.problems:
             self._warn(("obstacle", field), f"obstacle dropped: {problem}")
@@ -95,11 +93,15 @@ class ExternalObstacles:
         out[:, 2:4] = transform_points((0.0, 0.0, yaw), rows[:, 2:4])
         return out
 
-    def current(self, now: float, timeout: float) -> np.ndarray:
+    def moving_obstacles(self, now: float) -> MovingObstacles:
         """The last message's obstacles at `now`, or none once it is older than timeout (or from the future:
         time jumped back)."""
-        if self._arrival is None or not 0.0 <= now - self._arrival <= timeout:
-            return np.empty((0, 5))
+        if self._arrival is None or not 0.0 <= now - self._arrival <= self.timeout:
+            return MovingObstacles.empty(self.frame, now)
         out = self._rows.copy()
         out[:, :2] += (now - self._stamp) * out[:, 2:4]
-        return out
+        return MovingObstacles(self.frame, now, out, np.zeros((len(out), 4, 4)))
+
+    def clearing_circles(self, now: float) -> np.ndarray:
+        """None: another node's obstacles leave the costmaps as they are (teb_local_planner's custom obstacles)."""
+        return np.empty((0, 3))

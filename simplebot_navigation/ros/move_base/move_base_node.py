@@ -35,6 +35,8 @@ from simplebot_navigation.ros.move_base.move_base_services import serve_move_bas
 from simplebot_navigation.ros.move_base.move_base_stats import OUTCOMES, MoveBaseReports
 from simplebot_navigation.ros.move_base.move_base_supervision import MoveBaseSupervisor
 from simplebot_navigation.ros.move_base.nav2_front_door import Nav2FrontDoor
+from simplebot_navigation.ros.move_base.external_obstacles import ExternalObstacles
+from simplebot_navigation.ros.move_base.obstacle_feed import tf_obstacle_feed
 from simplebot_navigation.ros.move_base.obstacle_tracking import ObstacleTracking
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
 from simplebot_navigation.ros.publishers import create_publisher, drop_event_handlers_of_best_effort_subscriptions
@@ -61,17 +63,22 @@ class MoveBaseNode(Node):
         self._declare_own_defaults()
         self.tf = Buffer(node=self)
         self.tf_listener = TransformListener(self.tf, self)
-        self.global_costmap = Costmap2DROS(self, "global_costmap", self.tf)
-        self.local_costmap = Costmap2DROS(self, "local_costmap", self.tf)
-        self.obstacle_tracking = ObstacleTracking(self, self.local_costmap, self.global_costmap, self.tf,
-                                                  f"~/{plugin_namespace(self.cfg.base_local_planner)}/obstacles")
+        # One obstacle feed for both costmaps and the local planner: the tracker, fed the local costmap's scans,
+        # and other nodes' obstacles on the local planner's obstacles topic (docs/reference.md §6.3).
+        self.obstacle_tracking = ObstacleTracking(self)
+        self.obstacle_feed = tf_obstacle_feed(self, self.tf, (self.obstacle_tracking,))
+        self.global_costmap = Costmap2DROS(self, "global_costmap", self.tf, obstacle_feed=self.obstacle_feed)
+        self.local_costmap = Costmap2DROS(self, "local_costmap", self.tf, obstacle_feed=self.obstacle_feed,
+                                          scan_observer=self.obstacle_tracking.on_scan)
+        self.external_obstacles = ExternalObstacles(
+            self, f"~/{plugin_namespace(self.cfg.base_local_planner)}/obstacles", self.local_costmap.global_frame,
+            self.tf, self.obstacle_tracking.params.external_timeout)
+        self.obstacle_feed.add(self.external_obstacles)
         self.planner = GLOBAL_PLANNERS.spec(self.cfg.base_global_planner).load()(
             self, self.cfg.base_global_planner, self.global_costmap)
         self.controller = LOCAL_PLANNERS.spec(self.cfg.base_local_planner).load()(
             self, self.cfg.base_local_planner, self.local_costmap, self.tf, self.cfg.controller_frequency,
-            self.global_costmap.global_frame)
-        if hasattr(self.controller, "use_obstacle_tracking"):     # a local planner that takes moving obstacles
-            self.controller.use_obstacle_tracking(self.obstacle_tracking)
+            self.global_costmap.global_frame, self.obstacle_feed)
         self.trail = PoseTrail()
         self.core = MoveBaseCore(self.cfg, self._build_recoveries(), self._plan_to, self.controller,
                                  self.planner.blocked_poses, self.trail)

@@ -47,6 +47,7 @@ class LiveParameterHost(Protocol):
     controller: object          # LocalPlannerPlugin
     recovery_instances: dict    # behaviour name -> Recovery
     obstacle_tracking: object   # ObstacleTracking (ros/move_base/obstacle_tracking.py)
+    external_obstacles: object  # ExternalObstacles (ros/move_base/external_obstacles.py)
 
     def set_controller_frequency(self, hz: float) -> None:
         """The control timer and its statistics follow the new rate (the controller is told here)."""
@@ -149,6 +150,7 @@ class MoveBaseLiveParameters:
             node.controller.reconfigure(configs.local_planner)
         if OBSTACLE_TRACKING in parts:
             node.obstacle_tracking.reconfigure(configs.obstacle_tracking)
+            node.external_obstacles.timeout = configs.obstacle_tracking.external_timeout
         for name, recovery in node.recovery_instances.items():
             if name in parts:
                 for warning in recovery.configure(configs.recoveries[name]):

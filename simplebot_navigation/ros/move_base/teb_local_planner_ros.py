@@ -1,7 +1,7 @@
 """TebLocalPlannerROS: the ROS shell move_base owns around the pure TebLocalPlanner.
 
 It converts the global plan into the local costmap's frame, feeds odometry and moving obstacles (move_base's
-tracks and other nodes' on `obstacles`, docs/reference.md §6), holds the local costmap's lock while planning, and
+obstacle feed, docs/reference.md §6.3), holds the local costmap's lock while planning, and
 publishes what the lab visualises (docs/reference.md §4.6). The
 visualisation has its own timer, so building markers and paths never delays a velocity command,
 and costs nothing while no one subscribes.
@@ -25,9 +25,7 @@ from simplebot_navigation.geometry import transform_points
 from simplebot_navigation.move_base.plugins import plugin_namespace
 from simplebot_navigation.move_base.plugins import ControlResult
 from simplebot_navigation.parameters import fields_of
-from simplebot_navigation.perception import TrackerParams
 from simplebot_navigation.ros.conversions import path_msg, pose_array_msg, transform_to_xyyaw
-from simplebot_navigation.ros.move_base.external_obstacles import ExternalObstacles
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
 from simplebot_navigation.ros.publishers import create_publisher
 from simplebot_navigation.ros.tf import Buffer, TransformException
@@ -40,7 +38,8 @@ class TebLocalPlannerROS:
     """move_base's LocalPlannerPlugin (move_base/plugins.py) around the pure TebLocalPlanner."""
 
     def __init__(self, node: Node, plugin_type: str, costmap_ros, tf_buffer: Buffer, controller_frequency: float,
-                 plan_frame: str):
+                 plan_frame: str, obstacle_feed):
+        self.obstacle_feed = obstacle_feed
         self.name = plugin_namespace(plugin_type)
         self.plan_frame = plan_frame
         self._plan: np.ndarray | None = None    # the latest global plan, in plan_frame
@@ -61,8 +60,6 @@ class TebLocalPlannerROS:
         self.global_plan_pub = create_publisher(node, Path, f"{base}/global_plan", 1)
         self.poses_pub = create_publisher(node, PoseArray, f"{base}/teb_poses", 1)
         self.markers_pub = create_publisher(node, MarkerArray, f"{base}/teb_markers", 1)
-        self.external_obstacles = ExternalObstacles(node, f"{base}/obstacles", self.frame, tf_buffer)
-        self.tracking = None
         self.odom_topic = self.config.odom_topic
         self._velocity = (0.0, 0.0)
         self._odom_time: float | None = None  # node clock (sim time), so lockstep runs do not depend on wall speed
@@ -79,19 +76,6 @@ class TebLocalPlannerROS:
         self.planner.set_controller_period(1.0 / controller_frequency)
         self._publish_timer.timer_period_ns = round(1e9 / controller_frequency)
         self._publish_timer.reset()
-
-    def use_obstacle_tracking(self, tracking) -> None:
-        """move_base's tracker (ros/move_base/obstacle_tracking.py): its moving tracks go in directly, so its
-        own publications on the obstacles topic are skipped."""
-        self.tracking = tracking
-        self.external_obstacles.is_own = tracking.is_own
-
-    def _dynamic_obstacles(self) -> np.ndarray:
-        """Every moving obstacle at the node's time: the tracker's and other nodes'."""
-        now = self._now()
-        timeout = (self.tracking.params if self.tracking is not None else TrackerParams()).external_timeout
-        own = self.tracking.moving_obstacles(now) if self.tracking is not None else np.empty((0, 5))
-        return np.concatenate([own, self.external_obstacles.current(now, timeout)])
 
     def set_costmap_footprint(self, footprint) -> None:
         """The local costmap's footprint changed (its footprint, robot_radius or padding)."""
@@ -150,7 +134,8 @@ class TebLocalPlannerROS:
         pose = self.costmap_ros.get_robot_pose()
         if pose is None:
             return ControlResult(False, message=f"no robot pose: {self.costmap_ros.last_pose_error}")
-        self.planner.set_dynamic_obstacles(self._dynamic_obstacles())
+        moving = self.obstacle_feed.moving_obstacles(self._now(), self.frame)
+        self.planner.set_dynamic_obstacles(moving.rows)
         with self.costmap_ros.lock:
             result = self.planner.compute_velocity_commands(pose[:3], self._robot_velocity(),
                                                             self.costmap_ros.costmap)
