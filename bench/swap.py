@@ -32,11 +32,10 @@ STATUS = {4: "SUCCEEDED", 5: "CANCELED", 6: "ABORTED"}
 def swap(rtf: float) -> dict:
     from simplebot_navigation.scenarios.process_session import ProcessSession
     from simplebot_navigation.scenarios.session import ScenarioClient, goal_in_map
-    from simplebot_navigation.scenarios.swap import (NAMESPACES, OVERRIDES, closest_approach, longest_standstill,
-                                                     swap_goals)
+    from simplebot_navigation.scenarios.swap import NAMESPACES, closest_approach, longest_standstill, swap_goals
     from simplebot_navigation.sim.world_loader import load_world
 
-    with ProcessSession("lab", rtf=rtf, launch_file="multi_navigation", overrides=OVERRIDES) as session:
+    with ProcessSession("lab", rtf=rtf, launch_file="multi_navigation") as session:
         clients = [ScenarioClient(session.context, namespace) for namespace in NAMESPACES]
         for client in clients:
             session.executor.add_node(client)

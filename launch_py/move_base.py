@@ -8,7 +8,8 @@ overridden below.
 """
 
 from simplebot_navigation.launch.description import Arg, Group, Include, Node, Param, Remap, RosParam
-from simplebot_navigation.launch.simplebot_args import COLLISION_MONITOR, MAP, MAPPED, MAX_SPEED, NAMESPACE
+from simplebot_navigation.launch.simplebot_args import (COLLISION_MONITOR, MAP, MAPPED, MAX_SPEED, MOVING_OBSTACLES,
+                                                        NAMESPACE)
 from simplebot_navigation.launch.simplebot_args import TIGHT as TIGHT_ARG
 
 CONFIG = "$(find simplebot_navigation)/config"
@@ -36,6 +37,7 @@ LAUNCH = [
     COLLISION_MONITOR,
     MAP,
     MAX_SPEED,
+    MOVING_OBSTACLES,
 
     Param("/use_sim_time", True),
 
@@ -69,6 +71,10 @@ LAUNCH = [
         Param("move_base/global_costmap/robot_radius", "$(arg radius)", if_=ROUND),
         Param("move_base/local_costmap/robot_radius", "$(arg radius)", if_=ROUND),
         Param("move_base/TebLocalPlannerROS/footprint_model/radius", "$(arg radius)", if_=ROUND),
+
+        # Moving obstacles tracked and predicted (docs/reference.md §6), over the lab's files, which predate them.
+        Param("move_base/obstacle_tracking/enabled", "$(arg moving_obstacles)"),
+        Param("move_base/TebLocalPlannerROS/include_dynamic_obstacles", "$(arg moving_obstacles)"),
 
         # In a namespace: the robot's own frames, and its lasers' topics relative to the namespace.
         *(Param(f"move_base/{name}", PREFIX + frame, if_=NAMESPACED) for name, frame in FRAMES.items()),

@@ -11,7 +11,8 @@ The number of robots is an argument, so the items come from ``generate(args)``.
 
 from simplebot_navigation.launch.description import Arg, Include, Node, Param
 from simplebot_navigation.launch.simplebot_args import (COLLISION_MONITOR, ENCODER_NOISE, MAP, MAPPED, MAX_SPEED,
-                                                        RADIUS, ROBOT, RTF, TIGHT, WITH_ENCODER_NOISE, WORLD)
+                                                        MOVING_OBSTACLES, RADIUS, ROBOT, RTF, TIGHT,
+                                                        WITH_ENCODER_NOISE, WORLD)
 from simplebot_navigation.sim.starts import parse_starts
 from simplebot_navigation.sim.world_loader import load_world
 
@@ -35,6 +36,7 @@ ARGS = [
     MAP,
     ENCODER_NOISE,
     MAX_SPEED,
+    MOVING_OBSTACLES,
 ]
 
 
@@ -62,7 +64,7 @@ def generate(args: dict[str, str]) -> list:
         *(Include(file=f"{LAUNCH_DIR}/move_base.py", args={
             "robot": "$(arg robot)", "radius": "$(arg radius)", "tight": "$(arg tight)", "respawn": "$(arg respawn)",
             "namespace": namespace, "collision_monitor": "$(arg collision_monitor)", "map": "$(arg map)",
-            "max_speed": "$(arg max_speed)"})
+            "max_speed": "$(arg max_speed)", "moving_obstacles": "$(arg moving_obstacles)"})
           for namespace in namespaces),
         # On a map: one map_server for all, an amcl per robot starting at the robot's start.
         Node(pkg="map_server", type="map_server", name="map_server", output="screen", respawn="$(arg respawn)",

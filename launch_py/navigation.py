@@ -6,7 +6,8 @@ start, the global costmap is in ``map`` with the map as its static layer, and th
 
 from simplebot_navigation.launch.description import Arg, Include, Node, Param
 from simplebot_navigation.launch.simplebot_args import (COLLISION_MONITOR, ENCODER_NOISE, INITIAL_POSE, MAP,
-                                                        MAPPED, MAX_SPEED, NAMESPACE, RADIUS, ROBOT, RTF, TIGHT,
+                                                        MAPPED, MAX_SPEED, MOVING_OBSTACLES, NAMESPACE, RADIUS,
+                                                        ROBOT, RTF, TIGHT,
                                                         WITH_ENCODER_NOISE, WORLD)
 from simplebot_navigation.web_host import FOXGLOVE_ALLOWED_ORIGINS
 
@@ -35,6 +36,7 @@ LAUNCH = [
     INITIAL_POSE,
     ENCODER_NOISE,
     MAX_SPEED,
+    MOVING_OBSTACLES,
 
     Include(file=f"{LAUNCH_DIR}/simulator.py", args={
         "world": "$(arg world)", "robot": "$(arg robot)", "radius": "$(arg radius)", "rtf": "$(arg rtf)",
@@ -43,7 +45,7 @@ LAUNCH = [
     Include(file=f"{LAUNCH_DIR}/move_base.py", args={
         "robot": "$(arg robot)", "radius": "$(arg radius)", "tight": "$(arg tight)", "respawn": "$(arg respawn)",
         "namespace": "$(arg namespace)", "collision_monitor": "$(arg collision_monitor)", "map": "$(arg map)",
-        "max_speed": "$(arg max_speed)"}),
+        "max_speed": "$(arg max_speed)", "moving_obstacles": "$(arg moving_obstacles)"}),
 
     # Navigation on a map: the map_server's map and amcl on it.
     Node(pkg="map_server", type="map_server", name="map_server", output="screen", respawn="$(arg respawn)",

@@ -44,6 +44,10 @@ ENCODER_NOISE = Arg("encoder_noise", default="", choices=("", "true", "false"),
                     doc="simulate wheel encoder errors so that odometry drifts (empty: on with a map, off without)")
 #: the simulator's encoder_noise argument from ENCODER_NOISE and MAP
 WITH_ENCODER_NOISE = "$(eval encoder_noise == 'true' or encoder_noise == '' and map != '')"
+MOVING_OBSTACLES = Arg("moving_obstacles", default="true", choices=("true", "false"),
+                       doc="track moving obstacles in the lidar scans and predict them in the local planner "
+                           "(move_base's obstacle_tracking.enabled and TebLocalPlannerROS.include_dynamic_obstacles); "
+                           "false: every obstacle is a costmap mark, as in the lab's files")
 MAX_SPEED = Arg("max_speed", default="",
                 doc="top speed in m/s: every speed-dependent parameter of move_base is derived from it "
                     "(docs/reference.md §10), and above the box's 1.05 m/s a round body gets a 2 m/s drive; "

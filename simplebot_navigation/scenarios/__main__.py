@@ -56,6 +56,9 @@ def _parser() -> argparse.ArgumentParser:
                         "(layout: config/simplebot.foxglove.json)")
     p.add_argument("--foxglove-port", type=int, default=8766, metavar="PORT",
                    help="port of the Foxglove WebSocket server (default: 8766; 0: a free one)")
+    p.add_argument("--no-moving-obstacles", action="store_true",
+                   help="track and predict nothing (the launch files' moving_obstacles:=false): every obstacle is a "
+                        "costmap mark")
     p.add_argument("--no-collision-monitor", action="store_true",
                    help="run without the collision monitor: move_base drives the base directly")
     p.add_argument("--map", metavar="MAP",
@@ -104,7 +107,7 @@ def _check(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Scenari
                            wall_timeout_s=args.wall_timeout, overrides=tuple(args.set),
                            foxglove_port=args.foxglove_port if args.foxglove else None,
                            collision_monitor=not args.no_collision_monitor, map_name=args.map or "",
-                           max_speed=args.max_speed)
+                           max_speed=args.max_speed, moving_obstacles=not args.no_moving_obstacles)
 
 
 def main(argv: list[str] | None = None) -> int:

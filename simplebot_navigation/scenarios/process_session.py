@@ -95,12 +95,12 @@ class ProcessSession(RemoteSession):
                  seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation", tight: bool = False,
                  respawn: bool = False, overrides: tuple[str, ...] = (), foxglove_port: int | None = None,
                  namespace: str = "", collision_monitor: bool = True, map_name: str = "",
-                 max_speed: float | None = None):
+                 max_speed: float | None = None, moving_obstacles: bool = True):
         if not (math.isfinite(rtf) and rtf > 0):
             raise ValueError(f"separate processes need rtf > 0 (lockstep is single-process), got {rtf!r}")
         self.map_name = map_name
         args = launch_args(world, robot, radius, rtf, tight, respawn, foxglove_port, collision_monitor, map_name,
-                           max_speed)
+                           max_speed, moving_obstacles)
         if namespace:  # the launch file's namespace argument: the robot's topics and frames under it
             args["namespace"] = namespace
         launch = load_launch(launch_file, args)

@@ -97,6 +97,7 @@ class ScenarioOptions:
     collision_monitor: bool = True       # False: move_base drives the base directly
     map_name: str = ""             # navigate on this map (a map YAML; "world": the run's world's), amcl localizing
     max_speed: float | None = None  # the one speed setting (docs/reference.md §10); None: the parameter files'
+    moving_obstacles: bool = True   # False: nothing tracked or predicted, every obstacle a costmap mark
 
 
 # -- goals -----------------------------------------------------------------------------------------
@@ -362,7 +363,8 @@ def run_scenarios(options: ScenarioOptions, progress: Callable[[str], None] = pr
             with session_class(world, options.robot, options.radius, options.rtf, seed, options.range_noise,
                                tight=options.tight, overrides=options.overrides, foxglove_port=options.foxglove_port,
                                collision_monitor=options.collision_monitor,
-                               map_name=map_for_run(options.map_name, world), max_speed=options.max_speed) as session:
+                               map_name=map_for_run(options.map_name, world), max_speed=options.max_speed,
+                               moving_obstacles=options.moving_obstacles) as session:
                 worlds.append(session.world)
                 results += _run_goals(session, options, index, seed, progress)
     return results, worlds

@@ -274,14 +274,17 @@ class _Session(abc.ABC):
 
 def launch_args(world: str, robot: str, radius: float, rtf: float, tight: bool,
                 respawn: bool = False, foxglove_port: int | None = None,
-                collision_monitor: bool = True, map_name: str = "", max_speed: float | None = None) -> dict[str, str]:
+                collision_monitor: bool = True, map_name: str = "", max_speed: float | None = None,
+                moving_obstacles: bool = True) -> dict[str, str]:
     """The navigation launch file's arguments for a session; by default a node that dies is not respawned,
     so a scenario shows the crash instead of hiding it. With a foxglove_port (0: a free one) the run is
     also served to the Foxglove app on 127.0.0.1. With a map_name (a map YAML or a world) it runs on a map. With a
-    max_speed the drive and move_base's speed parameters follow it (docs/reference.md §10)."""
+    max_speed the drive and move_base's speed parameters follow it (docs/reference.md §10). Without
+    moving_obstacles nothing is tracked or predicted (every obstacle is a costmap mark)."""
     args = {"world": str(world), "robot": robot, "radius": str(radius), "rtf": str(rtf),
             "tight": "true" if tight else "false", "respawn": "true" if respawn else "false",
-            "collision_monitor": "true" if collision_monitor else "false"}
+            "collision_monitor": "true" if collision_monitor else "false",
+            "moving_obstacles": "true" if moving_obstacles else "false"}
     if map_name:
         args["map"] = map_name
     if max_speed is not None:
@@ -297,7 +300,7 @@ class NavigationSession(_Session):
     def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, rtf: float = 0.0,
                  seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation", tight: bool = False,
                  overrides: tuple[str, ...] = (), foxglove_port: int | None = None, collision_monitor: bool = True,
-                 map_name: str = "", max_speed: float | None = None):
+                 map_name: str = "", max_speed: float | None = None, moving_obstacles: bool = True):
         if not (math.isfinite(rtf) and rtf >= 0):
             raise ValueError(f"rtf must be >= 0 (0: lockstep), got {rtf!r}")
         self.description = robot_description(robot, radius)
@@ -306,7 +309,7 @@ class NavigationSession(_Session):
         self.map_name = map_name
         config = load_launch(launch_file, launch_args(world, robot, radius, rtf, tight, foxglove_port=foxglove_port,
                                                       collision_monitor=collision_monitor, map_name=map_name,
-                                                      max_speed=max_speed))
+                                                      max_speed=max_speed, moving_obstacles=moving_obstacles))
         apply_set(config, speed_assignments(config, list(overrides))[0] + list(overrides))
         self.context = rclpy.Context()
         rclpy.init(context=self.context)

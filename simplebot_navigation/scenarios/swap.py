@@ -13,9 +13,6 @@ from simplebot_navigation.sim.world import Pose2D
 NAMESPACES = ("robot1", "robot2", "robot3")
 #: slower than this (m/s, over a ground-truth sample) is standing
 STANDING_SPEED = 0.02
-#: what every robot's move_base runs with: the obstacle tracker clears the marks a passing robot leaves
-OVERRIDES = ("obstacle_tracking.enabled=true",)
-
 Truth = list[tuple[float, float, float, float]]      # (t, x, y, yaw) in the world frame
 
 

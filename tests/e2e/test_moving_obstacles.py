@@ -18,9 +18,9 @@ from simplebot_navigation.sim.moving import MovingTracks
 
 pytestmark = [pytest.mark.timeout(1200), pytest.mark.e2e]
 
-PREDICTION = ("TebLocalPlannerROS.include_dynamic_obstacles=true", "obstacle_tracking.enabled=true")
-#: the crowd arena's goal lies 20 m ahead: the global costmap must reach past it
-CROWD = PREDICTION + ("global_costmap.width=50.0", "global_costmap.height=50.0", "global_costmap.origin_x=-25.0",
+#: the defaults track and predict moving obstacles; the crowd arena's goal lies 20 m ahead: the global costmap must
+#: reach past it
+CROWD = ("global_costmap.width=50.0", "global_costmap.height=50.0", "global_costmap.origin_x=-25.0",
                       "global_costmap.origin_y=-25.0")
 STALE_AFTER_S = 1.0
 #: a mark that went stale is cleared by the next scan (10 Hz) the local costmap processes (10 Hz updates): so a
@@ -108,4 +108,4 @@ def test_the_round_robot_crosses_a_crowd(world):
 
 
 def test_people_walk_past_in_the_lab():
-    assert_crossed("people:2", *drive("people:2", PREDICTION))
+    assert_crossed("people:2", *drive("people:2", ()))

@@ -18,7 +18,7 @@ import pytest
 
 from simplebot_navigation.scenarios.process_session import ProcessSession
 from simplebot_navigation.scenarios.session import WARM_UP_S, NavigationSession, ScenarioClient, goal_in_map
-from simplebot_navigation.scenarios.swap import NAMESPACES, OVERRIDES, closest_approach, longest_standstill, swap_goals
+from simplebot_navigation.scenarios.swap import NAMESPACES, closest_approach, longest_standstill, swap_goals
 from simplebot_navigation.sim.world import Pose2D
 
 pytestmark = [pytest.mark.timeout(900), pytest.mark.e2e]
@@ -72,7 +72,7 @@ def topic_graph(expected: list[tuple[str, str]]) -> dict[str, list[str]]:
 
 
 def test_three_robots_swap_places_without_touching():
-    with NavigationSession("lab", launch_file="multi_navigation", overrides=OVERRIDES) as session:
+    with NavigationSession("lab", launch_file="multi_navigation") as session:
         clients = [ScenarioClient(session.context, namespace) for namespace in NAMESPACES]
         for client in clients:
             session.driver.add_node(client)

@@ -277,6 +277,18 @@ def test_the_collision_monitor_stands_between_move_base_and_the_base_unless_left
     assert ("cmd_vel", move_base_commands) in move_base.remaps
 
 
+@pytest.mark.parametrize("launch_file, args, move_base", [
+    ("navigation", {}, "move_base"),
+    ("multi_navigation", {"robots": "2"}, "robot2/move_base"),
+])
+@pytest.mark.parametrize("given, tracked", [(None, True), ("true", True), ("false", False)])
+def test_moving_obstacles_are_tracked_and_predicted_unless_switched_off(launch_file, args, move_base, given, tracked):
+    launch = load_launch(launch_file, {**args, **({} if given is None else {"moving_obstacles": given})})
+    node = next(node for node in launch.nodes if node.full_name.lstrip("/") == move_base)
+    assert node.parameters["obstacle_tracking.enabled"] is tracked
+    assert node.parameters["TebLocalPlannerROS.include_dynamic_obstacles"] is tracked
+
+
 @pytest.mark.parametrize("attributes, message", [
     ('respawn="maybe"', "node /n: respawn 'maybe' must be true or false"),
     ('respawn=True, respawn_delay="soon"', "node /n: respawn_delay 'soon' must be a number of seconds >= 0"),

@@ -29,7 +29,7 @@ from simplebot_navigation.scenarios.session import launch_args
 
 ROBOT_BODY = re.compile(r"^(?P<name>box|round)(?::(?P<radius>\d+(?:\.\d+)?))?$")
 ROUND_RADIUS_RANGE = (0.1, 1.0)
-SHIPPED_SETS = ("tight", "no_collision_monitor")   # launch arguments of the navigation launch (tight: config/tight/)
+SHIPPED_SETS = ("tight", "no_collision_monitor", "no_moving_obstacles")   # launch arguments of the navigation launch (tight: config/tight/)
 SPEC_KEYS = ("worlds", "seeds", "robots", "params", "goals", "run_timeout", "time_budget")
 SPEED_KEY = "max_speed"
 #: a time_budget (sim seconds per goal) is at most this
@@ -281,7 +281,8 @@ def plan(spec: CampaignSpec) -> list[Run]:
         shipped, overrides = split_parameter_set(params)
         try:
             args = launch_args("lab", "box", 0.3, 0.0, "tight" in shipped,
-                               collision_monitor="no_collision_monitor" not in shipped, max_speed=speed_of(params))
+                               collision_monitor="no_collision_monitor" not in shipped, max_speed=speed_of(params),
+                               moving_obstacles="no_moving_obstacles" not in shipped)
             config = load_launch("navigation", args)
             apply_set(config, speed_assignments(config, overrides)[0] + overrides)
         except LaunchError as err:
