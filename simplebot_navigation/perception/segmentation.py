@@ -18,6 +18,10 @@ import numpy as np
 #: beams without a return a cluster may span (more: a gap beyond the range limit lies between)
 MAX_MISSING_BEAMS = 1
 RANGE_LIMIT_MARGIN = 0.3
+#: Gauss-Newton steps of the known-radius circle fit
+FIT_ITERATIONS = 4
+#: Levenberg damping of the fit's steps, in returns' worth of information in every direction
+FIT_DAMPING = 0.5
 
 
 @dataclass
@@ -51,39 +55,43 @@ class Scan:
 
 @dataclass
 class Clusters:
-    """K clusters: centre (K, 2), radius (K,), width (K,), count (K,), occluded (K,), and structure (K,): the
-    share of each cluster's returns that lie on structure (StructureMap)."""
+    """K clusters: centre (K, 2), radius (K,), width (K,), count (K,), occluded (K,), structure (K,): the
+    share of each cluster's returns that lie on structure (StructureMap), and first, last (K,): the beams of its
+    outer returns (numbered on from `first_beam` of segment(), so that clusters of several scans index their
+    concatenated points)."""
     centre: np.ndarray
     radius: np.ndarray
     width: np.ndarray
     count: np.ndarray
     occluded: np.ndarray
     structure: np.ndarray
+    first: np.ndarray
+    last: np.ndarray
+
+    _FIELDS = ("centre", "radius", "width", "count", "occluded", "structure", "first", "last")
 
     @classmethod
     def empty(cls) -> Clusters:
         return cls(np.empty((0, 2)), np.empty(0), np.empty(0), np.empty(0, dtype=int), np.empty(0, dtype=bool),
-                   np.empty(0))
+                   np.empty(0), np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64))
 
     @classmethod
     def concatenate(cls, parts: list[Clusters]) -> Clusters:
         if not parts:
             return cls.empty()
-        return cls(*(np.concatenate([getattr(p, name) for p in parts])
-                     for name in ("centre", "radius", "width", "count", "occluded", "structure")))
+        return cls(*(np.concatenate([getattr(p, name) for p in parts]) for name in cls._FIELDS))
 
     def __len__(self) -> int:
         return len(self.radius)
 
     def select(self, mask: np.ndarray) -> Clusters:
-        return Clusters(self.centre[mask], self.radius[mask], self.width[mask], self.count[mask],
-                        self.occluded[mask], self.structure[mask])
+        return Clusters(*(getattr(self, name)[mask] for name in self._FIELDS))
 
 
 def segment(scan: Scan, breakpoint_angle: float, breakpoint_distance: float, range_noise: float,
-            min_points: int, structure: np.ndarray | None = None) -> Clusters:
+            min_points: int, structure: np.ndarray | None = None, first_beam: int = 0) -> Clusters:
     """The clusters of one scan with at least min_points returns; structure: per beam, whether its return lies
-    on structure (none: no return does)."""
+    on structure (none: no return does); first_beam: the number of the scan's first beam in Clusters.first/last."""
     beams = np.flatnonzero(scan.valid())
     if len(beams) < max(min_points, 1):
         return Clusters.empty()
@@ -105,7 +113,8 @@ def segment(scan: Scan, breakpoint_angle: float, breakpoint_distance: float, ran
     occluded = _occluded_ends(scan, beams, r, starts[keep], ends[keep])
     on_structure = np.zeros(len(beams)) if structure is None else structure[beams].astype(float)
     share = np.add.reduceat(on_structure, starts) / counts
-    return Clusters(centre[keep], radius[keep], 2.0 * radius[keep], counts[keep], occluded, share[keep])
+    return Clusters(centre[keep], radius[keep], 2.0 * radius[keep], counts[keep], occluded, share[keep],
+                    first_beam + beams[starts[keep]], first_beam + beams[ends[keep]])
 
 
 def _circles(origin, r, a, starts, ends, counts, beam_step: float) -> tuple[np.ndarray, np.ndarray]:
@@ -142,3 +151,39 @@ def _occluded_ends(scan: Scan, beams: np.ndarray, r: np.ndarray, starts: np.ndar
     cut[has_after] |= (r[after[has_after]] < r[ends[has_after]]) & \
         (beams[after[has_after]] - beams[ends[has_after]] <= 2)
     return cut
+
+
+def fit_known_circles(points: np.ndarray, first: np.ndarray, last: np.ndarray, radius: np.ndarray,
+                      start: np.ndarray, range_noise: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Centres (K, 2) of circles of known radius (K,) through the returns points[first[k]..last[k]] (NaN rows:
+    no return), by Gauss-Newton from `start` (K, 2); their covariances (K, 2, 2) for returns of range_noise, and
+    the RMS distance (K,) of the returns from each circle. A short arc fixes the centre along the line of sight
+    and little across it: the covariance says so."""
+    counts = last - first + 1
+    group = np.repeat(np.arange(len(first)), counts)
+    index = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts) + np.repeat(first, counts)
+    xy = points[index]
+    ok = np.isfinite(xy[:, 0])
+    xy, group = xy[ok], group[ok]
+    centre = np.array(start, dtype=float)
+    k = len(first)
+    for _ in range(FIT_ITERATIONS):
+        d = xy - centre[group]
+        n = np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)
+        u = d / n[:, None]
+        residual = n - radius[group]
+        a = np.stack([np.bincount(group, u[:, 0] * u[:, 0], k), np.bincount(group, u[:, 0] * u[:, 1], k),
+                      np.bincount(group, u[:, 1] * u[:, 1], k)], axis=1) + 1e-9
+        b = np.stack([np.bincount(group, u[:, 0] * residual, k), np.bincount(group, u[:, 1] * residual, k)], axis=1)
+        # damped normal equations (J^T J + FIT_DAMPING) step = -J^T r with J = -u: the centre moves along +u
+        # times the residual; the damping keeps a short arc's weak direction near the start
+        d0, d2 = a[:, 0] + FIT_DAMPING, a[:, 2] + FIT_DAMPING
+        step_det = d0 * d2 - a[:, 1] ** 2
+        centre += np.column_stack([d2 * b[:, 0] - a[:, 1] * b[:, 1], d0 * b[:, 1] - a[:, 1] * b[:, 0]]) / \
+            step_det[:, None]
+    det = a[:, 0] * a[:, 2] - a[:, 1] ** 2
+    d = xy - centre[group]
+    residual = np.hypot(d[:, 0], d[:, 1]) - radius[group]
+    rms = np.sqrt(np.bincount(group, residual ** 2, k) / np.maximum(np.bincount(group, minlength=k), 1))
+    cov = np.stack([np.stack([a[:, 2], -a[:, 1]], -1), np.stack([-a[:, 1], a[:, 0]], -1)], -2) / det[:, None, None]
+    return centre, cov * range_noise ** 2, rms
