@@ -20,7 +20,7 @@ from scipy.optimize import linear_sum_assignment
 
 from simplebot_navigation.perception import kalman
 from simplebot_navigation.perception.params import TrackerParams
-from simplebot_navigation.perception.segmentation import Clusters, Scan, fit_known_circles, segment
+from simplebot_navigation.perception.segmentation import Clusters, Scan, fit_circles, segment
 from simplebot_navigation.perception.structure import StructureMap
 from simplebot_navigation.perception.trail import ClearingTrail
 
@@ -36,9 +36,14 @@ STRUCTURE_SHARE = 0.5
 GATE_SIGMAS = 2.0
 MAX_GATE = 1.5
 #: a cut cluster whose returns lie farther than this (RMS) from the circle fitted to them is no arc of the track
-FIT_RMS = 0.03
+FIT_RMS = 0.02
 #: a fitted centre counts no closer than this (1 sigma, metres) in any direction
 FIT_FLOOR = 0.01
+#: a radius fitted to a cut outline counts when its sigma is at most this (metres)
+FIT_RADIUS_SIGMA = 0.05
+#: a fitted centre is used when it lies within this normalised squared distance of the prediction (chi-square,
+#: two degrees of freedom: 99 %)
+FIT_GATE = 9.21
 
 
 @dataclass(frozen=True)
@@ -175,6 +180,14 @@ class ObstacleTracker:
         sigma[unset] = p.initial_speed_sigma * (self.stamp - self.last_fix[unset])
         return np.minimum(p.association_gate + GATE_SIGMAS * sigma, max(MAX_GATE, p.association_gate))
 
+    def _position_covs(self, tracks: np.ndarray) -> np.ndarray:
+        """(M, 2, 2) predicted position covariances (a track seen once: grown by initial_speed_sigma since)."""
+        cov = self.cov[tracks, :2, :2].copy()
+        unset = self.velocity_updates[tracks] == 0
+        grown = (self.params.initial_speed_sigma * (self.stamp - self.last_fix[tracks[unset]])) ** 2
+        cov[unset] += grown[:, None, None] * np.eye(2)
+        return cov
+
     def _correct(self, clusters: Clusters, cluster_of: np.ndarray, points: np.ndarray, stamp: float) -> None:
         seen = cluster_of >= 0
         self.last_seen[seen] = stamp
@@ -194,19 +207,24 @@ class ObstacleTracker:
 
     def _measurements(self, clusters: Clusters, cluster_of: np.ndarray, points: np.ndarray):
         """(tracks, centres (M, 2), covariances (M, 2, 2)) that this update measures: a whole cluster's centre,
-        and for a cut one of a track whose radius is known, the circle of that radius fitted to its returns."""
+        and for one cut by something clearly nearer or the field's edge the circle fitted to its returns, of the track's radius once that is known, else of
+        the radius that fits (kept when the arc fixes it to FIT_RADIUS_SIGMA)."""
         seen = np.flatnonzero(cluster_of >= 0)
         occluded = clusters.occluded[cluster_of[seen]]
-        whole, cut = seen[~occluded], seen[occluded & self.radius_known[seen]]
+        whole, cut = seen[~occluded], seen[occluded & ~clusters.unfit[cluster_of[seen]]]
         sigma2 = self.params.measurement_noise ** 2
         measured = [clusters.centre[cluster_of[whole]]]
         noise = [np.broadcast_to(np.eye(2) * sigma2, (len(whole), 2, 2))]
         if len(cut):
-            k = cluster_of[cut]
-            centre, cov, rms = fit_known_circles(points, clusters.first[k], clusters.last[k], self.radius[cut],
-                                                 self.state[cut, :2], max(self.params.range_noise, FIT_FLOOR))
-            good = (rms <= FIT_RMS) & np.isfinite(centre).all(axis=1) & \
-                (np.hypot(*(centre - self.state[cut, :2]).T) <= self._gates()[cut])
+            k, known = cluster_of[cut], self.radius_known[cut]
+            centre, cov, radius, radius_sigma, rms = fit_circles(
+                points, clusters.first[k], clusters.last[k], self.radius[cut], known, self.state[cut, :2],
+                max(self.params.range_noise, FIT_FLOOR))
+            good = (rms <= FIT_RMS) & np.isfinite(centre).all(axis=1) & (radius_sigma <= FIT_RADIUS_SIGMA) & \
+                (radius >= MIN_RADIUS) & (radius <= 0.5 * self.params.max_obstacle_size) & \
+                (_normalised_squared(centre - self.state[cut, :2], self._position_covs(cut) + cov) <= FIT_GATE)
+            learnt = cut[good & ~known]
+            self.radius[learnt], self.radius_known[learnt] = radius[good & ~known], True
             cut = cut[good]
             measured.append(centre[good])
             noise.append(cov[good] + np.eye(2) * FIT_FLOOR ** 2)
@@ -259,7 +277,7 @@ class ObstacleTracker:
             self._keep(~drop)
 
     def _start_tracks(self, clusters: Clusters, cluster_of: np.ndarray, stamp: float) -> None:
-        fresh = clusters.structure < STRUCTURE_SHARE
+        fresh = (clusters.structure < STRUCTURE_SHARE) & ~(clusters.occluded & clusters.unfit)
         fresh[cluster_of[cluster_of >= 0]] = False
         if len(self.ids) and fresh.any():
             distance = np.hypot(*(clusters.centre[:, None, :] - self.state[None, :, :2]).transpose(2, 0, 1))
@@ -343,9 +361,15 @@ class ObstacleTracker:
         return np.concatenate([self.trail.circles(now, self.params.clearing_margin), now_rows])
 
 
+def _normalised_squared(offset: np.ndarray, cov: np.ndarray) -> np.ndarray:
+    """(M,) offset^T cov^-1 offset of (M, 2) offsets with (M, 2, 2) covariances."""
+    return np.einsum("mi,mij,mj->m", offset, np.linalg.inv(cov), offset)
+
+
 def _visible(scan: Scan, centres: np.ndarray, radius: np.ndarray) -> np.ndarray:
-    """Whether a scan should have seen each object: within its field of view and range, with the beam towards
-    its centre reaching it (not stopped by something nearer, nor lost)."""
+    """Whether a scan shows each object gone: within its field of view and range, the beam towards its centre
+    passes the centre (not stopped by something nearer, by the object itself or by something touching it, nor
+    lost)."""
     step = scan.angles[1] - scan.angles[0] if len(scan.angles) > 1 else 0.0
     if not step or not len(centres):
         return np.zeros(len(centres), dtype=bool)
@@ -360,4 +384,4 @@ def _visible(scan: Scan, centres: np.ndarray, radius: np.ndarray) -> np.ndarray:
         beyond = scan.ranges >= scan.range_max                  # +inf too: nothing there
     reach = np.where(scan.valid(), scan.ranges, np.where(beyond, np.inf, -np.inf))   # NaN: no information
     beam = np.clip(index, 0, len(scan.angles) - 1)
-    return inside & (reach[beam] >= distance - radius - FRAGMENT_MARGIN)
+    return inside & (reach[beam] >= distance)
