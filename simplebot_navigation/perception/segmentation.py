@@ -18,8 +18,8 @@ import numpy as np
 #: beams without a return a cluster may span (more: a gap beyond the range limit lies between)
 MAX_MISSING_BEAMS = 1
 RANGE_LIMIT_MARGIN = 0.3
-#: a cluster end cut by a return less than this much nearer is a surface broken up, not hidden by something
-OCCLUDER_STEP = 0.15
+#: a cluster end this close to the neighbouring return is a surface broken up, not an object's outline
+JOINED_GAP = 0.25
 #: Gauss-Newton steps of the known-radius circle fit
 FIT_ITERATIONS = 5
 #: Levenberg damping of the fit's steps, in returns' worth of information in every direction
@@ -62,8 +62,8 @@ class Clusters:
     """K clusters: centre (K, 2), radius (K,), width (K,), count (K,), occluded (K,), structure (K,): the
     share of each cluster's returns that lie on structure (StructureMap), and first, last (K,): the beams of its
     outer returns (numbered on from `first_beam` of segment(), so that clusters of several scans index their
-    concatenated points), unfit (K,): cut where no outline can be fitted, by the range limit (what lies beyond is
-    unknown) or by a neighbour barely nearer (a surface broken up)."""
+    concatenated points), unfit (K,): no object's whole outline: cut by the range limit (what lies beyond is unknown)
+    or joined to a neighbouring return (a surface broken up)."""
     centre: np.ndarray
     radius: np.ndarray
     width: np.ndarray
@@ -145,20 +145,22 @@ def _circles(origin, r, a, starts, ends, counts, beam_step: float) -> tuple[np.n
 def _occluded_ends(scan: Scan, beams: np.ndarray, r: np.ndarray, starts: np.ndarray,
                    ends: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(cut, far, joined) per cluster: its outline is cut at either end by a nearer neighbour, the scan's edge or
-    the range limit; cut by the range limit; cut by a neighbour less than OCCLUDER_STEP nearer (the same surface
-    broken up at a grazing angle, more likely than something in front)."""
+    the range limit; cut by the range limit; joined to a neighbouring return less than JOINED_GAP away (a
+    surface broken up at a grazing angle: its pieces slide along it as the sensor moves)."""
     last = len(scan.ranges) - 1
     cut = (beams[starts] == 0) | (beams[ends] == last)
     near_limit = scan.range_max - RANGE_LIMIT_MARGIN
     far = (r[starts] > near_limit) | (r[ends] > near_limit)
     cut |= far
     joined = np.zeros(len(starts), dtype=bool)
+    a = scan.angles[beams]
     for end, neighbour in ((starts, starts - 1), (ends, ends + 1)):
         has = (neighbour >= 0) & (neighbour < len(beams))
         e, n = end[has], neighbour[has]
-        nearer = (r[n] < r[e]) & (np.abs(beams[e] - beams[n]) <= 2)
-        cut[has] |= nearer
-        joined[has] |= nearer & (r[e] - r[n] < OCCLUDER_STEP)
+        adjacent = np.abs(beams[e] - beams[n]) <= 2
+        cut[has] |= (r[n] < r[e]) & adjacent
+        gap = np.hypot(r[e] * np.cos(a[e]) - r[n] * np.cos(a[n]), r[e] * np.sin(a[e]) - r[n] * np.sin(a[n]))
+        joined[has] |= adjacent & (gap < JOINED_GAP)
     return cut, far, joined
 
 

@@ -191,7 +191,8 @@ class ObstacleTracker:
     def _correct(self, clusters: Clusters, cluster_of: np.ndarray, points: np.ndarray, stamp: float) -> None:
         seen = cluster_of >= 0
         self.last_seen[seen] = stamp
-        self.on_structure[seen] = clusters.structure[cluster_of[seen]] >= STRUCTURE_SHARE
+        self.on_structure[seen] = (clusters.structure[cluster_of[seen]] >= STRUCTURE_SHARE) | \
+            clusters.unfit[cluster_of[seen]]
         self.hits[seen] += 1
         self.missed[seen] = 0
         matched = cluster_of[seen]
@@ -277,7 +278,7 @@ class ObstacleTracker:
             self._keep(~drop)
 
     def _start_tracks(self, clusters: Clusters, cluster_of: np.ndarray, stamp: float) -> None:
-        fresh = (clusters.structure < STRUCTURE_SHARE) & ~(clusters.occluded & clusters.unfit)
+        fresh = (clusters.structure < STRUCTURE_SHARE) & ~clusters.unfit
         fresh[cluster_of[cluster_of >= 0]] = False
         if len(self.ids) and fresh.any():
             distance = np.hypot(*(clusters.centre[:, None, :] - self.state[None, :, :2]).transpose(2, 0, 1))
