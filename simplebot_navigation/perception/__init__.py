@@ -3,6 +3,7 @@ should clear after them (docs/reference.md §6). No rclpy."""
 
 from simplebot_navigation.perception.params import TrackerParams
 from simplebot_navigation.perception.segmentation import Clusters, Scan, segment
+from simplebot_navigation.perception.structure import StaticCells
 from simplebot_navigation.perception.tracker import ObstacleTracker, Track
 
-__all__ = ["Clusters", "ObstacleTracker", "Scan", "Track", "TrackerParams", "segment"]
+__all__ = ["Clusters", "ObstacleTracker", "Scan", "StaticCells", "Track", "TrackerParams", "segment"]

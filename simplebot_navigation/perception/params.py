@@ -25,22 +25,27 @@ class TrackerParams:
                                   "moving robot sees break up); 0: off", ge=0.0, le=10.0)
     association_gate: float = param(0.6, "m", "farthest a cluster centre may lie from a track's predicted "
                                     "centre to update it", gt=0.0, le=5.0)
-    acceleration_noise: float = param(1.5, "m/s^2", "process noise of the constant-velocity model of a moving "
-                                      "track (1 sigma): people and crowds turn and change pace", gt=0.0, le=50.0)
-    static_acceleration_noise: float = param(0.5, "m/s^2", "process noise of a track not (yet) moving (1 sigma): "
-                                             "low, so that static things report ~0 velocity", gt=0.0, le=50.0)
-    measurement_noise: float = param(0.03, "m", "noise of a cluster centre (1 sigma)", gt=0.0, le=1.0)
-    initial_speed_sigma: float = param(1.0, "m/s", "velocity uncertainty of a new track (1 sigma)", gt=0.0,
-                                       le=10.0)
-    confirm_hits: int = param(3, "", "updates a new track needs before it is reported", ge=1, le=100)
+    acceleration_noise: float = param(0.5, "m/s^2", "process noise of the steady motion model (constant velocity, "
+                                      "1 sigma): walking on", gt=0.0, le=50.0)
+    manoeuvre_noise: float = param(4.0, "m/s^2", "process noise of the manoeuvre model (constant velocity, 1 "
+                                   "sigma): turning, speeding up and slowing down; at least acceleration_noise",
+                                   gt=0.0, le=50.0)
+    measurement_noise: float = param(0.03, "m", "noise of a whole cluster's centre (1 sigma)", gt=0.0, le=1.0)
+    initial_speed_sigma: float = param(2.0, "m/s", "velocity uncertainty of a track seen once (1 sigma): what it "
+                                       "reports, and how far its second sighting may lie", gt=0.0, le=10.0)
+    confirm_hits: int = param(1, "", "updates a new track needs before it is reported (1: at first sight)", ge=1,
+                              le=100)
     max_missed: int = param(3, "", "scans in a row that should have seen a track, and did not, before it is "
                             "deleted", ge=1, le=100)
-    max_coast_time: float = param(1.0, "s", "a track unseen this long is deleted", gt=0.0, le=10.0)
-    moving_speed: float = param(0.2, "m/s", "a track turns moving once its speed less one sigma stays above "
-                                "this for moving_hold", gt=0.0, le=10.0)
+    max_coast_time: float = param(2.5, "s", "a track unseen this long is deleted; hidden behind something nearer "
+                                  "it coasts until then, its covariance growing", gt=0.0, le=10.0)
+    moving_speed: float = param(0.2, "m/s", "a track turns moving once its speed less moving_confidence sigmas "
+                                "stays above this for moving_hold", gt=0.0, le=10.0)
+    moving_confidence: float = param(2.0, "", "sigmas of the speed (along the velocity) by which it must exceed "
+                                     "moving_speed; a velocity needs two displacements first", ge=0.0, le=10.0)
     static_speed: float = param(0.1, "m/s", "a moving track turns static once its speed stays below this for "
                                 "moving_hold (below moving_speed)", ge=0.0, le=10.0)
-    moving_hold: float = param(0.3, "s", "how long a speed must hold to change the moving flag", ge=0.0, le=10.0)
+    moving_hold: float = param(0.0, "s", "how long a speed must hold to change the moving flag", ge=0.0, le=10.0)
     clearing_time: float = param(1.5, "s", "the costmaps clear where a moving track was during this long",
                                  ge=0.0, le=10.0)
     clearing_margin: float = param(0.1, "m", "added to a track's radius where its marks are cleared (the "
@@ -57,4 +62,7 @@ class TrackerParams:
         if params.static_speed >= params.moving_speed:
             raise ParameterError(f"{where}/static_speed: must be below moving_speed ({params.moving_speed:g}), "
                                  f"got {params.static_speed!r}")
+        if params.manoeuvre_noise < params.acceleration_noise:
+            raise ParameterError(f"{where}/manoeuvre_noise: must be at least acceleration_noise "
+                                 f"({params.acceleration_noise:g}), got {params.manoeuvre_noise!r}")
         return params

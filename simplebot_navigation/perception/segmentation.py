@@ -18,6 +18,14 @@ import numpy as np
 #: beams without a return a cluster may span (more: a gap beyond the range limit lies between)
 MAX_MISSING_BEAMS = 1
 RANGE_LIMIT_MARGIN = 0.3
+#: a cluster end this close to the neighbouring return is a surface broken up, not an object's outline
+JOINED_GAP = 0.25
+#: Gauss-Newton steps of the known-radius circle fit
+FIT_ITERATIONS = 5
+#: Levenberg damping of the fit's steps, in returns' worth of information in every direction
+FIT_DAMPING = 0.5
+#: information on a known radius: it stays as given
+FIXED_INFORMATION = 1e12
 
 
 @dataclass
@@ -51,39 +59,45 @@ class Scan:
 
 @dataclass
 class Clusters:
-    """K clusters: centre (K, 2), radius (K,), width (K,), count (K,), occluded (K,), and structure (K,): the
-    share of each cluster's returns that lie on structure (StructureMap)."""
+    """K clusters: centre (K, 2), radius (K,), width (K,), count (K,), occluded (K,), structure (K,): the
+    share of each cluster's returns that lie on structure (StructureMap), and first, last (K,): the beams of its
+    outer returns (numbered on from `first_beam` of segment(), so that clusters of several scans index their
+    concatenated points), unfit (K,): no object's whole outline: cut by the range limit (what lies beyond is unknown)
+    or joined to a neighbouring return (a surface broken up)."""
     centre: np.ndarray
     radius: np.ndarray
     width: np.ndarray
     count: np.ndarray
     occluded: np.ndarray
     structure: np.ndarray
+    first: np.ndarray
+    last: np.ndarray
+    unfit: np.ndarray
+
+    _FIELDS = ("centre", "radius", "width", "count", "occluded", "structure", "first", "last", "unfit")
 
     @classmethod
     def empty(cls) -> Clusters:
         return cls(np.empty((0, 2)), np.empty(0), np.empty(0), np.empty(0, dtype=int), np.empty(0, dtype=bool),
-                   np.empty(0))
+                   np.empty(0), np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64), np.empty(0, dtype=bool))
 
     @classmethod
     def concatenate(cls, parts: list[Clusters]) -> Clusters:
         if not parts:
             return cls.empty()
-        return cls(*(np.concatenate([getattr(p, name) for p in parts])
-                     for name in ("centre", "radius", "width", "count", "occluded", "structure")))
+        return cls(*(np.concatenate([getattr(p, name) for p in parts]) for name in cls._FIELDS))
 
     def __len__(self) -> int:
         return len(self.radius)
 
     def select(self, mask: np.ndarray) -> Clusters:
-        return Clusters(self.centre[mask], self.radius[mask], self.width[mask], self.count[mask],
-                        self.occluded[mask], self.structure[mask])
+        return Clusters(*(getattr(self, name)[mask] for name in self._FIELDS))
 
 
 def segment(scan: Scan, breakpoint_angle: float, breakpoint_distance: float, range_noise: float,
-            min_points: int, structure: np.ndarray | None = None) -> Clusters:
+            min_points: int, structure: np.ndarray | None = None, first_beam: int = 0) -> Clusters:
     """The clusters of one scan with at least min_points returns; structure: per beam, whether its return lies
-    on structure (none: no return does)."""
+    on structure (none: no return does); first_beam: the number of the scan's first beam in Clusters.first/last."""
     beams = np.flatnonzero(scan.valid())
     if len(beams) < max(min_points, 1):
         return Clusters.empty()
@@ -102,10 +116,11 @@ def segment(scan: Scan, breakpoint_angle: float, breakpoint_distance: float, ran
     beam_step = abs(float(scan.angles[1] - scan.angles[0])) if len(scan.angles) > 1 else 0.0
     centre, radius = _circles(scan.origin, r, a, starts, ends, counts, beam_step)
     keep = counts >= min_points
-    occluded = _occluded_ends(scan, beams, r, starts[keep], ends[keep])
+    occluded, far, joined = _occluded_ends(scan, beams, r, starts[keep], ends[keep])
     on_structure = np.zeros(len(beams)) if structure is None else structure[beams].astype(float)
     share = np.add.reduceat(on_structure, starts) / counts
-    return Clusters(centre[keep], radius[keep], 2.0 * radius[keep], counts[keep], occluded, share[keep])
+    return Clusters(centre[keep], radius[keep], 2.0 * radius[keep], counts[keep], occluded, share[keep],
+                    first_beam + beams[starts[keep]], first_beam + beams[ends[keep]], far | joined)
 
 
 def _circles(origin, r, a, starts, ends, counts, beam_step: float) -> tuple[np.ndarray, np.ndarray]:
@@ -127,18 +142,75 @@ def _circles(origin, r, a, starts, ends, counts, beam_step: float) -> tuple[np.n
     return centre, radius
 
 
-def _occluded_ends(scan: Scan, beams: np.ndarray, r: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
-    """Clusters whose outline is cut at either end: by a nearer neighbour, the scan's edge or the range limit."""
+def _occluded_ends(scan: Scan, beams: np.ndarray, r: np.ndarray, starts: np.ndarray,
+                   ends: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(cut, far, joined) per cluster: its outline is cut at either end by a nearer neighbour, the scan's edge or
+    the range limit; cut by the range limit; joined to a neighbouring return less than JOINED_GAP away (a
+    surface broken up at a grazing angle: its pieces slide along it as the sensor moves)."""
     last = len(scan.ranges) - 1
     cut = (beams[starts] == 0) | (beams[ends] == last)
     near_limit = scan.range_max - RANGE_LIMIT_MARGIN
-    cut |= (r[starts] > near_limit) | (r[ends] > near_limit)
-    before = starts - 1
-    has_before = before >= 0
-    cut[has_before] |= (r[before[has_before]] < r[starts[has_before]]) & \
-        (beams[starts[has_before]] - beams[before[has_before]] <= 2)
-    after = ends + 1
-    has_after = after < len(beams)
-    cut[has_after] |= (r[after[has_after]] < r[ends[has_after]]) & \
-        (beams[after[has_after]] - beams[ends[has_after]] <= 2)
-    return cut
+    far = (r[starts] > near_limit) | (r[ends] > near_limit)
+    cut |= far
+    joined = np.zeros(len(starts), dtype=bool)
+    a = scan.angles[beams]
+    for end, neighbour in ((starts, starts - 1), (ends, ends + 1)):
+        has = (neighbour >= 0) & (neighbour < len(beams))
+        e, n = end[has], neighbour[has]
+        adjacent = np.abs(beams[e] - beams[n]) <= 2
+        cut[has] |= (r[n] < r[e]) & adjacent
+        gap = np.hypot(r[e] * np.cos(a[e]) - r[n] * np.cos(a[n]), r[e] * np.sin(a[e]) - r[n] * np.sin(a[n]))
+        joined[has] |= adjacent & (gap < JOINED_GAP)
+    return cut, far, joined
+
+
+def fit_circles(points: np.ndarray, first: np.ndarray, last: np.ndarray, radius: np.ndarray, known: np.ndarray,
+                start: np.ndarray, range_noise: float) -> tuple[np.ndarray, ...]:
+    """Circles through the returns points[first[k]..last[k]] (NaN rows: no return) by damped Gauss-Newton from
+    centres `start` (K, 2) and radii `radius` (K,), which stay where `known` (K,) and are fitted too elsewhere.
+    Returns centres (K, 2), their covariances (K, 2, 2) for returns of range_noise (a fitted radius's
+    uncertainty included), radii (K,), the radii's sigmas (K,; 0 where known) and the RMS distance (K,) of the
+    returns from each circle. A short arc fixes the centre along the line of sight and little across it, and
+    a fitted radius hardly at all: the covariances say so."""
+    counts = last - first + 1
+    group = np.repeat(np.arange(len(first)), counts)
+    index = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts) + np.repeat(first, counts)
+    xy = points[index]
+    ok = np.isfinite(xy[:, 0])
+    xy, group = xy[ok], group[ok]
+    k = len(first)
+    centre, radius = np.array(start, dtype=float), np.array(radius, dtype=float)
+    fixed = np.where(known, FIXED_INFORMATION, 0.0)
+    for _ in range(FIT_ITERATIONS):
+        u, residual = _unit_and_residual(xy, group, centre, radius)
+        # J = -(ux, uy, 1) per return: (J^T J + damping) step = -J^T r
+        normal = _normal_matrix(u, group, k)
+        normal += np.eye(3) * FIT_DAMPING
+        normal[:, 2, 2] += fixed
+        rhs = np.stack([np.bincount(group, u[:, 0] * residual, k), np.bincount(group, u[:, 1] * residual, k),
+                        np.bincount(group, residual, k)], axis=1)
+        step = np.linalg.solve(normal, rhs[:, :, None])[:, :, 0]
+        centre += step[:, :2]
+        radius += step[:, 2]
+    u, residual = _unit_and_residual(xy, group, centre, radius)
+    normal = _normal_matrix(u, group, k) + np.eye(3) * 1e-9
+    normal[:, 2, 2] += fixed
+    cov = np.linalg.inv(normal) * range_noise ** 2
+    rms = np.sqrt(np.bincount(group, residual ** 2, k) / np.maximum(np.bincount(group, minlength=k), 1))
+    return centre, cov[:, :2, :2], radius, np.sqrt(np.where(known, 0.0, cov[:, 2, 2])), rms
+
+
+def _unit_and_residual(xy, group, centre, radius):
+    d = xy - centre[group]
+    n = np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)
+    return d / n[:, None], n - radius[group]
+
+
+def _normal_matrix(u, group, k) -> np.ndarray:
+    """(K, 3, 3) sums of J^T J over each circle's returns, J = -(ux, uy, 1)."""
+    columns = (u[:, 0], u[:, 1], np.ones(len(u)))
+    out = np.empty((k, 3, 3))
+    for i in range(3):
+        for j in range(i, 3):
+            out[:, i, j] = out[:, j, i] = np.bincount(group, columns[i] * columns[j], k)
+    return out

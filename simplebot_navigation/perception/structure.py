@@ -79,3 +79,30 @@ class StructureMap:
             kept[max(-sy, 0):SIDE - max(sy, 0), max(-sx, 0):SIDE - max(sx, 0)] = \
                 inner[max(sy, 0):SIDE - max(-sy, 0), max(sx, 0):SIDE - max(-sx, 0)]
         self.score, self.corner = moved, wanted
+
+
+class StaticCells:
+    """What a map knows to be static, for ObstacleTracker.set_static_cells: `occupied` (rows y, columns x) cells
+    of `resolution` metres, cell (0, 0)'s corner at `origin` (x, y) in the tracking frame. A point on an occupied
+    cell or next to one (a cell's slack for the map's own error) is static; outside the grid nothing is."""
+
+    def __init__(self, occupied: np.ndarray, resolution: float, origin):
+        occupied = np.asarray(occupied, dtype=bool)
+        if occupied.ndim != 2 or not (np.isfinite(resolution) and resolution > 0):
+            raise ValueError(f"StaticCells: a 2-D grid and a positive resolution are needed, got shape "
+                             f"{occupied.shape} and resolution {resolution!r}")
+        grown = np.pad(occupied, 1)
+        self.cells = np.zeros_like(grown)
+        for dy, dx in _OFFSETS:
+            self.cells |= np.roll(grown, (dy, dx), axis=(0, 1))
+        self.resolution = float(resolution)
+        self.origin = np.asarray(origin, dtype=float) - self.resolution    # the padding's corner
+
+    def __call__(self, points: np.ndarray) -> np.ndarray:
+        cell = np.floor((np.asarray(points, dtype=float) - self.origin) / self.resolution)
+        rows, cols = self.cells.shape
+        with np.errstate(invalid="ignore"):
+            inside = (cell[:, 0] >= 0) & (cell[:, 0] < cols) & (cell[:, 1] >= 0) & (cell[:, 1] < rows)
+        out = np.zeros(len(cell), dtype=bool)
+        out[inside] = self.cells[cell[inside, 1].astype(np.int64), cell[inside, 0].astype(np.int64)]
+        return out
