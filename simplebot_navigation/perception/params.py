@@ -52,6 +52,9 @@ class TrackerParams:
                                    "costmap adds one cell more)", ge=0.0, le=1.0)
     external_timeout: float = param(0.5, "s", "obstacles another node publishes on the local planner's "
                                     "obstacles topic are used for this long", gt=0.0, le=10.0)
+    static_map_topic: str = param("/map", "", "a map (nav_msgs/OccupancyGrid) whose occupied cells are known to be "
+                                  "static: returns on them start no track and turn none moving (empty: none)",
+                                  restart=True)
     warnings: list[str] = field(default_factory=list)
 
     @classmethod

@@ -11,6 +11,7 @@ from nav_msgs.msg import OccupancyGrid, Path
 
 from simplebot_navigation.costmap.cost_values import OCCUPANCY_GRID_TABLE
 from simplebot_navigation.geometry import quaternion_to_yaw, yaw_to_quaternion
+from simplebot_navigation.maps import MAX_CELLS
 from simplebot_navigation.maps.map_io import OccupancyMap
 
 
@@ -113,6 +114,20 @@ def occupancy_map_msg(occupancy_map: OccupancyMap, stamp: TimeMsg) -> OccupancyG
     msg.info.origin.orientation = quaternion_msg(yaw)
     msg.data = occupancy_map.data.tobytes()
     return msg
+
+
+def checked_occupancy_map(msg: OccupancyGrid, user: str) -> OccupancyMap:
+    """The map of an OccupancyGrid from any node, or ValueError naming what is wrong: more than MAX_CELLS cells
+    (`user`'s bound, docs/reference.md §7.1), no cells, a resolution that is not a positive number, or data that do
+    not fill width x height."""
+    info = msg.info
+    if info.width * info.height > MAX_CELLS:
+        raise ValueError(f"{info.width} x {info.height} = {info.width * info.height} cells, more than {user}'s bound "
+                         f"of {MAX_CELLS} (docs/reference.md §7.1)")
+    if not (math.isfinite(info.resolution) and info.resolution > 0) or info.width * info.height == 0:
+        raise ValueError(f"{info.width} x {info.height} cells of {info.resolution} m (cells and a positive size "
+                         "needed)")
+    return occupancy_map_from_msg(msg)
 
 
 def occupancy_map_from_msg(msg: OccupancyGrid) -> OccupancyMap:

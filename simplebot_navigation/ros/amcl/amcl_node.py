@@ -33,11 +33,10 @@ from simplebot_navigation.geometry import compose2, inverse2, yaw_to_quaternion
 from simplebot_navigation.localization.amcl import Amcl
 from simplebot_navigation.localization import pose_state
 from simplebot_navigation.localization.amcl_params import AmclParams
-from simplebot_navigation.maps import MAX_CELLS
 from simplebot_navigation.parameters import ParameterError, fields_of
 from simplebot_navigation.parameters.spec import Param
 from simplebot_navigation.ros.amcl import amcl_messages as messages
-from simplebot_navigation.ros.conversions import occupancy_map_from_msg, pose_array_msg, transform_to_xyyaw
+from simplebot_navigation.ros.conversions import checked_occupancy_map, pose_array_msg, transform_to_xyyaw
 from simplebot_navigation.ros.costmap.costmap_log import Throttle
 from simplebot_navigation.ros.node_main import SetUpNode, run_node
 from simplebot_navigation.ros.params import declare_defaults, descriptor, given_parameter_tree
@@ -164,20 +163,11 @@ class AmclNode(SetUpNode):
     def _on_map(self, msg: OccupancyGrid) -> None:
         if self.amcl is not None and self.params.first_map_only:
             return
-        info = msg.info
-        if info.width * info.height > MAX_CELLS:
-            self.get_logger().warn(f"map ignored: {info.width} x {info.height} = {info.width * info.height} cells, "
-                                   f"more than amcl's bound of {MAX_CELLS} (docs/reference.md §7.1); "
-                                   + ("the old map stays" if self.amcl is not None else "still no map"))
-            return
-        if not (math.isfinite(info.resolution) and info.resolution > 0) or info.width * info.height == 0:
-            self.get_logger().warn(f"map ignored: {info.width} x {info.height} cells of {info.resolution} m "
-                                   "(cells and a positive size needed)")
-            return
         try:
-            grid = occupancy_map_from_msg(msg)
+            grid = checked_occupancy_map(msg, "amcl")
         except ValueError as err:
-            self.get_logger().warn(f"map ignored: {err}")
+            self.get_logger().warn(f"map ignored: {err}; "
+                                   + ("the old map stays" if self.amcl is not None else "still no map"))
             return
         if strip_frame(msg.header.frame_id) not in ("", self.global_frame):
             self.get_logger().warn(f"map is in frame '{msg.header.frame_id}', not global_frame_id "

@@ -65,7 +65,7 @@ class MoveBaseNode(Node):
         self.tf_listener = TransformListener(self.tf, self)
         # One obstacle feed for both costmaps and the local planner: the tracker, fed the local costmap's scans,
         # and other nodes' obstacles on the local planner's obstacles topic (docs/reference.md §6.3).
-        self.obstacle_tracking = ObstacleTracking(self)
+        self.obstacle_tracking = ObstacleTracking(self, self.tf)
         self.obstacle_feed = tf_obstacle_feed(self, self.tf, (self.obstacle_tracking,))
         self.global_costmap = Costmap2DROS(self, "global_costmap", self.tf, obstacle_feed=self.obstacle_feed)
         self.local_costmap = Costmap2DROS(self, "local_costmap", self.tf, obstacle_feed=self.obstacle_feed,

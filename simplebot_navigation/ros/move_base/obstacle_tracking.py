@@ -11,24 +11,30 @@ from __future__ import annotations
 
 import numpy as np
 from costmap_converter_msgs.msg import ObstacleArrayMsg
+from nav_msgs.msg import OccupancyGrid
 from rclpy.node import Node
 from rclpy.time import Time
 from visualization_msgs.msg import MarkerArray
 
 from simplebot_navigation.costmap.obstacle_layer import scan_problem
-from simplebot_navigation.geometry import quaternion_to_rotation_matrix
+from simplebot_navigation.geometry import compose2, inverse2, quaternion_to_rotation_matrix, transform_points
 from simplebot_navigation.move_base.parameter_tree import OBSTACLE_TRACKING
 from simplebot_navigation.parameters import fields_of
 from simplebot_navigation.perception import ObstacleTracker, Scan, TrackerParams
 from simplebot_navigation.perception.feed import MovingObstacles
+from simplebot_navigation.perception.structure import StaticCells
+from simplebot_navigation.ros.conversions import checked_occupancy_map, transform_to_xyyaw
 from simplebot_navigation.ros.costmap.costmap_input import stamp_seconds
 from simplebot_navigation.ros.costmap.costmap_log import Throttle
 from simplebot_navigation.ros.move_base.obstacle_msgs import obstacle_array_msg, track_markers
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
 from simplebot_navigation.ros.publishers import create_publisher
-from simplebot_navigation.ros.tf import strip_frame
+from simplebot_navigation.ros.qos import LATCHED
+from simplebot_navigation.ros.tf import TransformException, strip_frame
 
 WARNING_PERIOD_S = 5.0
+#: a map cell at or above this occupancy (map_server's occupied_thresh, 0.65) is static
+MAP_OCCUPIED = 65
 #: the topic of the tracks, under move_base's name
 TRACKS_TOPIC = "~/obstacle_tracks"
 
@@ -37,7 +43,7 @@ class ObstacleTracking:
     """An ObstacleSource (perception/feed.py) owned by the move_base node; its frame is the one the local
     costmap's scans arrive in, known from the first scan on."""
 
-    def __init__(self, node: Node):
+    def __init__(self, node: Node, tf_buffer):
         self.node = node
         self.logger = node.get_logger()
         self.frame = ""
@@ -51,6 +57,31 @@ class ObstacleTracking:
         self.throttle = Throttle()
         self.tracks_pub = create_publisher(node, ObstacleArrayMsg, TRACKS_TOPIC, 10)
         self.markers_pub = create_publisher(node, MarkerArray, f"{TRACKS_TOPIC}/markers", 1)
+        self.tf = tf_buffer
+        if self.params.static_map_topic:
+            node.create_subscription(OccupancyGrid, self.params.static_map_topic, self._on_map, LATCHED)
+
+    # -- what a map knows to be static -----------------------------------------------------------
+    def _on_map(self, msg: OccupancyGrid) -> None:
+        """The map's occupied cells are static: the tracker is told so (a map that cannot be used changes nothing)."""
+        try:
+            grid = checked_occupancy_map(msg, "obstacle tracking")
+        except ValueError as err:
+            self._warn(("map",), f"obstacle tracking: map on {self.params.static_map_topic} ignored: {err}")
+            return
+        cells = StaticCells(grid.data >= MAP_OCCUPIED, grid.resolution, (0.0, 0.0))
+        frame = strip_frame(msg.header.frame_id) or "map"
+        self.tracker.set_static_cells(lambda points: self._on_map_cells(points, frame, grid.origin, cells))
+
+    def _on_map_cells(self, points: np.ndarray, map_frame: str, origin, cells: StaticCells) -> np.ndarray:
+        """Which of `points` (tracking frame) lie on the map's occupied cells, placed by the latest TF."""
+        try:
+            in_map = transform_to_xyyaw(self.tf.lookup_transform(map_frame, self.frame, Time()))
+        except TransformException as err:
+            self._warn(("map tf",), f"obstacle tracking: the map's static cells are not used while {map_frame} <- "
+                       f"{self.frame} is unknown: {err}")
+            return np.zeros(len(points), dtype=bool)
+        return cells(transform_points(compose2(inverse2(origin), in_map), points))
 
     # -- parameters and time ---------------------------------------------------------------------
     def reconfigure(self, params: TrackerParams) -> None:
