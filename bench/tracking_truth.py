@@ -50,8 +50,8 @@ from simplebot_navigation.perception import tracker as tracker_module  # noqa: E
 simplebot_navigation.testing.__path__.append(str(ROOT / "simplebot_navigation" / "testing"))
 
 from simplebot_navigation.sim.crowd import LEVELS, crowd_level  # noqa: E402
-from simplebot_navigation.testing.tracking_runs import FOREST_SPEED, LAB_BODY, LAB_SPEED, ROUND_BODY, \
-    crowd_run, static_run  # noqa: E402
+from simplebot_navigation.testing.tracking_runs import FOREST_COST_SCALING, FOREST_SPEED, LAB_BODY, \
+    LAB_COST_SCALING, LAB_SPEED, ROUND_BODY, crowd_run, static_run  # noqa: E402
 from simplebot_navigation.testing.tracking_truth import CrowdScore, FalseMotion  # noqa: E402
 
 #: the crowd worlds a level name stands for
@@ -121,13 +121,13 @@ def _static_row(label: str, runs, motion: FalseMotion) -> str:
             f"{s['moving_tracks']:6d} {s['lasting']:6d} {s['total_s']:7.1f} {_ms(runs)}")
 
 
-def static_table(jobs: list[tuple[str, tuple, float]], seconds: float | None):
+def static_table(jobs: list[tuple[str, tuple, float, float]], seconds: float | None):
     print("\n2. False moving tracks on static structure")
     print(f"{'world':12} {'sim s':>7} {'reached':>7} {'hit':>4} {'moving':>6} {'>0.5s':>6} {'total s':>7} "
           f"{'ms50':>5} {'ms95':>5}")
     runs, total = [], FalseMotion()
-    for name, body, speed in jobs:
-        run = static_run(name, body, speed, seconds)
+    for name, body, speed, cost_scaling in jobs:
+        run = static_run(name, body, speed, cost_scaling, seconds)
         runs.append(run)
         total.merge(run.score)
         print(_static_row(f"{name}", [run], run.score), flush=True)
@@ -166,12 +166,12 @@ def main(argv: list[str] | None = None) -> dict:
     results = {}
     if args.names:
         results["crowd"] = crowd_table(args.names, args.speed, args.seconds, args.through_contacts)
-    jobs = ([("lab", LAB_BODY, LAB_SPEED)] if args.lab else []) + \
-        [(f"forest:{i}", ROUND_BODY, FOREST_SPEED) for i in range(args.forest)]
+    jobs = ([("lab", LAB_BODY, LAB_SPEED, LAB_COST_SCALING)] if args.lab else []) + \
+        [(f"forest:{i}", ROUND_BODY, FOREST_SPEED, FOREST_COST_SCALING) for i in range(args.forest)]
     if jobs:
         results["static"] = static_table(jobs, args.seconds)
     load_after = os.getloadavg()
-    print(f"\nworlds: {' '.join(args.names + [name for name, _, _ in jobs]) or 'none'}")
+    print(f"\nworlds: {' '.join(args.names + [job[0] for job in jobs]) or 'none'}")
     print(f"load average (1, 5, 15 min): before {' '.join(f'{x:.2f}' for x in load_before)}, after "
           f"{' '.join(f'{x:.2f}' for x in load_after)}; {os.cpu_count()} CPUs")
     print(f"tracker: {tracker_module.__file__}")

@@ -17,19 +17,19 @@ from simplebot_navigation.sim.world import Pose2D, World
 
 ROUTE_RESOLUTION = 0.05
 #: the route keeps this much beyond the robot's inscribed radius out of lethal space, and its costs fall off
-#: over INFLATION_M with COST_SCALING, so it runs down the middle of doors and passages
+#: over INFLATION_M at a cost scaling factor (1/m), so it runs down the middle of doors and passages
 ROUTE_MARGIN = 0.05
 INFLATION_M = 1.0
-COST_SCALING = 4.0
 #: the follower takes the route at points this far apart along it
 ROUTE_STEP_M = 0.1
 
 
-def planned_route(world: World, goals: list[Pose2D], inscribed_radius: float) -> list[np.ndarray]:
+def planned_route(world: World, goals: list[Pose2D], inscribed_radius: float,
+                  cost_scaling: float = 4.0) -> list[np.ndarray]:
     """One leg of (N, 2) points from the world's start to the first goal, and from each goal to the next, planned
-    by global_planner on the world's static obstacles inflated for a robot of `inscribed_radius`. ValueError if a
-    leg has no path."""
-    costmap = _route_costmap(world, inscribed_radius)
+    by global_planner on the world's static obstacles inflated for a robot of `inscribed_radius` (the inflation's
+    cost_scaling_factor: `cost_scaling`). ValueError if a leg has no path."""
+    costmap = _route_costmap(world, inscribed_radius, cost_scaling)
     planner = make_global_planner(GLOBAL_PLANNER, {"allow_unknown": False})
     legs, here = [], (world.start.x, world.start.y, world.start.yaw)
     for goal in goals:
@@ -42,14 +42,14 @@ def planned_route(world: World, goals: list[Pose2D], inscribed_radius: float) ->
     return legs
 
 
-def _route_costmap(world: World, inscribed_radius: float) -> Costmap2D:
+def _route_costmap(world: World, inscribed_radius: float, cost_scaling: float) -> Costmap2D:
     grid = export_map(world, ROUTE_RESOLUTION)
     ox, oy, _ = grid.origin
     costmap = Costmap2D(grid.width, grid.height, grid.resolution, ox, oy)
     costmap.costmap[grid.data == 100] = LETHAL_OBSTACLE
     costmap.costmap[grid.data < 0] = NO_INFORMATION
     layer = InflationLayer("inflation_layer", inflation_radius=inscribed_radius + INFLATION_M,
-                           cost_scaling_factor=COST_SCALING)
+                           cost_scaling_factor=cost_scaling)
     layer.layered_costmap = SimpleNamespace(costmap=costmap, inscribed_radius=inscribed_radius + ROUTE_MARGIN)
     layer.on_initialize()
     layer.on_footprint_changed()
@@ -69,8 +69,8 @@ class PathFollower:
     `lookahead` ahead along the leg, slows down as the heading error grows and turns on the spot beyond
     TURN_ON_SPOT_RAD (keeping the side it began turning to); a leg is done within `tolerance` of its end."""
 
-    TURN_ON_SPOT_RAD = 0.9
-    STEER_GAIN = 3.0
+    TURN_ON_SPOT_RAD = 0.6
+    STEER_GAIN = 5.0
 
     def __init__(self, legs: list[np.ndarray], speed: float, max_turn_rate: float = 2.0, tolerance: float = 0.3):
         legs = [np.asarray(leg, dtype=float) for leg in legs]
@@ -79,7 +79,7 @@ class PathFollower:
         if not (math.isfinite(speed) and speed > 0):
             raise ValueError(f"speed must be a positive number of m/s, got {speed!r}")
         self.legs, self.speed = [resampled(leg) for leg in legs], float(speed)
-        self.lookahead = max(0.5, 0.6 * speed)
+        self.lookahead = max(0.5, 0.35 * speed)
         self.max_turn_rate, self.tolerance = max_turn_rate, tolerance
         self.leg = self.index = 0
         self.turning = 0.0          # the side of a turn on the spot under way (+1, -1; 0: none)
