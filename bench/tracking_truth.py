@@ -32,12 +32,9 @@ measures another tree's tracker.
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import sys
 from pathlib import Path
-
-import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 # This tree before the installed package, after PYTHONPATH: a tree named there (another branch's tracker) wins.
@@ -46,13 +43,14 @@ sys.path.insert(1 + len([p for p in os.environ.get("PYTHONPATH", "").split(os.pa
 import simplebot_navigation.testing  # noqa: E402
 from simplebot_navigation.perception import tracker as tracker_module  # noqa: E402
 
-# A tree from before this bench lacks its modules: they come from this one (last, so a tree's own win).
-simplebot_navigation.testing.__path__.append(str(ROOT / "simplebot_navigation" / "testing"))
+# The bench's own modules (testing/) come from this tree whichever tree the tracker comes from: one from before
+# this bench lacks them, or has older copies.
+simplebot_navigation.testing.__path__.insert(0, str(ROOT / "simplebot_navigation" / "testing"))
 
 from simplebot_navigation.sim.crowd import LEVELS, crowd_level  # noqa: E402
 from simplebot_navigation.testing.tracking_runs import FOREST_COST_SCALING, FOREST_SPEED, LAB_BODY, \
     LAB_COST_SCALING, LAB_SPEED, ROUND_BODY, crowd_run, static_run  # noqa: E402
-from simplebot_navigation.testing.tracking_truth import CrowdScore, FalseMotion  # noqa: E402
+from simplebot_navigation.testing.tracking_truth import CrowdScore, FalseMotion, percentiles  # noqa: E402
 
 #: the crowd worlds a level name stands for
 CROWD_SEEDS = range(30)
@@ -74,13 +72,9 @@ def world_names(spec: str) -> list[str]:
     return [f"{family}:{s}" for s in range(int(first), int(last or first) + 1)]
 
 
-def _pct(values, qs) -> list[float]:
-    return [float(np.percentile(values, q)) if len(values) else math.nan for q in qs]
-
-
 def _ms(runs) -> str:
     times = [t for run in runs for t in run.update_ms[WARMUP_PAIRS:]] or [t for run in runs for t in run.update_ms]
-    p50, p95 = _pct(times, (50, 95))
+    p50, p95 = percentiles(times, (50, 95))
     return f"{p50:5.2f} {p95:5.2f}"
 
 

@@ -76,7 +76,8 @@ def in_sight(scans: list[Scan], centres: np.ndarray, radii: np.ndarray) -> np.nd
     return seen
 
 
-def _percentiles(values, qs=(50, 90)) -> tuple[float, ...]:
+def percentiles(values, qs=(50, 90)) -> tuple[float, ...]:
+    """The percentiles qs of values, NaN for none."""
     return tuple(float(np.percentile(values, q)) if len(values) else math.nan for q in qs)
 
 
@@ -159,12 +160,12 @@ class CrowdScore:
         judged = len(self.latencies) + self.lost
         samples = sum(self.band.values())
         return {"sightings": judged + self.kept + self.open_at_end, "kept": self.kept,
-                "latency_s": _percentiles(self.latencies),
+                "latency_s": percentiles(self.latencies),
                 "lost_share": self.lost / judged if judged else math.nan,
                 "band_samples": samples,
                 "band_share": {k: v / samples if samples else math.nan for k, v in self.band.items()},
-                "position_error_m": _percentiles(self.position_errors),
-                "velocity_error_m_s": _percentiles(self.velocity_errors),
+                "position_error_m": percentiles(self.position_errors),
+                "velocity_error_m_s": percentiles(self.velocity_errors),
                 "matched_samples": len(self.velocity_errors)}
 
 
