@@ -13,6 +13,7 @@ import pytest
 import rclpy
 from costmap_converter_msgs.msg import ObstacleArrayMsg, ObstacleMsg
 from geometry_msgs.msg import Point32
+from nav_msgs.msg import OccupancyGrid
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
@@ -23,6 +24,7 @@ from sensor_msgs.msg import LaserScan
 from simplebot_navigation.costmap.cost_values import LETHAL_OBSTACLE
 from simplebot_navigation.launch.loader import load_launch
 from simplebot_navigation.ros.move_base.move_base_node import MoveBaseNode
+from simplebot_navigation.ros.qos import LATCHED
 from simplebot_navigation.ros.tf import StaticTransformBroadcaster, TransformBroadcaster
 from simplebot_navigation.testing.lidar_scenes import Cylinder, lidars, scans_at, truth_at
 from tests.ros.test_costmap_ros import transform
@@ -149,3 +151,21 @@ def test_other_nodes_obstacles_are_used_and_bad_ones_dropped(lab):
     assert abs(x - 1.1) < 0.2 and abs(y - 1.0667) < 0.05 and (vx, vy) == (0.5, 0.0) and 0.2 < radius < 0.25
     external.timeout = 0.5
     assert len(external.moving_obstacles(move_base.controller._now() + 2.0)) == 0
+
+
+def test_a_map_marking_the_persons_path_static_keeps_it_from_moving(lab):
+    """What a map knows to be static is never a moving track: here a map (in odom) whose occupied cells cover the
+    strip the person walks along."""
+    move_base, robot, listener, received, executor = lab
+    grid = OccupancyGrid()
+    grid.header.frame_id = "odom"
+    grid.info.resolution, grid.info.width, grid.info.height = 0.1, 20, 80
+    grid.info.origin.position.x, grid.info.origin.position.y = PERSON.start[0] - 1.0, -4.0
+    grid.info.origin.orientation.w = 1.0
+    grid.data = [100] * (20 * 80)
+    publisher = listener.create_publisher(OccupancyGrid, "/map", LATCHED)
+    publisher.publish(grid)
+    spin_until(executor, lambda: robot.elapsed() > 4.0, 30.0)
+    assert received, f"no message on {TRACKS}"
+    assert not any(msg.obstacles for msg in received), "a track moved on the map's static cells"
+    assert len(move_base.obstacle_feed.moving_obstacles(move_base.controller._now(), "odom")) == 0
