@@ -28,13 +28,13 @@ def valid_covariances(covariance: np.ndarray) -> np.ndarray:
     """Mask of the (K, 4, 4) matrices that are covariances: finite, symmetric and positive semi-definite
     within COVARIANCE_TOLERANCE of their largest entry."""
     k = len(covariance)
-    finite = np.isfinite(covariance).reshape(k, -1).all(axis=1)
+    finite = np.isfinite(covariance).reshape(k, 16).all(axis=1)
     ok = np.zeros(k, dtype=bool)
     if not finite.any():
         return ok
     c = covariance[finite]
-    scale = np.maximum(np.abs(c).reshape(len(c), -1).max(axis=1), 1.0)
-    symmetric = np.abs(c - c.transpose(0, 2, 1)).reshape(len(c), -1).max(axis=1) <= COVARIANCE_TOLERANCE * scale
+    scale = np.maximum(np.abs(c).reshape(len(c), 16).max(axis=1), 1.0)
+    symmetric = np.abs(c - c.transpose(0, 2, 1)).reshape(len(c), 16).max(axis=1) <= COVARIANCE_TOLERANCE * scale
     lowest = np.linalg.eigvalsh(0.5 * (c + c.transpose(0, 2, 1)))[:, 0]
     ok[finite] = symmetric & (lowest >= -COVARIANCE_TOLERANCE * scale)
     return ok
