@@ -141,7 +141,7 @@ class TebConfig:
     dynamic_obstacle_uncertainty_sigmas: float = param(2.0, "", "Here: a predicted obstacle's radius grows by this "
                                                        "many standard deviations of its tracked position and of "
                                                        "its velocity times the time ahead (0: none)", ge=0, le=5.0)
-    dynamic_obstacle_max_uncertainty: float = param(0.3, "m", "Here: the most the uncertainty adds to a predicted "
+    dynamic_obstacle_max_uncertainty: float = param(0.1, "m", "Here: the most the uncertainty adds to a predicted "
                                                     "obstacle's radius", ge=0, le=2.0)
     dynamic_obstacle_prediction_horizon: float = param(4.0, "s", "Here: moving obstacles are predicted this far "
                                                        "ahead and held there after it (0: no horizon)", ge=0,
