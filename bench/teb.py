@@ -1,6 +1,7 @@
 """TEB control-cycle time for the lab robot, homotopy class planning off and on, side by side.
 
     python bench/teb.py [--cycles N] [--scene corridor|barrier|door|crowd|all] [--profile]
+                        [--velocity-sigma S] [--set NAME=VALUE ...]
 
 The lab robot (0.9 x 0.6 m box, padding 0.03, diff-drive) with the lab's teb_local_planner.yaml
 (two_circles model, offsets and radii 0.2) and TEB defaults otherwise. The local costmap is the
@@ -21,7 +22,12 @@ Scenes:
             1 to 1.9 m/s in random directions (bouncing off the field's edges), all of them given
             to the planner every cycle at their current position and velocity; the round robot
             (circular model and costmap footprint, radius 0.25 m) at max_vel_x 1 m/s with
-            include_dynamic_obstacles true crosses the field along an 11 m plan.
+            include_dynamic_obstacles true crosses the field along an 11 m plan. With --velocity-sigma S
+            each person comes with a covariance, as the tracker's filter gives one: position sigma
+            0.03 m, velocity sigma S (m/s); the people still walk straight.
+
+--set NAME=VALUE overrides a TEB parameter of every scene (a number, true/false, or text), e.g.
+--set dynamic_obstacle_max_uncertainty=0.2.
 
 Two robots run in lock step, one per planner configuration, each integrating its own (v, omega)
 with a unicycle model at the lab's 20 Hz controller period, so both are timed in the same run under
@@ -195,14 +201,20 @@ def local_costmap(world: np.ndarray, x: float, y: float) -> Costmap2D:
     return cm
 
 
+#: TEB parameters from --set, over every scene's
+OVERRIDES: dict = {}
+#: position sigma (m) of the crowd's covariances with --velocity-sigma
+POSITION_SIGMA = 0.03
+
+
 def make_planner(homotopy: bool, scene: Scene) -> TebLocalPlanner:
-    cfg = TebConfig.from_params({**scene.params, "enable_homotopy_class_planning": homotopy})
+    cfg = TebConfig.from_params({**scene.params, **OVERRIDES, "enable_homotopy_class_planning": homotopy})
     planner = TebLocalPlanner(cfg, scene.footprint, PERIOD)
     planner.set_plan(scene.plan)
     return planner
 
 
-def run(name: str, cycles: int, profile: bool) -> None:
+def run(name: str, cycles: int, profile: bool, velocity_sigma: float = 0.0) -> None:
     scene = SCENES[name]()
     world = scene.world
     obstacles = np.column_stack(np.nonzero(world.T == LETHAL_OBSTACLE)) * RES + np.array(WORLD_ORIGIN) + RES / 2
@@ -219,7 +231,7 @@ def run(name: str, cycles: int, profile: bool) -> None:
         movers = scene.crowd.state.copy() if scene.crowd else np.zeros((0, 5))
         for r in runs.values():
             if r["done"] is None:
-                step(r, scene, obstacles, movers, k, samples)
+                step(r, scene, obstacles, movers, k, samples, velocity_sigma)
         if scene.crowd:
             scene.crowd.step(PERIOD)
         if all(r["done"] is not None for r in runs.values()):
@@ -240,13 +252,15 @@ def run(name: str, cycles: int, profile: bool) -> None:
     compare_evaluations(name, runs["homotopy on"]["planner"], samples)
 
 
-def step(r: dict, scene: Scene, obstacles: np.ndarray, movers: np.ndarray, k: int, samples: list) -> None:
+def step(r: dict, scene: Scene, obstacles: np.ndarray, movers: np.ndarray, k: int, samples: list,
+         velocity_sigma: float) -> None:
     """One timed control cycle of one robot, then its unicycle step."""
     pose, planner = r["pose"], r["planner"]
     costmap = local_costmap(scene.world, pose[0], pose[1])
     t0, c0 = time.perf_counter(), time.thread_time()
     if scene.crowd:
-        planner.set_dynamic_obstacles(movers)
+        planner.set_dynamic_obstacles(movers, np.tile(np.diag([POSITION_SIGMA ** 2] * 2 + [velocity_sigma ** 2] * 2),
+                                                      (len(movers), 1, 1)) if velocity_sigma > 0 else None)
     cmd = planner.compute_velocity_commands(pose, r["vel"], costmap)
     r["times"].append(time.perf_counter() - t0)
     r["cpu"].append(time.thread_time() - c0)
@@ -313,19 +327,37 @@ def clearance(pose, centres: np.ndarray, radii: np.ndarray, robot_radius: float 
     return float(np.min(np.hypot(local[:, 0], local[:, 1]) - robot_radius - radii))
 
 
+def parse_value(text: str):
+    """A --set value: a number, true/false, or the text itself."""
+    if text.lower() in ("true", "false"):
+        return text.lower() == "true"
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cycles", type=int, default=800, help="control cycles per planner (default 800)")
     parser.add_argument("--scene", choices=[*SCENES, "all"], default="all")
     parser.add_argument("--profile", action="store_true", help="print a pyinstrument profile of the run")
+    parser.add_argument("--velocity-sigma", type=float, default=0.0,
+                        help="velocity sigma (m/s) of the crowd's covariances (default 0: none given)")
+    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="a TEB parameter")
     args = parser.parse_args()
+    for item in args.set:
+        name, _, value = item.partition("=")
+        OVERRIDES[name] = parse_value(value)
     t0 = time.perf_counter()
     warm_up()
     print(f"warm_up: {time.perf_counter() - t0:.2f} s")
     print(f"{'scene':9s} {'mode':13s} {'cycles':>6s} {'median ms':>10s} {'p95 ms':>8s} {'max ms':>8s} "
           f"{'cpu med':>8s} {'cpu p95':>8s} {'bands':>6s} {'failed':>6s} {'arrived s':>9s} {'clearance m':>11s}")
     for scene in (SCENES if args.scene == "all" else [args.scene]):
-        run(scene, args.cycles, args.profile)
+        run(scene, args.cycles, args.profile, args.velocity_sigma)
 
 
 if __name__ == "__main__":

@@ -138,6 +138,14 @@ class TebConfig:
     dynamic_obstacle_radius_growth: float = param(0.0, "m/s", "Here: a predicted obstacle's radius grows by this "
                                                   "per second of prediction (with include_dynamic_obstacles)",
                                                   ge=0, le=2.0)
+    dynamic_obstacle_uncertainty_sigmas: float = param(2.0, "", "Here: a predicted obstacle's radius grows by this "
+                                                       "many standard deviations of its tracked position and of "
+                                                       "its velocity times the time ahead (0: none)", ge=0, le=5.0)
+    dynamic_obstacle_max_uncertainty: float = param(0.1, "m", "Here: the most the uncertainty adds to a predicted "
+                                                    "obstacle's radius", ge=0, le=2.0)
+    dynamic_obstacle_prediction_horizon: float = param(4.0, "s", "Here: moving obstacles are predicted this far "
+                                                       "ahead and held there after it (0: no horizon)", ge=0,
+                                                       le=30.0)
     dynamic_obstacle_evasion_horizon: float = param(2.5, "s", "Here: when the band or a standstill would meet a "
                                                     "predicted moving obstacle within this time, drive the sampled "
                                                     "command that meets one latest (0: stop as TEB does)",

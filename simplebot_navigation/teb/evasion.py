@@ -17,8 +17,8 @@ import numpy as np
 
 from simplebot_navigation.costmap.cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE
 from simplebot_navigation.costmap.footprint import footprint_costs
+from simplebot_navigation.perception.prediction import MotionPrediction, full_rows
 from simplebot_navigation.teb import evasion_kernels
-from simplebot_navigation.teb.obstacles import predicted_centres
 
 #: Rollout step (s).
 STEP_S = 0.1
@@ -76,19 +76,21 @@ def rollouts(pose, velocity, targets: np.ndarray, acc_lim_x: float, acc_lim_thet
 
 
 def contact_times(model, poses: np.ndarray, times: np.ndarray, obstacles: np.ndarray,
-                  margin: float = CONTACT_MARGIN_M, clearance_cap: float = np.inf) -> tuple[np.ndarray, np.ndarray]:
+                  margin: float = CONTACT_MARGIN_M, clearance_cap: float = np.inf,
+                  prediction: MotionPrediction = MotionPrediction()) -> tuple[np.ndarray, np.ndarray]:
     """For trajectories (S, N, 3) from one pose, timed (N,): the time of the first pose within ``margin``
-    of an obstacle's predicted circle, or CLOSING_M nearer than the first pose is if that is less (inf if
-    none), and the smallest distance up to that pose, at most clearance_cap. The reference of
+    of an obstacle's keep-out circle where ``prediction`` puts it, or CLOSING_M nearer than the first pose
+    is if that is less (inf if none), and the smallest distance up to that pose, at most clearance_cap.
+    obstacles: prediction rows, or (K, 5) x, y, vx, vy, radius. The reference of
     evasion_kernels.rollout_contacts."""
     s, n = poses.shape[:2]
     if len(obstacles) == 0:
         return np.full(s, np.inf), np.full(s, clearance_cap)
     k = len(obstacles)
-    centres = predicted_centres(obstacles, times)                                 # K, N, 2
+    centres = prediction.centres(obstacles, times)                                # K, N, 2
     flat_poses = np.broadcast_to(poses[None], (k, s, n, 3)).reshape(-1, 3)
     flat_centres = np.broadcast_to(centres[:, None], (k, s, n, 2)).reshape(-1, 2)
-    d = model.pair_distances(flat_poses, flat_centres).reshape(k, s, n) - obstacles[:, 4, None, None]
+    d = model.pair_distances(flat_poses, flat_centres).reshape(k, s, n) - prediction.radii(obstacles, times)[:, None]
     limit = np.minimum(margin, d[:, 0, 0] - CLOSING_M)                            # K
     hit = (d < limit[:, None, None]).any(axis=0)                                  # S, N
     nearest = d.min(axis=0)
@@ -116,19 +118,21 @@ def wall_contact_times(costmap, footprint: np.ndarray, poses: np.ndarray, times:
 
 
 def band_contact_time(model, band_poses: np.ndarray, band_times: np.ndarray, obstacles: np.ndarray,
-                      horizon: float) -> float:
-    """When the band, timed as planned, first comes within the contact margin of a moving obstacle
-    (inf if not within the horizon); past its last pose the band stands there."""
+                      horizon: float, prediction: MotionPrediction = MotionPrediction()) -> float:
+    """When the band, timed as planned, first comes within the contact margin of a moving obstacle's
+    keep-out circle (inf if not within the horizon); past its last pose the band stands there."""
     if len(obstacles) == 0 or len(band_poses) == 0:
         return np.inf
     times = np.append(band_times[band_times <= horizon], horizon)
     poses = np.vstack([band_poses[: len(times) - 1], band_poses[min(len(times) - 1, len(band_poses) - 1)]])
-    return float(contact_times(model, poses[None], times, obstacles)[0][0])
+    return float(contact_times(model, poses[None], times, obstacles, prediction=prediction)[0][0])
 
 
 def choose_evasion(pose, velocity, local_goal, obstacles: np.ndarray, costmap, footprint: np.ndarray, model,
-                   limits: tuple[float, float, float, float, float], horizon: float) -> Evasion:
+                   limits: tuple[float, float, float, float, float], horizon: float,
+                   prediction: MotionPrediction = MotionPrediction()) -> Evasion:
     """The best of the sampled targets; its contact_time counts to twice the horizon (inf: none).
+    obstacles: prediction rows (or (K, 5)), met where ``prediction`` puts them.
     limits: max_vel_x, max_vel_x_backwards, max_vel_theta, acc_lim_x, acc_lim_theta. The footprint
     outline is checked against the walls only for the best rollouts, best first: the centre-cell check
     every rollout gets can only find a wall later, so an outline check can only lower a score."""
@@ -136,9 +140,10 @@ def choose_evasion(pose, velocity, local_goal, obstacles: np.ndarray, costmap, f
     pose = np.asarray(pose, dtype=float)
     targets = velocity_targets(max_vel_x, max_vel_x_backwards, max_vel_theta)
     poses, times = rollouts(pose, velocity, targets, acc_lim_x, acc_lim_theta, 2.0 * horizon)
-    moving, clearance = evasion_kernels.rollout_contacts(poses, times, np.ascontiguousarray(obstacles, dtype=float),
+    moving, clearance = evasion_kernels.rollout_contacts(poses, times, np.ascontiguousarray(full_rows(obstacles)),
                                                          model.kernel_model, model.bounding_radius,
-                                                         CONTACT_MARGIN_M, CLOSING_M, CLEARANCE_CAP_M)
+                                                         CONTACT_MARGIN_M, CLOSING_M, CLEARANCE_CAP_M,
+                                                         *prediction.kernel_arguments)
     goal = np.asarray(local_goal[:2], dtype=float)
     end = poses[:, np.count_nonzero(times <= horizon + 1e-9) - 1, :2]
     progress = np.hypot(*(goal - pose[:2])) - np.hypot(*(goal - end).T)

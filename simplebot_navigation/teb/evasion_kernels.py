@@ -37,32 +37,47 @@ def rollouts(x0, y0, th0, v0, w0, targets, acc_lim_x, acc_lim_theta, step, n):
 
 
 @njit(cache=True, nogil=True)
-def rollout_contacts(poses, times, obstacles, model, bounding_radius, margin, closing, clearance_cap):
-    """For rollouts (S, N, 3) from one pose, timed (N,), obstacles (K, 5) x y vx vy radius: the time of the
-    first pose within ``margin`` of an obstacle's predicted circle, or ``closing`` nearer than the first
-    pose is to it if that is less (inf if none), and the smallest distance up to then, at most
+def keep_out_radius(row, t, horizon, max_uncertainty, radius_growth):
+    """perception/prediction.py MotionPrediction.radii for one prediction row at one time."""
+    t = min(t, horizon)
+    return (row[4] + min(math.hypot(row[5], t * row[6]), max_uncertainty)) + radius_growth * t
+
+
+@njit(cache=True, nogil=True)
+def rollout_contacts(poses, times, obstacles, model, bounding_radius, margin, closing, clearance_cap, horizon,
+                     max_uncertainty, radius_growth):
+    """For rollouts (S, N, 3) from one pose, timed (N,), obstacles (K, 7) prediction rows (x y vx vy radius and
+    the position and velocity spreads, perception/prediction.py): the time of the first pose within ``margin``
+    of an obstacle's keep-out circle, predicted up to ``horizon`` and held there, or ``closing`` nearer than the
+    first pose is to it if that is less (inf if none), and the smallest distance up to then, at most
     clearance_cap."""
     n_roll, n_pose = poses.shape[0], poses.shape[1]
     first = np.full(n_roll, np.inf)
     nearest = np.full(n_roll, clearance_cap)
-    limit = np.empty(obstacles.shape[0])
+    n_obst = obstacles.shape[0]
+    radius = np.empty((n_pose, n_obst))
+    for n in range(n_pose):
+        for k in range(n_obst):
+            radius[n, k] = keep_out_radius(obstacles[k], times[n], horizon, max_uncertainty, radius_growth)
+    limit = np.empty(n_obst)
     c0, s0 = math.cos(poses[0, 0, 2]), math.sin(poses[0, 0, 2])
-    for k in range(obstacles.shape[0]):
+    for k in range(n_obst):
         now = footprint_distance_trig(poses[0, 0, 0], poses[0, 0, 1], c0, s0, obstacles[k, 0], obstacles[k, 1],
-                                      model)[0] - obstacles[k, 4]
+                                      model)[0] - radius[0, k]
         limit[k] = min(margin, now - closing)
     for s in range(n_roll):
         for n in range(n_pose):
             t = times[n]
+            tc = min(t, horizon)
             x, y, th = poses[s, n, 0], poses[s, n, 1], poses[s, n, 2]
             c, sn = math.cos(th), math.sin(th)
-            for k in range(obstacles.shape[0]):
-                ox = obstacles[k, 0] + t * obstacles[k, 2]
-                oy = obstacles[k, 1] + t * obstacles[k, 3]
-                bound = math.hypot(ox - x, oy - y) - obstacles[k, 4] - bounding_radius
+            for k in range(n_obst):
+                ox = obstacles[k, 0] + tc * obstacles[k, 2]
+                oy = obstacles[k, 1] + tc * obstacles[k, 3]
+                bound = math.hypot(ox - x, oy - y) - radius[n, k] - bounding_radius
                 if bound >= nearest[s] and bound >= limit[k]:
                     continue
-                d = footprint_distance_trig(x, y, c, sn, ox, oy, model)[0] - obstacles[k, 4]
+                d = footprint_distance_trig(x, y, c, sn, ox, oy, model)[0] - radius[n, k]
                 if d < nearest[s]:
                     nearest[s] = d
                 if d < limit[k] and first[s] == np.inf:

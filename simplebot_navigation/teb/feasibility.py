@@ -13,8 +13,8 @@ import numpy as np
 
 from simplebot_navigation.costmap.footprint import footprint_costs
 from simplebot_navigation.geometry import normalize_theta
+from simplebot_navigation.perception.prediction import MotionPrediction
 from simplebot_navigation.teb.footprint import FootprintModel
-from simplebot_navigation.teb.obstacles import predicted_centres
 
 
 def collision_model(footprint: np.ndarray, inscribed_radius: float) -> FootprintModel:
@@ -28,12 +28,14 @@ def collision_model(footprint: np.ndarray, inscribed_radius: float) -> Footprint
 def is_trajectory_feasible(costmap, footprint, inscribed_radius: float, poses: np.ndarray,
                            no_poses: int, lookahead_distance: float, min_angular_resolution: float,
                            time_stamps: np.ndarray | None = None, dynamic_obstacles: np.ndarray | None = None,
-                           model: FootprintModel | None = None) -> bool:
+                           model: FootprintModel | None = None,
+                           prediction: MotionPrediction = MotionPrediction()) -> bool:
     """Check the first ``no_poses`` band poses (fewer if lookahead_distance > 0 is reached first),
     inserting intermediate poses where consecutive ones are farther apart than the inscribed radius
-    or turn more than min_angular_resolution. With dynamic_obstacles (K, 5: x, y, vx, vy, radius),
-    a checked pose also fails when ``model`` (collision_model) overlaps an obstacle's circle where
-    it is predicted at the pose's time (time_stamps of the band poses; inserted poses interpolate)."""
+    or turn more than min_angular_resolution. With dynamic_obstacles (prediction rows, or (K, 5): x, y,
+    vx, vy, radius), a checked pose also fails when ``model`` (collision_model) overlaps an obstacle's
+    keep-out circle where ``prediction`` puts it at the pose's time (time_stamps of the band poses;
+    inserted poses interpolate)."""
     poses = np.asarray(poses, dtype=float).reshape(-1, 3)
     times = np.zeros(len(poses)) if time_stamps is None else np.asarray(time_stamps, dtype=float)
     checked, checked_times = _checked_poses(poses, times, _look(poses, no_poses, lookahead_distance),
@@ -42,10 +44,10 @@ def is_trajectory_feasible(costmap, footprint, inscribed_radius: float, poses: n
         return False
     if dynamic_obstacles is None or len(dynamic_obstacles) == 0:
         return True
-    centres = predicted_centres(dynamic_obstacles, checked_times)                     # K, P, 2
+    centres = prediction.centres(dynamic_obstacles, checked_times)                    # K, P, 2
     k = len(dynamic_obstacles)
     d = model.pair_distances(np.tile(checked, (k, 1)), centres.reshape(-1, 2)).reshape(k, -1)
-    return not bool(np.any(d < dynamic_obstacles[:, 4:5]))
+    return not bool(np.any(d < prediction.radii(dynamic_obstacles, checked_times)))
 
 
 def _look(poses: np.ndarray, no_poses: int, lookahead_distance: float) -> int:

@@ -30,6 +30,7 @@ from simplebot_navigation.teb.band import TimedElasticBand
 from simplebot_navigation.teb.homotopy_classes import (EMPTY_SIGNATURE, Signature, cluster_keypoint,
                                                        homotopy_signature, moving_detours, moving_signature,
                                                        obstacle_clusters, path_times, same_class)
+from simplebot_navigation.teb.obstacles import motion_prediction
 from simplebot_navigation.teb.optimizer import RotType, TebOptimizer
 
 
@@ -58,7 +59,7 @@ class HomotopyClassPlanner:
         self.candidates: list[Candidate] = []
         self.best: Candidate | None = None
         self.keypoints = np.zeros((0, 2))
-        #: moving obstacles of the cycle (K, 5: x, y, vx, vy, radius)
+        #: moving obstacles of the cycle (prediction rows, perception/prediction.py)
         self.moving = np.zeros((0, 5))
         #: bands optimised in the last cycle (candidates before duplicates and detours are dropped)
         self.bands_optimized = 0
@@ -102,8 +103,8 @@ class HomotopyClassPlanner:
         bands, one new seed, fixed iteration counts), so on a machine fast enough the deadline is
         never reached and lock-step runs stay reproducible; it is only a safety net.
 
-        dynamic_obstacles: (K, 5) rows x, y, vx, vy, radius, for the optimiser, the classes and the
-        seeds (velocities zeroed when they are not to be predicted)."""
+        dynamic_obstacles: prediction rows (perception/prediction.py), for the optimiser, the classes
+        and the seeds (velocities zeroed when they are not to be predicted)."""
         cfg = self.cfg
         start, goal = initial_plan[0], initial_plan[-1]
         self.moving = np.zeros((0, 5)) if dynamic_obstacles is None else dynamic_obstacles
@@ -200,7 +201,8 @@ class HomotopyClassPlanner:
         return Candidate(band, from_initial_plan, signature=self._band_signature(band))
 
     def _signature(self, path_xy: np.ndarray, times: np.ndarray) -> Signature:
-        return Signature(homotopy_signature(path_xy, self.keypoints), moving_signature(path_xy, times, self.moving))
+        return Signature(homotopy_signature(path_xy, self.keypoints),
+                         moving_signature(path_xy, times, self.moving, motion_prediction(self.cfg)))
 
     def _band_signature(self, band: TimedElasticBand) -> Signature:
         return self._signature(band.poses[:, :2], band.time_stamps)

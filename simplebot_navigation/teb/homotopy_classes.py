@@ -25,7 +25,7 @@ import numpy as np
 from scipy import ndimage
 
 from simplebot_navigation.geometry import normalize_theta
-from simplebot_navigation.teb.obstacles import predicted_centres
+from simplebot_navigation.perception.prediction import MotionPrediction
 
 #: Swept angle [rad] below which a moving obstacle does not separate two classes: a tenth of a
 #: turn, TEB's default h_signature_threshold of a normalised H-signature.
@@ -70,12 +70,13 @@ def homotopy_signature(path_xy: np.ndarray, keypoints: np.ndarray) -> np.ndarray
     return normalize_theta(np.diff(ang, axis=0)).sum(axis=0)
 
 
-def moving_signature(path_xy: np.ndarray, times: np.ndarray, moving: np.ndarray) -> np.ndarray:
-    """Angle swept by the path around each moving obstacle (rows x, y, vx, vy, radius), the path
-    taken relative to the obstacle's centre predicted at each point's time."""
+def moving_signature(path_xy: np.ndarray, times: np.ndarray, moving: np.ndarray,
+                     prediction: MotionPrediction = MotionPrediction()) -> np.ndarray:
+    """Angle swept by the path around each moving obstacle (prediction rows, or rows x, y, vx, vy,
+    radius), the path taken relative to the obstacle's centre predicted at each point's time."""
     if len(moving) == 0:
         return np.zeros(0)
-    rel = path_xy[None, :, :] - predicted_centres(moving, times)
+    rel = path_xy[None, :, :] - prediction.centres(moving, times)
     return normalize_theta(np.diff(np.arctan2(rel[..., 1], rel[..., 0]), axis=1)).sum(axis=1)
 
 

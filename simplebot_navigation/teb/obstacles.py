@@ -7,6 +7,8 @@ import math
 import numpy as np
 
 from simplebot_navigation.costmap.cost_values import LETHAL_OBSTACLE
+from simplebot_navigation.perception.prediction import (POSITION_SPREAD, VX, VY, MotionPrediction, prediction_rows,
+                                                        valid_covariances)
 from simplebot_navigation.teb import footprint_kernels
 
 
@@ -58,35 +60,72 @@ def associate_obstacles(model, poses: np.ndarray, obstacles: np.ndarray, min_obs
                                        GAP_FREE_FRACTION)
 
 
-def planned_motion(obstacles: np.ndarray, predict: bool) -> np.ndarray:
-    """The moving obstacles as the planner predicts them: with include_dynamic_obstacles false
-    (predict) they stand where they are, as static circles, so every use below sees one rule."""
-    if predict:
-        return obstacles
-    still = obstacles.copy()
-    still[:, 2:4] = 0.0
-    return still
+def motion_prediction(cfg) -> MotionPrediction:
+    """The prediction the configuration asks for: with include_dynamic_obstacles false the obstacles stand
+    where they are, as static circles of their tracked radius (planned_motion), and nothing grows."""
+    if not cfg.include_dynamic_obstacles:
+        return MotionPrediction()
+    return MotionPrediction(cfg.dynamic_obstacle_prediction_horizon or math.inf,
+                            cfg.dynamic_obstacle_max_uncertainty, cfg.dynamic_obstacle_radius_growth)
 
 
-def predicted_centres(obstacles: np.ndarray, times: np.ndarray) -> np.ndarray:
-    """(K, T, 2): each dynamic obstacle's centre at each time, at constant velocity."""
-    return obstacles[:, None, :2] + times[None, :, None] * obstacles[:, None, 2:4]
+def planned_motion(obstacles: np.ndarray, predict: bool, covariance: np.ndarray | None = None,
+                   n_sigma: float = 0.0) -> np.ndarray:
+    """The moving obstacles as the planner predicts them, rows of perception/prediction.py (x, y, vx, vy,
+    radius, position and velocity spreads): with include_dynamic_obstacles false (predict) they stand where they
+    are, as static circles without spreads, so every use below sees one rule."""
+    rows = prediction_rows(obstacles, covariance, n_sigma)
+    if not predict:
+        rows[:, VX:VY + 1] = 0.0
+        rows[:, POSITION_SPREAD:] = 0.0
+    return rows
 
 
 def dynamic_obstacle_edges(model, poses: np.ndarray, times: np.ndarray, obstacles: np.ndarray, reach: float,
-                           radius_growth: float = 0.0):
-    """AddEdgesDynamicObstacles: one edge per interior pose and dynamic obstacle (rows x, y, vx, vy,
-    radius), the obstacle taken where it is predicted at the pose's time; returns (pose indices,
-    (m, 3) predicted x, y and radius), obstacle after obstacle. **Here** the radius grows by
-    radius_growth per second of prediction (dynamic_obstacle_radius_growth: a person's velocity is
-    an estimate, and people turn), and a pair whose predicted centre lies farther than reach from
-    every point of the model (its centre distance less the bounding radius and the obstacle's
-    radius) gets no edge: its errors are zero and stay so unless the pose moves by about reach
-    within one outer iteration, and a crowd would otherwise put hundreds of idle edges into every
+                           prediction: MotionPrediction = MotionPrediction()):
+    """AddEdgesDynamicObstacles: one edge per interior pose and dynamic obstacle (prediction rows), the obstacle
+    taken where it is predicted at the pose's time; returns (pose indices, (m, 3) predicted x, y and radius),
+    obstacle after obstacle. **Here** the radius is the keep-out radius at that time (perception/prediction.py:
+    it grows with the track's uncertainty and with dynamic_obstacle_radius_growth), and a pair whose predicted
+    centre lies farther than reach from every point of the model (its centre distance less the bounding radius
+    and the obstacle's radius) gets no edge: its errors are zero and stay so unless the pose moves by about
+    reach within one outer iteration, and a crowd would otherwise put hundreds of idle edges into every
     evaluation."""
     inner = np.arange(1, len(poses) - 1)
-    centres = predicted_centres(obstacles, times[inner])                              # K, n-1, 2
-    radii = obstacles[:, None, 4] + radius_growth * times[None, inner]                # K, n-1
+    centres = prediction.centres(obstacles, times[inner])                             # K, n-1, 2
+    radii = prediction.radii(obstacles, times[inner])                                 # K, n-1
     gap = np.hypot(*(centres - poses[None, inner, :2]).transpose(2, 0, 1)) - model.bounding_radius - radii
     k, i = np.nonzero(gap <= reach)
     return inner[i], np.column_stack([centres[k, i], radii[k, i]])
+
+
+def checked_dynamic_obstacles(obstacles, covariance=None) -> tuple[np.ndarray, np.ndarray | None, str]:
+    """set_dynamic_obstacles' input checked: (K, 5) rows x, y, vx, vy, radius and None or (K, 4, 4)
+    covariances over x, y, vx, vy. A wrong shape raises ValueError; rows with a non-finite value or a
+    negative radius, or whose covariance is not one (valid_covariances), are dropped. Returns the kept rows,
+    their covariances and what was dropped ("" if nothing)."""
+    rows = np.asarray(obstacles, dtype=float)
+    if rows.size == 0:
+        rows = rows.reshape(0, 5)
+    if rows.ndim != 2 or rows.shape[1] != 5:
+        raise ValueError(f"dynamic obstacles must be a (K, 5) array of x, y, vx, vy, radius; got shape {rows.shape}")
+    valid = np.isfinite(rows).all(axis=1) & (rows[:, 4] >= 0)
+    dropped = []
+    if not valid.all():
+        dropped.append(f"{np.count_nonzero(~valid)} with a non-finite value or a negative radius")
+    cov = None
+    if covariance is not None:
+        cov = np.asarray(covariance, dtype=float)
+        if cov.size == 0 and len(rows) == 0:
+            cov = cov.reshape(0, 4, 4)
+        if cov.shape != (len(rows), 4, 4):
+            raise ValueError(f"dynamic obstacle covariances must be a (K, 4, 4) array over x, y, vx, vy for the "
+                             f"{len(rows)} obstacles; got shape {cov.shape}")
+        bad = ~valid_covariances(cov) & valid
+        if bad.any():
+            dropped.append(f"{np.count_nonzero(bad)} whose covariance is not finite, symmetric and positive "
+                           "semi-definite")
+        valid &= ~bad
+        cov = cov[valid].copy()
+    what = f"{np.count_nonzero(~valid)} of {len(rows)} dynamic obstacles ({', '.join(dropped)})" if dropped else ""
+    return rows[valid].copy(), cov, what

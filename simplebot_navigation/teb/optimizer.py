@@ -17,7 +17,7 @@ import numpy as np
 
 from simplebot_navigation.teb import edge_kernels, solver_kernels
 from simplebot_navigation.teb.band import TimedElasticBand
-from simplebot_navigation.teb.obstacles import associate_obstacles, dynamic_obstacle_edges
+from simplebot_navigation.teb.obstacles import associate_obstacles, dynamic_obstacle_edges, motion_prediction
 
 
 @dataclass
@@ -77,9 +77,9 @@ class TebOptimizer:
         """optimizeTEB: outer iterations of autoResize + association + inner LM, the obstacle
         weights growing by weight_adapt_factor. skip_outer leaves out the first outer iterations
         (a warm-started band then goes straight to the larger obstacle weights and its cost is
-        taken at the same final weight as a full run). dynamic_obstacles: (K, 5) rows x, y, vx,
-        vy, radius, predicted at constant velocity (planned_motion zeroes the velocities of those
-        not to be predicted). Returns the selection cost of the final graph (inf unless compute_cost)."""
+        taken at the same final weight as a full run). dynamic_obstacles: prediction rows
+        (perception/prediction.py; planned_motion zeroes the velocities of those not to be predicted).
+        Returns the selection cost of the final graph (inf unless compute_cost)."""
         cfg = self.cfg
         self.start_velocity = (float(start_velocity[0]), float(start_velocity[1]))
         self.free_goal_vel = free_goal_vel
@@ -87,10 +87,12 @@ class TebOptimizer:
         cost = math.inf
         outer_iterations = cfg.no_outer_iterations if outer_iterations is None else outer_iterations
         outer_iterations = max(1, outer_iterations - skip_outer)
+        # TEB resizes until nothing changes when it predicts moving obstacles, whose edges depend on the poses'
+        # times; here only when one is near the band (none or far away: the static planner, bit for bit).
+        fast_mode = not (cfg.include_dynamic_obstacles and self.dynamic_obstacles_near(band, dynamic_obstacles))
         for outer in range(outer_iterations):
             if cfg.teb_autosize:
-                band.auto_resize(cfg.dt_ref, cfg.dt_hysteresis, cfg.min_samples, cfg.max_samples,
-                                 fast_mode=not cfg.include_dynamic_obstacles)
+                band.auto_resize(cfg.dt_ref, cfg.dt_hysteresis, cfg.min_samples, cfg.max_samples, fast_mode)
             edges = self.build_edges(band, obstacles, via_points, cfg.weight_obstacle * multiplier,
                                      dynamic_obstacles, cfg.weight_dynamic_obstacle * multiplier)
             self.levenberg_marquardt(band, edges, cfg.no_inner_iterations)
@@ -130,12 +132,24 @@ class TebOptimizer:
                 vp, vpts = np.minimum(nearest[nearest > 0], n - 2), vpts[nearest > 0]
         edges = EdgeSet(pi, obst_point, gap, vp, vpts, obstacle_weight, n=n - 1, dynamic_weight=dynamic_weight)
         if dynamic_obstacles is not None and len(dynamic_obstacles) and cfg.weight_dynamic_obstacle > 0:
-            reach = max(cfg.min_obstacle_dist * cfg.obstacle_association_cutoff_factor,
-                        cfg.min_obstacle_dist + cfg.penalty_epsilon, cfg.dynamic_obstacle_inflation_dist)
-            growth = cfg.dynamic_obstacle_radius_growth if cfg.include_dynamic_obstacles else 0.0
             edges.dyn_pose, edges.dyn_obstacle = dynamic_obstacle_edges(self.model, band.poses, band.time_stamps,
-                                                                        dynamic_obstacles, reach, growth)
+                                                                        dynamic_obstacles, self.dynamic_reach,
+                                                                        motion_prediction(cfg))
         return edges
+
+    @property
+    def dynamic_reach(self) -> float:
+        """Distance from the model's outline within which a predicted obstacle gets an edge (§4.8)."""
+        cfg = self.cfg
+        return max(cfg.min_obstacle_dist * cfg.obstacle_association_cutoff_factor,
+                   cfg.min_obstacle_dist + cfg.penalty_epsilon, cfg.dynamic_obstacle_inflation_dist)
+
+    def dynamic_obstacles_near(self, band: TimedElasticBand, dynamic_obstacles: np.ndarray | None) -> bool:
+        """Whether a moving obstacle comes within reach of the band as it stands (it would get an edge)."""
+        if dynamic_obstacles is None or len(dynamic_obstacles) == 0 or len(band.poses) < 3:
+            return False
+        return len(dynamic_obstacle_edges(self.model, band.poses, band.time_stamps, dynamic_obstacles,
+                                          self.dynamic_reach, motion_prediction(self.cfg))[0]) > 0
 
     @property
     def with_inflation(self) -> bool:
@@ -177,6 +191,7 @@ class TebOptimizer:
 def warm_up() -> None:
     """Compile (or load from numba's cache) the kernels of a control cycle on a tiny band, so the
     first goal does not wait for the compiler."""
+    from simplebot_navigation.perception.prediction import full_rows
     from simplebot_navigation.teb.config import TebConfig
     from simplebot_navigation.teb.evasion_kernels import rollout_contacts, rollouts
     from simplebot_navigation.teb.footprint import FootprintModel
@@ -186,4 +201,5 @@ def warm_up() -> None:
     TebOptimizer(TebConfig(), FootprintModel.point()).optimize(band, np.array([[0.7, 0.4]]), np.array([[1.0, 0.1]]),
                                                               (0.0, 0.0), False, dynamic_obstacles=moving)
     poses = rollouts(0.0, 0.0, 0.0, 0.0, 0.0, np.ones((1, 2)), 1.0, 1.0, 0.1, 3)
-    rollout_contacts(poses, np.arange(4) * 0.1, moving, FootprintModel.point().kernel_model, 0.0, 0.1, 0.05, 0.5)
+    rollout_contacts(poses, np.arange(4) * 0.1, full_rows(moving), FootprintModel.point().kernel_model, 0.0, 0.1,
+                     0.05, 0.5, 4.0, 0.3, 0.0)

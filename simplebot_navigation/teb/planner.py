@@ -21,7 +21,8 @@ from simplebot_navigation.teb.failure_detector import FailureDetector, buffer_le
 from simplebot_navigation.teb.feasibility import collision_model, is_trajectory_feasible
 from simplebot_navigation.teb.footprint import FootprintModel
 from simplebot_navigation.teb.homotopy import HomotopyClassPlanner
-from simplebot_navigation.teb.obstacles import behind_robot_filter, costmap_point_obstacles, planned_motion
+from simplebot_navigation.teb.obstacles import (behind_robot_filter, checked_dynamic_obstacles, costmap_point_obstacles,
+                                                motion_prediction, planned_motion)
 from simplebot_navigation.teb.optimizer import RotType
 
 GOAL_ORIENTATION_AVERAGE = 3
@@ -69,6 +70,7 @@ class TebLocalPlanner:
         self.obstacles = np.zeros((0, 2))
         #: moving obstacles (K, 5: x, y, vx, vy, radius): the last ones set, and those the last cycle used
         self._next_dynamic_obstacles = np.zeros((0, 5))
+        self._next_dynamic_covariance = None
         self.dynamic_obstacles = np.zeros((0, 5))
         self._dropped_dynamic_reported = False
         self.goal_reached = False
@@ -126,23 +128,19 @@ class TebLocalPlanner:
         as a localizer corrects the odometry); unlike set_plan it keeps whether the goal was reached."""
         self.global_plan = np.asarray(global_plan_xyyaw, dtype=float).copy()
 
-    def set_dynamic_obstacles(self, obstacles: np.ndarray) -> None:
+    def set_dynamic_obstacles(self, obstacles: np.ndarray, covariance: np.ndarray | None = None) -> None:
         """Moving obstacles for the next cycles, until replaced: (K, 5) rows x, y, vx, vy, radius
         in the planning frame (the local costmap's), positions at the time of the coming control
-        cycle, velocities in m/s; (0, 5) for none (docs/reference.md §4.8). Rows with a non-finite
-        value or a negative radius are dropped, which is reported once."""
-        rows = np.asarray(obstacles, dtype=float)
-        if rows.size == 0:
-            rows = rows.reshape(0, 5)
-        if rows.ndim != 2 or rows.shape[1] != 5:
-            raise ValueError(f"dynamic obstacles must be a (K, 5) array of x, y, vx, vy, radius; got shape {rows.shape}")
-        valid = np.isfinite(rows).all(axis=1) & (rows[:, 4] >= 0)
-        if not valid.all() and not self._dropped_dynamic_reported:
+        cycle, velocities in m/s; (0, 5) for none; covariance: None or (K, 4, 4) over x, y, vx, vy
+        (the tracker's filter; zeros from a source that gives none) (docs/reference.md §4.8). Rows with
+        a non-finite value, a negative radius or a covariance that is not one are dropped, which is
+        reported once."""
+        rows, cov, dropped = checked_dynamic_obstacles(obstacles, covariance)
+        if dropped and not self._dropped_dynamic_reported:
             self._dropped_dynamic_reported = True
-            self._notices.append(("warn", f"TEB: dropped {np.count_nonzero(~valid)} of {len(rows)} dynamic "
-                                  "obstacles with a non-finite value or a negative radius. Reported once; later "
-                                  "occurrences are not logged."))
-        self._next_dynamic_obstacles = rows[valid].copy()
+            self._notices.append(("warn", f"TEB: dropped {dropped}. Reported once; later occurrences are not "
+                                  "logged."))
+        self._next_dynamic_obstacles, self._next_dynamic_covariance = rows, cov
 
     def reset(self) -> None:
         """Drop every band (recovery behaviours and new goals start from the plan again), and the
@@ -194,7 +192,9 @@ class TebLocalPlanner:
                   if cfg.include_costmap_obstacles else np.zeros((0, 2)))
         self.obstacles = lethal[behind_robot_filter(lethal, pose, cfg.costmap_obstacles_behind_robot_dist)]
         self.dynamic_obstacles = self._next_dynamic_obstacles
-        moving = planned_motion(self.dynamic_obstacles, cfg.include_dynamic_obstacles)
+        moving = planned_motion(self.dynamic_obstacles, cfg.include_dynamic_obstacles, self._next_dynamic_covariance,
+                                cfg.dynamic_obstacle_uncertainty_sigmas)
+        prediction = motion_prediction(cfg)
         bounds = (costmap.origin_x, costmap.origin_y,
                   costmap.origin_x + costmap.size_x * costmap.resolution,
                   costmap.origin_y + costmap.size_y * costmap.resolution)
@@ -215,11 +215,11 @@ class TebLocalPlanner:
                                           band.poses, cfg.feasibility_check_no_poses,
                                           cfg.feasibility_check_lookahead_distance,
                                           cfg.min_resolution_collision_check_angular, band.time_stamps, moving,
-                                          self.collision_model)
+                                          self.collision_model, prediction)
 
         evading = cfg.include_dynamic_obstacles and cfg.dynamic_obstacle_evasion_horizon > 0 and len(moving) > 0
         if not self.planner.remove_infeasible_best(feasible):
-            evasion = self._evasion(pose, vel, local_goal, moving, costmap) if evading else None
+            evasion = self._evasion(pose, vel, local_goal, moving, costmap, prediction) if evading else None
             if evasion is None or not (evasion.standstill_contact_time < cfg.dynamic_obstacle_evasion_horizon
                                        and evasion.contact_time > evasion.standstill_contact_time + MIN_GAIN_S):
                 return self._infeasible("trajectory is not feasible. Resetting planner...")
@@ -232,9 +232,9 @@ class TebLocalPlanner:
         if evading:
             band = self.planner.best_band()
             met = band_contact_time(self.collision_model, band.poses, band.time_stamps, moving,
-                                    cfg.dynamic_obstacle_evasion_horizon)
+                                    cfg.dynamic_obstacle_evasion_horizon, prediction)
             if met < math.inf:
-                evasion = self._evasion(pose, vel, local_goal, moving, costmap)
+                evasion = self._evasion(pose, vel, local_goal, moving, costmap, prediction)
                 if evasion.contact_time > met + MIN_GAIN_S:
                     return self._command(evasion.v, evasion.omega, vel)
         return self._command(*command, vel)
@@ -245,11 +245,11 @@ class TebLocalPlanner:
         self._last_command = (v, omega)
         return VelocityCommandResult(v, omega, True, "")
 
-    def _evasion(self, pose, vel, local_goal, moving, costmap):
+    def _evasion(self, pose, vel, local_goal, moving, costmap, prediction):
         cfg = self.cfg
         return choose_evasion(pose, vel, local_goal, moving, costmap, self.costmap_footprint, self.collision_model,
                               (cfg.max_vel_x, cfg.max_vel_x_backwards, cfg.max_vel_theta, cfg.acc_lim_x,
-                               cfg.acc_lim_theta), cfg.dynamic_obstacle_evasion_horizon)
+                               cfg.acc_lim_theta), cfg.dynamic_obstacle_evasion_horizon, prediction)
 
     def _infeasible(self, message: str) -> VelocityCommandResult:
         """No valid command this cycle."""

@@ -27,7 +27,7 @@ def straight_band(cfg, length=3.0):
 
 @pytest.mark.parametrize("predict", [True, False])
 def test_each_interior_pose_meets_the_obstacle_where_it_is_predicted_at_the_pose_time(predict):
-    cfg = TebConfig.from_params({"include_dynamic_obstacles": predict})
+    cfg = TebConfig.from_params({"include_dynamic_obstacles": predict, "dynamic_obstacle_prediction_horizon": 0.0})
     band = straight_band(cfg)
     crossing = planned_motion(np.array([[1.5, -1.0, 0.0, 0.3, 0.25]]), predict)   # crosses the band's line
     edges = TebOptimizer(cfg, FootprintModel.point()).build_edges(band, None, None, 50.0, crossing, 400.0)
@@ -68,7 +68,8 @@ def test_dynamic_obstacle_cost_counts_in_the_selection_like_static_obstacles():
 
 
 def test_the_band_gives_way_to_the_obstacle_where_it_will_be_not_where_it_is():
-    cfg = TebConfig.from_params({"include_dynamic_obstacles": True, "max_vel_x": 0.5})
+    cfg = TebConfig.from_params({"include_dynamic_obstacles": True, "max_vel_x": 0.5,
+                                 "dynamic_obstacle_prediction_horizon": 0.0})
     model = FootprintModel.circular(0.25)
     # a 0.4 m obstacle comes head-on at 0.5 m/s, 0.3 m left of the band's line; now it is 6 m
     # away, beyond the band's end, but the band meets it half-way

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from simplebot_navigation.costmap.footprint import footprint_from_radius
+from simplebot_navigation.perception.prediction import MotionPrediction
 from simplebot_navigation.teb.evasion import (CLEARANCE_CAP_M, CLOSING_M, CONTACT_MARGIN_M, band_contact_time,
                                               choose_evasion, contact_times, rollouts, velocity_targets)
 from simplebot_navigation.teb.evasion_kernels import rollout_contacts
@@ -51,18 +52,27 @@ def test_contact_time_of_an_obstacle_closing_in_is_where_the_margin_is_reached()
     assert first[0] == math.inf and nearest[0] == pytest.approx(4.25)
 
 
+@pytest.mark.parametrize("prediction", [MotionPrediction(), MotionPrediction(2.0, 0.4, 0.1)],
+                         ids=["constant velocity", "uncertain, horizon 2 s"])
 @pytest.mark.parametrize("footprint", [footprint_from_radius(0.26), LAB_PADDED_FOOTPRINT], ids=["16-gon", "box"])
-def test_the_compiled_contact_check_agrees_with_the_numpy_reference(footprint):
+def test_the_compiled_contact_check_agrees_with_the_numpy_reference(footprint, prediction):
     rng = np.random.default_rng(3)
     model = collision_model(footprint, 0.25)
     poses, times = rollouts(np.array([0.0, 0.0, 0.3]), (0.4, 0.2), velocity_targets(1.0, 0.5, 1.0), 1.0, 1.0, 5.0)
-    obstacles = np.column_stack([rng.uniform(-4, 4, (12, 2)), rng.uniform(-1.5, 1.5, (12, 2)), rng.uniform(0.2, 0.5, 12)])
+    obstacles = np.column_stack([rng.uniform(-4, 4, (12, 2)), rng.uniform(-1.5, 1.5, (12, 2)), rng.uniform(0.2, 0.5, 12),
+                                 rng.uniform(0.0, 0.1, 12), rng.uniform(0.0, 0.6, 12)])
     obstacles = obstacles[np.hypot(obstacles[:, 0], obstacles[:, 1]) > 1.2]
+    if prediction == MotionPrediction():
+        obstacles[:, 5:] = 0.0
     first, nearest = rollout_contacts(poses, times, obstacles, model.kernel_model, model.bounding_radius,
-                                      CONTACT_MARGIN_M, CLOSING_M, CLEARANCE_CAP_M)
-    ref_first, ref_nearest = contact_times(model, poses, times, obstacles, CONTACT_MARGIN_M, CLEARANCE_CAP_M)
+                                      CONTACT_MARGIN_M, CLOSING_M, CLEARANCE_CAP_M, *prediction.kernel_arguments)
+    ref_first, ref_nearest = contact_times(model, poses, times, obstacles, CONTACT_MARGIN_M, CLEARANCE_CAP_M,
+                                           prediction)
     assert np.isfinite(ref_first).any() and np.isinf(ref_first).any()      # both kinds of rollout are compared
     assert first == pytest.approx(ref_first) and nearest == pytest.approx(ref_nearest, abs=1e-9)
+    if prediction != MotionPrediction():       # the growth and the horizon change the answer the two agree on
+        assert not np.array_equal(ref_first, contact_times(model, poses, times, obstacles[:, :5], CONTACT_MARGIN_M,
+                                                           CLEARANCE_CAP_M)[0])
 
 
 def test_an_obstacle_already_within_the_margin_is_met_only_by_coming_closer():

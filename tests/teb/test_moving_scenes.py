@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from simplebot_navigation.teb.obstacles import predicted_centres
+from simplebot_navigation.perception.prediction import MotionPrediction
 
 from .scenes import PERIOD, box_cells, lab_planner, rolling_costmap, straight_plan, unicycle_step
 
@@ -65,7 +65,7 @@ def test_a_robot_yields_to_a_person_crossing_its_path_and_passes_behind(crossing
     # and no band of the way plans through where the person will be within the next two seconds
     for _, pose, _, now, poses, stamps in cycles:
         if len(now):
-            gap = planner.model.pair_distances(poses, predicted_centres(now, stamps)[0]) - now[0, 4]
+            gap = planner.model.pair_distances(poses, MotionPrediction().centres(now, stamps)[0]) - now[0, 4]
             assert gap[stamps <= 2.0].min() > 0.25
 
 

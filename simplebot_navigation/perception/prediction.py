@@ -1,0 +1,100 @@
+"""Where a tracked obstacle will be, and how much room to leave it, some seconds ahead (docs/reference.md §4.8).
+
+A track is a position and a velocity with the Kalman filter's covariance. It is predicted at constant velocity
+up to a horizon and held at its horizon position after it; the circle to keep out of grows with the time ahead:
+
+    radius(t) = radius + min(max_uncertainty, sqrt(position_spread^2 + t^2 velocity_spread^2)) + radius_growth t
+
+with t capped at the horizon, the spreads n_sigma standard deviations of position and velocity. Pure numpy, no
+planner: TEB uses it (teb/obstacles.py), and so can any planner that reasons in space and time.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Columns of a predicted obstacle's row: position and velocity (m, m/s), radius (m), and the n_sigma spreads of
+#: position (m) and velocity (m/s).
+X, Y, VX, VY, RADIUS, POSITION_SPREAD, VELOCITY_SPREAD = range(7)
+COLUMNS = 7
+#: Relative tolerance of the symmetry and positive semi-definiteness of a covariance (the filter's rounding).
+COVARIANCE_TOLERANCE = 1e-9
+
+
+def valid_covariances(covariance: np.ndarray) -> np.ndarray:
+    """Mask of the (K, 4, 4) matrices that are covariances: finite, symmetric and positive semi-definite
+    within COVARIANCE_TOLERANCE of their largest entry."""
+    k = len(covariance)
+    finite = np.isfinite(covariance).reshape(k, 16).all(axis=1)
+    ok = np.zeros(k, dtype=bool)
+    if not finite.any():
+        return ok
+    c = covariance[finite]
+    scale = np.maximum(np.abs(c).reshape(len(c), 16).max(axis=1), 1.0)
+    symmetric = np.abs(c - c.transpose(0, 2, 1)).reshape(len(c), 16).max(axis=1) <= COVARIANCE_TOLERANCE * scale
+    lowest = np.linalg.eigvalsh(0.5 * (c + c.transpose(0, 2, 1)))[:, 0]
+    ok[finite] = symmetric & (lowest >= -COVARIANCE_TOLERANCE * scale)
+    return ok
+
+
+def largest_sigma(block: np.ndarray) -> np.ndarray:
+    """Standard deviation along the most uncertain direction of each (K, 2, 2) covariance block: the square root
+    of its largest eigenvalue, in closed form."""
+    a, b, d = block[:, 0, 0], 0.5 * (block[:, 0, 1] + block[:, 1, 0]), block[:, 1, 1]
+    return np.sqrt(np.maximum(0.5 * (a + d) + np.hypot(0.5 * (a - d), b), 0.0))
+
+
+def prediction_rows(obstacles: np.ndarray, covariance: np.ndarray | None, n_sigma: float) -> np.ndarray:
+    """(K, COLUMNS) rows from (K, 5) rows x, y, vx, vy, radius and their (K, 4, 4) covariances over x, y, vx, vy
+    (None: none known, spreads zero). The spread is isotropic, the largest sigma of each block: a circle whose
+    size does not depend on where the robot is keeps the optimiser's edges functions of the pose alone, and it
+    is a property of the obstacle that any planner can share."""
+    rows = np.zeros((len(obstacles), COLUMNS))
+    rows[:, :5] = obstacles
+    if covariance is not None and len(obstacles):
+        rows[:, POSITION_SPREAD] = n_sigma * largest_sigma(covariance[:, :2, :2])
+        rows[:, VELOCITY_SPREAD] = n_sigma * largest_sigma(covariance[:, 2:, 2:])
+    return rows
+
+
+def full_rows(rows: np.ndarray) -> np.ndarray:
+    """Rows of COLUMNS columns: (K, 5) rows x, y, vx, vy, radius get zero spreads."""
+    rows = np.asarray(rows, dtype=float)
+    if rows.shape[1] == COLUMNS:
+        return rows
+    return prediction_rows(rows[:, :5], None, 0.0)
+
+
+@dataclass(frozen=True)
+class MotionPrediction:
+    """The prediction's settings: the horizon (s, inf: none), the cap on the uncertainty's extra radius (m) and a
+    growth of the radius per second ahead (m/s) on top of it, whatever the covariance."""
+    horizon: float = math.inf
+    max_uncertainty: float = math.inf
+    radius_growth: float = 0.0
+
+    def clipped(self, times) -> np.ndarray:
+        """The times the prediction is taken at: beyond the horizon the obstacle is held where it is at the
+        horizon, so a distance stays a continuous function of time (an edge dropped at the horizon would let a
+        pose whose time crosses it jump into the obstacle)."""
+        return np.minimum(np.asarray(times, dtype=float), self.horizon)
+
+    def centres(self, rows: np.ndarray, times) -> np.ndarray:
+        """(K, T, 2): each obstacle's centre at each time."""
+        t = self.clipped(times)
+        return rows[:, None, X:Y + 1] + t[None, :, None] * rows[:, None, VX:VY + 1]
+
+    def radii(self, rows: np.ndarray, times) -> np.ndarray:
+        """(K, T): each obstacle's keep-out radius at each time."""
+        rows = full_rows(rows)
+        t = self.clipped(times)[None, :]
+        spread = np.hypot(rows[:, POSITION_SPREAD, None], t * rows[:, VELOCITY_SPREAD, None])
+        return rows[:, RADIUS, None] + np.minimum(spread, self.max_uncertainty) + self.radius_growth * t
+
+    @property
+    def kernel_arguments(self) -> tuple[float, float, float]:
+        """(horizon, max_uncertainty, radius_growth) for a compiled loop."""
+        return float(self.horizon), float(self.max_uncertainty), float(self.radius_growth)
