@@ -135,7 +135,7 @@ class TebLocalPlannerROS:
         if pose is None:
             return ControlResult(False, message=f"no robot pose: {self.costmap_ros.last_pose_error}")
         moving = self.obstacle_feed.moving_obstacles(self._now(), self.frame)
-        self.planner.set_dynamic_obstacles(moving.rows)
+        self.planner.set_dynamic_obstacles(moving.rows, moving.covariance)
         with self.costmap_ros.lock:
             result = self.planner.compute_velocity_commands(pose[:3], self._robot_velocity(),
                                                             self.costmap_ros.costmap)
