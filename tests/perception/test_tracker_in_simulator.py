@@ -11,41 +11,16 @@ import numpy as np
 import pytest
 
 from simplebot_description import robot_description
-from simplebot_navigation.perception import ObstacleTracker, Scan
+from simplebot_navigation.perception import ObstacleTracker
 from simplebot_navigation.sim import SimplebotSim
 from simplebot_navigation.sim.world_loader import load_world
+from simplebot_navigation.testing.tracking_truth import MATCH_GATE_M, scans_in_world, visible
 
 WITHIN_M = 4.0
-MATCH_M = 0.6
 SETTLE_S = 1.0      # a track's first second is its filter's start-up: measured from then on
 #: the robot drives blind, so obstacles run into it: nearer than this to its centre, an outline is inside the
 #: lidars' minimum range (0.2 m from the sensors) and not measured
 NEAREST_SURFACE_M = 0.5
-
-
-def scans_in_world(sim: SimplebotSim, description) -> list[Scan]:
-    """The scans due now, as seen from each lidar's true pose in the world frame."""
-    truth = sim.ground_truth()
-    out = []
-    for data in sim.due_scans():
-        lx, ly, _, lyaw = description.laser_poses[data.frame]
-        c, s = math.cos(truth.yaw), math.sin(truth.yaw)
-        out.append(Scan.from_laser(data.ranges, data.angle_min, data.angle_increment, data.range_min,
-                                   data.range_max, truth.x + c * lx - s * ly, truth.y + s * lx + c * ly,
-                                   truth.yaw + lyaw))
-    return out
-
-
-def visible(position, robot_xy, others) -> bool:
-    """Not hidden behind another moving obstacle on the line of sight (a rough test: its centre line)."""
-    to = position - robot_xy
-    dist = float(np.hypot(*to))
-    for centre, radius in others:
-        rel = centre - robot_xy
-        along = float(rel @ to) / dist
-        if 0.0 < along < dist and abs(float(to[0] * rel[1] - to[1] * rel[0])) / dist < radius:
-            return False
-    return True
 
 
 @pytest.mark.parametrize("seed,command", [(1, (0.0, 0.0)), (4, (0.5, 0.0)), (2, (0.3, 0.1)), (7, (0.0, 0.0))],
@@ -78,7 +53,7 @@ def test_tracks_of_the_crowd_match_the_ground_truth(seed, command):
                 if sim.sim_time - since < SETTLE_S:
                     continue
                 distance = [np.hypot(*(t.position - position)) for t in tracks]
-                if not distance or min(distance) > MATCH_M:
+                if not distance or min(distance) > MATCH_GATE_M:
                     missed += 1
                     continue
                 track = tracks[int(np.argmin(distance))]
