@@ -130,3 +130,12 @@ def speed_and_sigma(state: np.ndarray, cov: np.ndarray) -> tuple[np.ndarray, np.
     direction = np.where(speed[:, None] > 1e-9, v / np.maximum(speed, 1e-9)[:, None], np.array([1.0, 0.0]))
     variance = np.einsum("ti,tij,tj->t", direction, cov[:, 2:4, 2:4], direction)
     return speed, np.sqrt(np.maximum(variance, 0.0))
+
+
+def moving_speed_and_sigma(states: np.ndarray, covs: np.ndarray, probs: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Each track's speed and its sigma (along the velocity) by the moving models alone, and the stopped model's
+    probability: whether it moves is judged by these, so that the spread between "stopped" and "moving" at the
+    start (which the combined covariance holds) does not hide a clear motion."""
+    moving = probs[:, STEADY:] / np.maximum(probs[:, STEADY:].sum(axis=1, keepdims=True), 1e-300)
+    speed, sigma = speed_and_sigma(*combine(states[:, STEADY:], covs[:, STEADY:], moving))
+    return speed, sigma, probs[:, STOPPED]

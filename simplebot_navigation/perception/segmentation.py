@@ -14,12 +14,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from simplebot_navigation.perception.tracking_kernels import continues_straight
+
 #: a cluster end within this of range_max is cut by the range limit
 #: beams without a return a cluster may span (more: a gap beyond the range limit lies between)
 MAX_MISSING_BEAMS = 1
 RANGE_LIMIT_MARGIN = 0.3
-#: a cluster end this close to the neighbouring return is a surface broken up, not an object's outline
+#: a cluster end this close to the neighbouring return, where the returns on both sides go on along one line,
+#: is a surface broken up, not an object's outline: straight within JOINED_TOLERANCE over JOINED_SPAN either side
+#: (a person's arc bulges 0.04 m and more over 0.3 m; two people touching meet at an angle)
 JOINED_GAP = 0.25
+JOINED_SPAN = 0.3
+JOINED_TOLERANCE = 0.03
 #: Gauss-Newton steps of the known-radius circle fit
 FIT_ITERATIONS = 5
 #: Levenberg damping of the fit's steps, in returns' worth of information in every direction
@@ -145,8 +151,8 @@ def _circles(origin, r, a, starts, ends, counts, beam_step: float) -> tuple[np.n
 def _occluded_ends(scan: Scan, beams: np.ndarray, r: np.ndarray, starts: np.ndarray,
                    ends: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(cut, far, joined) per cluster: its outline is cut at either end by a nearer neighbour, the scan's edge or
-    the range limit; cut by the range limit; joined to a neighbouring return less than JOINED_GAP away (a
-    surface broken up at a grazing angle: its pieces slide along it as the sensor moves)."""
+    the range limit; cut by the range limit; joined to a neighbouring return less than JOINED_GAP away by a
+    straight surface (one broken up at a grazing angle: its pieces slide along it as the sensor moves)."""
     last = len(scan.ranges) - 1
     cut = (beams[starts] == 0) | (beams[ends] == last)
     near_limit = scan.range_max - RANGE_LIMIT_MARGIN
@@ -154,13 +160,16 @@ def _occluded_ends(scan: Scan, beams: np.ndarray, r: np.ndarray, starts: np.ndar
     cut |= far
     joined = np.zeros(len(starts), dtype=bool)
     a = scan.angles[beams]
+    xy = r[:, None] * np.column_stack([np.cos(a), np.sin(a)])
     for end, neighbour in ((starts, starts - 1), (ends, ends + 1)):
         has = (neighbour >= 0) & (neighbour < len(beams))
         e, n = end[has], neighbour[has]
         adjacent = np.abs(beams[e] - beams[n]) <= 2
         cut[has] |= (r[n] < r[e]) & adjacent
-        gap = np.hypot(r[e] * np.cos(a[e]) - r[n] * np.cos(a[n]), r[e] * np.sin(a[e]) - r[n] * np.sin(a[n]))
-        joined[has] |= adjacent & (gap < JOINED_GAP)
+        close = adjacent & (np.hypot(*(xy[e] - xy[n]).T) < JOINED_GAP)
+        k = np.flatnonzero(has)[close]
+        joined[k] |= continues_straight(xy, e[close], n[close] - e[close], starts[k], ends[k], JOINED_SPAN,
+                                        JOINED_GAP, JOINED_TOLERANCE)
     return cut, far, joined
 
 

@@ -45,6 +45,8 @@ FIT_RADIUS_SIGMA = 0.05
 #: a fitted centre is used when it lies within this normalised squared distance of the prediction (chi-square,
 #: two degrees of freedom: 99 %)
 FIT_GATE = 9.21
+#: a track turns moving only while its stopped model's probability is below this
+STOPPED_BELOW = 0.5
 
 
 @dataclass(frozen=True)
@@ -307,10 +309,10 @@ class ObstacleTracker:
         moving_speed by moving_confidence sigmas, measured by two displacements at least, off structure, to
         turn moving; below static_speed to stop. A track on structure stops at once."""
         p = self.params
-        speed, sigma = kalman.speed_and_sigma(self.state, self.cov)
-        fast = self.confirmed & (self.velocity_updates >= 2) & ~self.on_structure & \
+        speed, sigma, stopped = kalman.moving_speed_and_sigma(self.models, self.model_covs, self.probs)
+        fast = self.confirmed & (self.velocity_updates >= 2) & ~self.on_structure & (stopped < STOPPED_BELOW) & \
             (speed - p.moving_confidence * sigma > p.moving_speed)
-        opposite = np.where(self.moving, speed < p.static_speed, fast)
+        opposite = np.where(self.moving, kalman.speed_and_sigma(self.state, self.cov)[0] < p.static_speed, fast)
         self.since = np.where(opposite, np.where(np.isnan(self.since), stamp, self.since), np.nan)
         flip = opposite & (stamp - self.since >= p.moving_hold)
         self.moving ^= flip

@@ -182,6 +182,41 @@ def imm_combine(states, covs, probs):
     return state, cov
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _distance(xy, i, j):
+    return np.hypot(xy[i, 0] - xy[j, 0], xy[i, 1] - xy[j, 1])
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def continues_straight(xy, ends, directions, lows, highs, span, max_gap, tolerance):
+    """For each cluster end xy[ends[k]] and the returns beyond it (directions[k]: +1 or -1): whether the returns
+    within `span` of it on both sides, the cluster's own (indices lows[k]..highs[k]) and those beyond (each less
+    than max_gap from the one before), lie within `tolerance` of the line through the outermost of them: a
+    surface going on straight through the break. Fewer than two returns on a side say nothing against it."""
+    out = np.ones(len(ends), dtype=np.bool_)
+    for k in range(len(ends)):
+        e, d = ends[k], directions[k]
+        inner = e
+        while lows[k] <= inner - d <= highs[k] and _distance(xy, inner - d, e) <= span:
+            inner -= d
+        outer = e + d
+        while 0 <= outer + d < len(xy) and _distance(xy, outer + d, e) <= span and \
+                _distance(xy, outer + d, outer) < max_gap:
+            outer += d
+        if inner == e or outer == e + d:
+            continue
+        a, b = xy[inner], xy[outer]
+        length = max(np.hypot(b[0] - a[0], b[1] - a[1]), 1e-9)
+        nx, ny = -(b[1] - a[1]) / length, (b[0] - a[0]) / length
+        i = inner
+        while i != outer:
+            if abs((xy[i, 0] - a[0]) * nx + (xy[i, 1] - a[1]) * ny) > tolerance:
+                out[k] = False
+                break
+            i += d
+    return out
+
+
 def warm_up() -> None:
     """Compile (or load from numba's cache) every kernel now, with the argument types the tracker passes: the first
     scans otherwise wait for it."""
@@ -192,3 +227,5 @@ def warm_up() -> None:
     arc = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0]])
     fit_circles(arc, np.zeros(1, dtype=np.int64), np.full(1, 2, dtype=np.int64), np.ones(1), np.ones(1, dtype=bool),
                 np.zeros((1, 2)), 0.01, 1, 0.5, 1e12)
+    one = np.ones(1, dtype=np.int64)
+    continues_straight(arc, one, one, np.zeros(1, dtype=np.int64), one, 0.3, 0.25, 0.03)
