@@ -123,6 +123,7 @@ def segment(scan: Scan, breakpoint_angle: float, breakpoint_distance: float, ran
     centre, radius = _circles(scan.origin, r, a, starts, ends, counts, beam_step)
     keep = counts >= min_points
     occluded, far, joined = _occluded_ends(scan, beams, r, starts[keep], ends[keep])
+    far &= _straight(r[:, None] * np.column_stack([cos_a, sin_a]), starts[keep], ends[keep])
     on_structure = np.zeros(len(beams)) if structure is None else structure[beams].astype(float)
     share = np.add.reduceat(on_structure, starts) / counts
     return Clusters(centre[keep], radius[keep], 2.0 * radius[keep], counts[keep], occluded, share[keep],
@@ -146,6 +147,19 @@ def _circles(origin, r, a, starts, ends, counts, beam_step: float) -> tuple[np.n
     distance = np.add.reduceat(depth, starts) / counts
     centre = origin + distance[:, None] * np.stack([np.cos(bearing), np.sin(bearing)], axis=1)
     return centre, radius
+
+
+def _straight(xy: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """(K,) whether every return of cluster k (xy[starts[k]..ends[k]]) lies within JOINED_TOLERANCE of the line
+    through its first and last."""
+    chord = xy[ends] - xy[starts]
+    normal = np.column_stack([-chord[:, 1], chord[:, 0]]) / np.maximum(np.hypot(*chord.T), 1e-9)[:, None]
+    counts = ends - starts + 1
+    member = np.repeat(np.arange(len(starts)), counts)
+    index = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts) + np.repeat(starts, counts)
+    bulge = np.zeros(len(starts))
+    np.maximum.at(bulge, member, np.abs(np.einsum("ki,ki->k", xy[index] - xy[starts[member]], normal[member])))
+    return bulge <= JOINED_TOLERANCE
 
 
 def _occluded_ends(scan: Scan, beams: np.ndarray, r: np.ndarray, starts: np.ndarray,

@@ -14,7 +14,7 @@ def test_a_hard_crowd_is_seen_moving_soon_and_throughout_the_near_band():
     assert run.contact_at is None and summary["sightings"] >= 30, summary
     assert summary["band_share"]["moving"] >= 0.95, summary
     p50, p90 = summary["latency_s"]
-    assert p50 <= 0.5 and p90 <= 0.6, summary
+    assert p50 <= 0.3 and p90 <= 0.6, summary
     assert summary["velocity_error_m_s"][1] <= 0.25, summary
 
 
