@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from simplebot_navigation.perception.tracking_kernels import imm_combine
+
 STOPPED, STEADY, MANOEUVRE = range(3)
 MODELS = 3
 #: mean time a track keeps its motion model, seconds: the Markov chain's switching rate
@@ -137,5 +139,6 @@ def moving_speed_and_sigma(states: np.ndarray, covs: np.ndarray, probs: np.ndarr
     probability: whether it moves is judged by these, so that the spread between "stopped" and "moving" at the
     start (which the combined covariance holds) does not hide a clear motion."""
     moving = probs[:, STEADY:] / np.maximum(probs[:, STEADY:].sum(axis=1, keepdims=True), 1e-300)
-    speed, sigma = speed_and_sigma(*combine(states[:, STEADY:], covs[:, STEADY:], moving))
+    speed, sigma = speed_and_sigma(*imm_combine(np.ascontiguousarray(states[:, STEADY:]),
+                                                np.ascontiguousarray(covs[:, STEADY:]), moving))
     return speed, sigma, probs[:, STOPPED]

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simplebot_navigation.perception.tracking_kernels import continues_straight
+from simplebot_navigation.perception.tracking_kernels import continues_straight, segment_scan
 
 #: a cluster end within this of range_max is cut by the range limit
 #: beams without a return a cluster may span (more: a gap beyond the range limit lies between)
@@ -103,7 +103,24 @@ class Clusters:
 def segment(scan: Scan, breakpoint_angle: float, breakpoint_distance: float, range_noise: float,
             min_points: int, structure: np.ndarray | None = None, first_beam: int = 0) -> Clusters:
     """The clusters of one scan with at least min_points returns; structure: per beam, whether its return lies
-    on structure (none: no return does); first_beam: the number of the scan's first beam in Clusters.first/last."""
+    on structure (none: no return does); first_beam: the number of the scan's first beam in Clusters.first/last.
+    Compiled (tracking_kernels.segment_scan); segment_reference is the same in array form."""
+    valid = scan.valid()
+    if valid.sum() < max(min_points, 1):
+        return Clusters.empty()
+    on_structure = np.zeros(len(valid)) if structure is None else np.asarray(structure, dtype=float)
+    centre, radius, count, occluded, share, first, last, unfit = segment_scan(
+        np.asarray(scan.ranges, dtype=float), np.asarray(scan.angles, dtype=float), valid, on_structure,
+        np.asarray(scan.origin, dtype=float), float(breakpoint_angle), float(breakpoint_distance),
+        float(range_noise), int(min_points), float(scan.range_max), MAX_MISSING_BEAMS, RANGE_LIMIT_MARGIN,
+        JOINED_GAP, JOINED_SPAN, JOINED_TOLERANCE)
+    return Clusters(centre, radius, 2.0 * radius, count, occluded, share, first_beam + first, first_beam + last,
+                    unfit)
+
+
+def segment_reference(scan: Scan, breakpoint_angle: float, breakpoint_distance: float, range_noise: float,
+                      min_points: int, structure: np.ndarray | None = None, first_beam: int = 0) -> Clusters:
+    """segment() in array form, the reference its compiled kernel is tested against."""
     beams = np.flatnonzero(scan.valid())
     if len(beams) < max(min_points, 1):
         return Clusters.empty()
@@ -123,7 +140,8 @@ def segment(scan: Scan, breakpoint_angle: float, breakpoint_distance: float, ran
     centre, radius = _circles(scan.origin, r, a, starts, ends, counts, beam_step)
     keep = counts >= min_points
     occluded, far, joined = _occluded_ends(scan, beams, r, starts[keep], ends[keep])
-    far &= _straight(r[:, None] * np.column_stack([cos_a, sin_a]), starts[keep], ends[keep])
+    cut_far = np.flatnonzero(far)
+    far[cut_far] = _straight(r[:, None] * np.column_stack([cos_a, sin_a]), starts[keep][cut_far], ends[keep][cut_far])
     on_structure = np.zeros(len(beams)) if structure is None else structure[beams].astype(float)
     share = np.add.reduceat(on_structure, starts) / counts
     return Clusters(centre[keep], radius[keep], 2.0 * radius[keep], counts[keep], occluded, share[keep],

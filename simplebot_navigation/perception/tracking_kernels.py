@@ -217,6 +217,82 @@ def continues_straight(xy, ends, directions, lows, highs, span, max_gap, toleran
     return out
 
 
+@njit(cache=True, nogil=True, error_model="numpy")
+def _bulge(xy, start, end):
+    """The largest distance of the returns xy[start..end] from the line through the first and the last."""
+    dx, dy = xy[end, 0] - xy[start, 0], xy[end, 1] - xy[start, 1]
+    length = max(np.hypot(dx, dy), 1e-9)
+    worst = 0.0
+    for i in range(start, end + 1):
+        worst = max(worst, abs((xy[i, 0] - xy[start, 0]) * -dy + (xy[i, 1] - xy[start, 1]) * dx) / length)
+    return worst
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def segment_scan(ranges, angles, valid, structure, origin, breakpoint_angle, breakpoint_distance, range_noise,
+                 min_points, range_max, max_missing_beams, range_limit_margin, joined_gap, joined_span,
+                 joined_tolerance):
+    """segmentation.segment_reference compiled: (centre, radius, count, occluded, structure share, first beam,
+    last beam, unfit) of the clusters of one scan with at least min_points returns."""
+    beams = np.flatnonzero(valid)
+    n = len(beams)
+    r, a = ranges[beams], angles[beams]
+    xy = np.empty((n, 2))
+    xy[:, 0], xy[:, 1] = r * np.cos(a), r * np.sin(a)
+    starts = np.empty(n, dtype=np.int64)
+    k = 0
+    for i in range(n):
+        if i == 0:
+            starts[k], k = 0, k + 1
+            continue
+        step = abs(a[i] - a[i - 1])
+        limit = min(r[i - 1], r[i]) * np.sin(step) / np.sin(max(breakpoint_angle - step, 1e-6))
+        limit = max(limit + 3.0 * range_noise, breakpoint_distance)
+        if np.hypot(xy[i, 0] - xy[i - 1, 0], xy[i, 1] - xy[i - 1, 1]) > limit or \
+                beams[i] - beams[i - 1] > max_missing_beams + 1:
+            starts[k], k = i, k + 1
+    starts = starts[:k]
+    ends = np.empty(k, dtype=np.int64)
+    ends[:k - 1] = starts[1:] - 1
+    ends[k - 1] = n - 1
+    keep = np.flatnonzero(ends - starts + 1 >= min_points)
+    m = len(keep)
+    centre, radius, count = np.empty((m, 2)), np.empty(m), np.empty(m, dtype=np.int64)
+    occluded, share, unfit = np.zeros(m, dtype=np.bool_), np.empty(m), np.zeros(m, dtype=np.bool_)
+    beam_step = abs(angles[1] - angles[0]) if len(angles) > 1 else 0.0
+    near_limit = range_max - range_limit_margin
+    for c in range(m):
+        s, e = starts[keep[c]], ends[keep[c]]
+        count[c] = e - s + 1
+        half_angle = min(0.5 * (abs(a[e] - a[s]) + beam_step), 1.4)
+        radius[c] = 0.5 * (r[s] + r[e]) * np.tan(half_angle)
+        bearing = 0.5 * (a[s] + a[e])
+        depth, hits = 0.0, 0.0
+        for i in range(s, e + 1):
+            phi = a[i] - bearing
+            across = r[i] * np.sin(phi)
+            depth += r[i] * np.cos(phi) + np.sqrt(max(radius[c] ** 2 - across ** 2, 0.0))
+            hits += structure[beams[i]]
+        depth /= count[c]
+        share[c] = hits / count[c]
+        centre[c, 0], centre[c, 1] = origin[0] + depth * np.cos(bearing), origin[1] + depth * np.sin(bearing)
+        occluded[c] = beams[s] == 0 or beams[e] == len(ranges) - 1
+        far = r[s] > near_limit or r[e] > near_limit
+        occluded[c] |= far
+        joined = False
+        for end, d in ((s, -1), (e, 1)):
+            nb = end + d
+            if nb < 0 or nb >= n or abs(beams[end] - beams[nb]) > 2:
+                continue
+            occluded[c] |= r[nb] < r[end]
+            if np.hypot(xy[end, 0] - xy[nb, 0], xy[end, 1] - xy[nb, 1]) < joined_gap:
+                one = np.array([end])
+                joined |= continues_straight(xy, one, np.array([d]), np.array([s]), np.array([e]), joined_span,
+                                             joined_gap, joined_tolerance)[0]
+        unfit[c] = joined or (far and _bulge(xy, s, e) <= joined_tolerance)
+    return centre, radius, count, occluded, share, beams[starts[keep]], beams[ends[keep]], unfit
+
+
 def warm_up() -> None:
     """Compile (or load from numba's cache) every kernel now, with the argument types the tracker passes: the first
     scans otherwise wait for it."""
@@ -227,5 +303,6 @@ def warm_up() -> None:
     arc = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0]])
     fit_circles(arc, np.zeros(1, dtype=np.int64), np.full(1, 2, dtype=np.int64), np.ones(1), np.ones(1, dtype=bool),
                 np.zeros((1, 2)), 0.01, 1, 0.5, 1e12)
-    one = np.ones(1, dtype=np.int64)
-    continues_straight(arc, one, one, np.zeros(1, dtype=np.int64), one, 0.3, 0.25, 0.03)
+    ranges, angles = np.full(8, 1.0), np.linspace(-0.4, 0.4, 8)
+    segment_scan(ranges, angles, np.ones(8, dtype=np.bool_), np.zeros(8), np.zeros(2), 0.17, 0.05, 0.01, 3, 5.6, 1,
+                 0.3, 0.25, 0.3, 0.03)

@@ -1,11 +1,13 @@
-"""The compiled tracker kernels agree with their numpy references (kalman.py, segmentation.fit_circles)."""
+"""The compiled tracker kernels agree with their array forms (kalman.py, segmentation.fit_circles and
+segment_reference)."""
 
 import numpy as np
 import pytest
 
 from simplebot_navigation.perception import kalman, tracking_kernels
-from simplebot_navigation.perception.segmentation import (FIT_DAMPING, FIT_ITERATIONS, FIXED_INFORMATION,
-                                                          fit_circles)
+from simplebot_navigation.perception.segmentation import (FIT_DAMPING, FIT_ITERATIONS, FIXED_INFORMATION, Clusters,
+                                                          fit_circles, segment, segment_reference)
+from simplebot_navigation.testing.lidar_scenes import Cylinder, scans_at
 
 
 def _random_imm(rng, tracks):
@@ -57,3 +59,21 @@ def test_the_compiled_circle_fit_matches_the_numpy_fit(known):
     got = tracking_kernels.fit_circles(*args, FIT_ITERATIONS, FIT_DAMPING, FIXED_INFORMATION)
     for g, w in zip(got, want):
         np.testing.assert_allclose(g, w, rtol=1e-6, atol=1e-9)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_compiled_segmentation_matches_the_array_form(seed):
+    """Crowds in a room seen from both lidars, with structure flags and some beams lost."""
+    rng = np.random.default_rng(seed)
+    people = [Cylinder(rng.uniform(0.1, 0.4), tuple(rng.uniform(-4.0, 4.0, 2))) for _ in range(20)]
+    room = [(-5, -4, 5, -4), (5, -4, 5, 4), (5, 4, -5, 4), (-5, 4, -5, -4), (1.0, 0.5, 3.0, 0.7)]
+    compared = 0
+    for scan in scans_at((0.0, 0.0, rng.uniform(-3.0, 3.0)), 0.0, people, room, rng=rng):
+        scan.ranges[rng.random(len(scan.ranges)) < 0.05] = np.nan
+        flags = rng.random(len(scan.ranges)) < 0.3
+        want = segment_reference(scan, 0.17, 0.05, 0.01, 3, flags, 7)
+        got = segment(scan, 0.17, 0.05, 0.01, 3, flags, 7)
+        compared += len(want)
+        for name in Clusters._FIELDS:
+            np.testing.assert_allclose(getattr(got, name), getattr(want, name), rtol=1e-9, atol=1e-12, err_msg=name)
+    assert compared >= 8
