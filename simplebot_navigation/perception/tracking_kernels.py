@@ -190,20 +190,22 @@ def _distance(xy, i, j):
 @njit(cache=True, nogil=True, error_model="numpy")
 def continues_straight(xy, ends, directions, lows, highs, span, max_gap, tolerance):
     """For each cluster end xy[ends[k]] and the returns beyond it (directions[k]: +1 or -1): whether the returns
-    within `span` of it on both sides, the cluster's own (indices lows[k]..highs[k]) and those beyond (each less
-    than max_gap from the one before), lie within `tolerance` of the line through the outermost of them: a
-    surface going on straight through the break. Fewer than two returns on a side say nothing against it."""
+    within `span` of it on both sides (two at least on each), the cluster's own (indices lows[k]..highs[k]) and
+    those beyond (each less than max_gap from the one before), lie within `tolerance` of the line through the
+    outermost of them: a surface going on straight through the break. Fewer than two returns on a side cannot
+    show one."""
     out = np.ones(len(ends), dtype=np.bool_)
     for k in range(len(ends)):
         e, d = ends[k], directions[k]
         inner = e
-        while lows[k] <= inner - d <= highs[k] and _distance(xy, inner - d, e) <= span:
+        while lows[k] <= inner - d <= highs[k] and (inner == e or _distance(xy, inner - d, e) <= span):
             inner -= d
         outer = e + d
-        while 0 <= outer + d < len(xy) and _distance(xy, outer + d, e) <= span and \
+        while 0 <= outer + d < len(xy) and (outer == e + d or _distance(xy, outer + d, e) <= span) and \
                 _distance(xy, outer + d, outer) < max_gap:
             outer += d
         if inner == e or outer == e + d:
+            out[k] = False
             continue
         a, b = xy[inner], xy[outer]
         length = max(np.hypot(b[0] - a[0], b[1] - a[1]), 1e-9)
