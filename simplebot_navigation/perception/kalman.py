@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from simplebot_navigation.perception.tracking_kernels import imm_combine
+
 STOPPED, STEADY, MANOEUVRE = range(3)
 MODELS = 3
 #: mean time a track keeps its motion model, seconds: the Markov chain's switching rate
@@ -47,22 +49,27 @@ def transitions(dt: float) -> np.ndarray:
     return out
 
 
+def model_matrices(dt: float, steady_noise: float, manoeuvre_noise: float) -> tuple[np.ndarray, ...]:
+    """The switching matrix (MODELS, MODELS) and each model's transition and process noise (MODELS, 4, 4) over dt."""
+    f = np.stack([np.diag([1.0, 1.0, 0.0, 0.0]), _constant_velocity(dt), _constant_velocity(dt)])
+    q = np.stack([np.diag([STOPPED_DRIFT ** 2 * dt] * 2 + [STOPPED_SPEED_SIGMA ** 2] * 2),
+                  steady_noise ** 2 * _unit_noise(dt), manoeuvre_noise ** 2 * _unit_noise(dt)])
+    return transitions(dt), f, q
+
+
 def predict(states: np.ndarray, covs: np.ndarray, probs: np.ndarray, dt: float, steady_noise: float,
             manoeuvre_noise: float) -> None:
     """Mix and advance (T, M, 4) states, (T, M, 4, 4) covariances and (T, M) probabilities by dt, in place;
     steady_noise and manoeuvre_noise: the two moving models' acceleration sigmas (m/s^2)."""
     if dt <= 0.0 or not len(states):
         return
-    switch = transitions(dt)
+    switch, f, q = model_matrices(dt, steady_noise, manoeuvre_noise)
     predicted = probs @ switch                                                   # (T, M)
     weights = probs[:, :, None] * switch[None] / np.maximum(predicted[:, None, :], 1e-300)   # (T, i, j)
     mixed = np.einsum("tij,tik->tjk", weights, states)
     spread = states[:, :, None, :] - mixed[:, None, :, :]                       # (T, i, j, 4)
     mixed_cov = np.einsum("tij,tikl->tjkl", weights, covs) + \
         np.einsum("tij,tijk,tijl->tjkl", weights, spread, spread)
-    f = np.stack([np.diag([1.0, 1.0, 0.0, 0.0]), _constant_velocity(dt), _constant_velocity(dt)])
-    q = np.stack([np.diag([STOPPED_DRIFT ** 2 * dt] * 2 + [STOPPED_SPEED_SIGMA ** 2] * 2),
-                  steady_noise ** 2 * _unit_noise(dt), manoeuvre_noise ** 2 * _unit_noise(dt)])
     states[:] = np.einsum("mij,tmj->tmi", f, mixed)
     covs[:] = f @ mixed_cov @ np.swapaxes(f, 1, 2) + q
     probs[:] = predicted
@@ -125,3 +132,13 @@ def speed_and_sigma(state: np.ndarray, cov: np.ndarray) -> tuple[np.ndarray, np.
     direction = np.where(speed[:, None] > 1e-9, v / np.maximum(speed, 1e-9)[:, None], np.array([1.0, 0.0]))
     variance = np.einsum("ti,tij,tj->t", direction, cov[:, 2:4, 2:4], direction)
     return speed, np.sqrt(np.maximum(variance, 0.0))
+
+
+def moving_speed_and_sigma(states: np.ndarray, covs: np.ndarray, probs: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Each track's speed and its sigma (along the velocity) by the moving models alone, and the stopped model's
+    probability: whether it moves is judged by these, so that the spread between "stopped" and "moving" at the
+    start (which the combined covariance holds) does not hide a clear motion."""
+    moving = probs[:, STEADY:] / np.maximum(probs[:, STEADY:].sum(axis=1, keepdims=True), 1e-300)
+    speed, sigma = speed_and_sigma(*imm_combine(np.ascontiguousarray(states[:, STEADY:]),
+                                                np.ascontiguousarray(covs[:, STEADY:]), moving))
+    return speed, sigma, probs[:, STOPPED]

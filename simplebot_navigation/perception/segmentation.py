@@ -14,12 +14,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from simplebot_navigation.perception.tracking_kernels import continues_straight, segment_scan
+
 #: a cluster end within this of range_max is cut by the range limit
 #: beams without a return a cluster may span (more: a gap beyond the range limit lies between)
 MAX_MISSING_BEAMS = 1
 RANGE_LIMIT_MARGIN = 0.3
-#: a cluster end this close to the neighbouring return is a surface broken up, not an object's outline
+#: a cluster end this close to the neighbouring return, where the returns on both sides go on along one line,
+#: is a surface broken up, not an object's outline: straight within JOINED_TOLERANCE over JOINED_SPAN either side
+#: (a person's arc bulges 0.04 m and more over 0.3 m; two people touching meet at an angle)
 JOINED_GAP = 0.25
+JOINED_SPAN = 0.3
+JOINED_TOLERANCE = 0.03
 #: Gauss-Newton steps of the known-radius circle fit
 FIT_ITERATIONS = 5
 #: Levenberg damping of the fit's steps, in returns' worth of information in every direction
@@ -97,7 +103,24 @@ class Clusters:
 def segment(scan: Scan, breakpoint_angle: float, breakpoint_distance: float, range_noise: float,
             min_points: int, structure: np.ndarray | None = None, first_beam: int = 0) -> Clusters:
     """The clusters of one scan with at least min_points returns; structure: per beam, whether its return lies
-    on structure (none: no return does); first_beam: the number of the scan's first beam in Clusters.first/last."""
+    on structure (none: no return does); first_beam: the number of the scan's first beam in Clusters.first/last.
+    Compiled (tracking_kernels.segment_scan); segment_reference is the same in array form."""
+    valid = scan.valid()
+    if valid.sum() < max(min_points, 1):
+        return Clusters.empty()
+    on_structure = np.zeros(len(valid)) if structure is None else np.asarray(structure, dtype=float)
+    centre, radius, count, occluded, share, first, last, unfit = segment_scan(
+        np.asarray(scan.ranges, dtype=float), np.asarray(scan.angles, dtype=float), valid, on_structure,
+        np.asarray(scan.origin, dtype=float), float(breakpoint_angle), float(breakpoint_distance),
+        float(range_noise), int(min_points), float(scan.range_max), MAX_MISSING_BEAMS, RANGE_LIMIT_MARGIN,
+        JOINED_GAP, JOINED_SPAN, JOINED_TOLERANCE)
+    return Clusters(centre, radius, 2.0 * radius, count, occluded, share, first_beam + first, first_beam + last,
+                    unfit)
+
+
+def segment_reference(scan: Scan, breakpoint_angle: float, breakpoint_distance: float, range_noise: float,
+                      min_points: int, structure: np.ndarray | None = None, first_beam: int = 0) -> Clusters:
+    """segment() in array form, the reference its compiled kernel is tested against."""
     beams = np.flatnonzero(scan.valid())
     if len(beams) < max(min_points, 1):
         return Clusters.empty()
@@ -117,6 +140,8 @@ def segment(scan: Scan, breakpoint_angle: float, breakpoint_distance: float, ran
     centre, radius = _circles(scan.origin, r, a, starts, ends, counts, beam_step)
     keep = counts >= min_points
     occluded, far, joined = _occluded_ends(scan, beams, r, starts[keep], ends[keep])
+    cut_far = np.flatnonzero(far)
+    far[cut_far] = _straight(r[:, None] * np.column_stack([cos_a, sin_a]), starts[keep][cut_far], ends[keep][cut_far])
     on_structure = np.zeros(len(beams)) if structure is None else structure[beams].astype(float)
     share = np.add.reduceat(on_structure, starts) / counts
     return Clusters(centre[keep], radius[keep], 2.0 * radius[keep], counts[keep], occluded, share[keep],
@@ -142,11 +167,24 @@ def _circles(origin, r, a, starts, ends, counts, beam_step: float) -> tuple[np.n
     return centre, radius
 
 
+def _straight(xy: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """(K,) whether every return of cluster k (xy[starts[k]..ends[k]]) lies within JOINED_TOLERANCE of the line
+    through its first and last."""
+    chord = xy[ends] - xy[starts]
+    normal = np.column_stack([-chord[:, 1], chord[:, 0]]) / np.maximum(np.hypot(*chord.T), 1e-9)[:, None]
+    counts = ends - starts + 1
+    member = np.repeat(np.arange(len(starts)), counts)
+    index = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts) + np.repeat(starts, counts)
+    bulge = np.zeros(len(starts))
+    np.maximum.at(bulge, member, np.abs(np.einsum("ki,ki->k", xy[index] - xy[starts[member]], normal[member])))
+    return bulge <= JOINED_TOLERANCE
+
+
 def _occluded_ends(scan: Scan, beams: np.ndarray, r: np.ndarray, starts: np.ndarray,
                    ends: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(cut, far, joined) per cluster: its outline is cut at either end by a nearer neighbour, the scan's edge or
-    the range limit; cut by the range limit; joined to a neighbouring return less than JOINED_GAP away (a
-    surface broken up at a grazing angle: its pieces slide along it as the sensor moves)."""
+    the range limit; cut by the range limit; joined to a neighbouring return less than JOINED_GAP away by a
+    straight surface (one broken up at a grazing angle: its pieces slide along it as the sensor moves)."""
     last = len(scan.ranges) - 1
     cut = (beams[starts] == 0) | (beams[ends] == last)
     near_limit = scan.range_max - RANGE_LIMIT_MARGIN
@@ -154,13 +192,16 @@ def _occluded_ends(scan: Scan, beams: np.ndarray, r: np.ndarray, starts: np.ndar
     cut |= far
     joined = np.zeros(len(starts), dtype=bool)
     a = scan.angles[beams]
+    xy = r[:, None] * np.column_stack([np.cos(a), np.sin(a)])
     for end, neighbour in ((starts, starts - 1), (ends, ends + 1)):
         has = (neighbour >= 0) & (neighbour < len(beams))
         e, n = end[has], neighbour[has]
         adjacent = np.abs(beams[e] - beams[n]) <= 2
         cut[has] |= (r[n] < r[e]) & adjacent
-        gap = np.hypot(r[e] * np.cos(a[e]) - r[n] * np.cos(a[n]), r[e] * np.sin(a[e]) - r[n] * np.sin(a[n]))
-        joined[has] |= adjacent & (gap < JOINED_GAP)
+        close = adjacent & (np.hypot(*(xy[e] - xy[n]).T) < JOINED_GAP)
+        k = np.flatnonzero(has)[close]
+        joined[k] |= continues_straight(xy, e[close], n[close] - e[close], starts[k], ends[k], JOINED_SPAN,
+                                        JOINED_GAP, JOINED_TOLERANCE)
     return cut, far, joined
 
 

@@ -18,9 +18,10 @@ from typing import Callable
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from simplebot_navigation.perception import kalman
+from simplebot_navigation.perception import kalman, tracking_kernels
 from simplebot_navigation.perception.params import TrackerParams
-from simplebot_navigation.perception.segmentation import Clusters, Scan, fit_circles, segment
+from simplebot_navigation.perception.segmentation import (FIT_DAMPING, FIT_ITERATIONS, FIXED_INFORMATION, Clusters,
+                                                          Scan, segment)
 from simplebot_navigation.perception.structure import StructureMap
 from simplebot_navigation.perception.trail import ClearingTrail
 
@@ -44,6 +45,8 @@ FIT_RADIUS_SIGMA = 0.05
 #: a fitted centre is used when it lies within this normalised squared distance of the prediction (chi-square,
 #: two degrees of freedom: 99 %)
 FIT_GATE = 9.21
+#: a track turns moving only while its stopped model's probability is below this
+STOPPED_BELOW = 0.5
 
 
 @dataclass(frozen=True)
@@ -151,9 +154,10 @@ class ObstacleTracker:
         if dt <= 0.0 or not going.any():
             return
         models, covs, probs = self.models[going], self.model_covs[going], self.probs[going]
-        kalman.predict(models, covs, probs, dt, self.params.acceleration_noise, self.params.manoeuvre_noise)
+        tracking_kernels.imm_predict(models, covs, probs, *kalman.model_matrices(dt, self.params.acceleration_noise,
+                                                                                 self.params.manoeuvre_noise))
         self.models[going], self.model_covs[going], self.probs[going] = models, covs, probs
-        self.state[going], self.cov[going] = kalman.combine(models, covs, probs)
+        self.state[going], self.cov[going] = tracking_kernels.imm_combine(models, covs, probs)
 
     def _associate(self, clusters: Clusters) -> tuple[np.ndarray, np.ndarray]:
         """track_of[k]: the track index cluster k updates (-1: none); cluster_of[t] the reverse."""
@@ -218,9 +222,9 @@ class ObstacleTracker:
         noise = [np.broadcast_to(np.eye(2) * sigma2, (len(whole), 2, 2))]
         if len(cut):
             k, known = cluster_of[cut], self.radius_known[cut]
-            centre, cov, radius, radius_sigma, rms = fit_circles(
+            centre, cov, radius, radius_sigma, rms = tracking_kernels.fit_circles(
                 points, clusters.first[k], clusters.last[k], self.radius[cut], known, self.state[cut, :2],
-                max(self.params.range_noise, FIT_FLOOR))
+                max(self.params.range_noise, FIT_FLOOR), FIT_ITERATIONS, FIT_DAMPING, FIXED_INFORMATION)
             good = (rms <= FIT_RMS) & np.isfinite(centre).all(axis=1) & (radius_sigma <= FIT_RADIUS_SIGMA) & \
                 (radius >= MIN_RADIUS) & (radius <= 0.5 * self.params.max_obstacle_size) & \
                 (_normalised_squared(centre - self.state[cut, :2], self._position_covs(cut) + cov) <= FIT_GATE)
@@ -239,9 +243,9 @@ class ObstacleTracker:
         going = self.velocity_updates[tracks] > 0
         t = tracks[going]
         models, covs, probs = self.models[t], self.model_covs[t], self.probs[t]
-        kalman.update(models, covs, probs, measured[going], noise[going])
+        tracking_kernels.imm_update(models, covs, probs, measured[going], np.ascontiguousarray(noise[going]))
         self.models[t], self.model_covs[t], self.probs[t] = models, covs, probs
-        self.state[t], self.cov[t] = kalman.combine(models, covs, probs)
+        self.state[t], self.cov[t] = tracking_kernels.imm_combine(models, covs, probs)
         self.velocity_updates[t] += self.last_fix[t] < stamp
         dt = stamp - self.last_fix[tracks]
         second = tracks[~going & (dt > 0)]
@@ -305,10 +309,10 @@ class ObstacleTracker:
         moving_speed by moving_confidence sigmas, measured by two displacements at least, off structure, to
         turn moving; below static_speed to stop. A track on structure stops at once."""
         p = self.params
-        speed, sigma = kalman.speed_and_sigma(self.state, self.cov)
-        fast = self.confirmed & (self.velocity_updates >= 2) & ~self.on_structure & \
+        speed, sigma, stopped = kalman.moving_speed_and_sigma(self.models, self.model_covs, self.probs)
+        fast = self.confirmed & (self.velocity_updates >= 2) & ~self.on_structure & (stopped < STOPPED_BELOW) & \
             (speed - p.moving_confidence * sigma > p.moving_speed)
-        opposite = np.where(self.moving, speed < p.static_speed, fast)
+        opposite = np.where(self.moving, kalman.speed_and_sigma(self.state, self.cov)[0] < p.static_speed, fast)
         self.since = np.where(opposite, np.where(np.isnan(self.since), stamp, self.since), np.nan)
         flip = opposite & (stamp - self.since >= p.moving_hold)
         self.moving ^= flip

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from simplebot_navigation.perception import Scan, TrackerParams, segment
-from simplebot_navigation.testing.lidar_scenes import Cylinder, scans_at
+from simplebot_navigation.testing.lidar_scenes import Cylinder, ray_ranges, scans_at
 
 P = TrackerParams()
 
@@ -47,3 +47,38 @@ def test_hostile_ranges_give_no_clusters_and_no_error():
         assert len(clusters_of(scan)) == 0
     mixed = np.where(np.arange(n) % 2, np.nan, 2.0)       # every other beam lost: still one surface
     assert len(clusters_of(Scan(np.zeros(2), angles, mixed, 0.2, 5.6))) >= 1
+
+
+ANGLES = np.radians(np.arange(-120.0, 120.0, 0.352))
+
+
+def _scan(circles=(), segments=(), noise=0.01, seed=0):
+    ranges = ray_ranges(np.zeros(2), ANGLES, np.array(circles, dtype=float).reshape(-1, 3),
+                        np.array(segments, dtype=float).reshape(-1, 4))
+    ranges = ranges + np.random.default_rng(seed).normal(0.0, noise, len(ranges))
+    return Scan(np.zeros(2), ANGLES, ranges, 0.2, 5.6)
+
+
+def test_a_wall_seen_at_a_grazing_angle_breaks_into_pieces_that_are_no_outlines():
+    """A wall 0.3 m beside the sensor, along its heading, breaks up where the beams graze it; every piece short
+    enough to be tracked is joined to the next along the line, or cut by the range limit: unfit (structure)."""
+    pieces = []
+    for seed in range(6):
+        clusters = clusters_of(_scan(segments=[(0.0, 0.3, 8.0, 0.3)], seed=seed))
+        pieces += list(clusters.unfit[clusters.width <= P.max_obstacle_size])
+    assert len(pieces) >= 2 and all(pieces)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_people_one_behind_the_other_are_two_outlines_not_a_surface(seed):
+    """Their outlines meet at an angle, the farther one's end within 0.25 m of the nearer one's."""
+    clusters = clusters_of(_scan(circles=[(2.0, 0.2, 0.25), (2.3, -0.25, 0.25)], seed=seed))
+    assert len(clusters) == 2 and clusters.occluded.any()
+    assert not clusters.unfit.any()
+
+
+def test_an_arc_cut_by_the_range_limit_is_an_outline_and_a_straight_piece_is_not():
+    arc = clusters_of(_scan(circles=[(5.6, 0.0, 0.35)]))
+    assert len(arc) == 1 and arc.occluded[0] and not arc.unfit[0]
+    wall = clusters_of(_scan(segments=[(5.2, -0.3, 6.2, 0.3)]))
+    assert len(wall) == 1 and wall.unfit[0]

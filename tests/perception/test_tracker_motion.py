@@ -4,6 +4,7 @@ stopping people, cut outlines, occlusion, static things seen from a fast robot, 
 from dataclasses import dataclass
 
 import numpy as np
+import pytest
 
 from simplebot_navigation.perception import ObstacleTracker, StaticCells
 from simplebot_navigation.testing.lidar_scenes import Cylinder, scans_at, truth_at
@@ -62,6 +63,16 @@ def test_walking_people_turn_moving_within_0_3_s_of_first_sight():
     assert len(tracker.moving_obstacles()) == len(people)
     rows = tracker.moving_obstacles()
     assert len(tracker.moving_covariances()) == len(rows)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_people_faster_than_1_m_s_turn_moving_at_their_third_sighting(seed):
+    """0.2 s after first sight: the two displacements' velocity is judged by the moving models alone, not widened
+    by the stopped model's start-up share."""
+    people = [Cylinder(0.3, (3.0, 1.5), (-1.0, -0.5)), Cylinder(0.25, (-2.5, 0.5), (1.4, 0.0), turn_rate=0.4)]
+    tracker = ObstacleTracker()
+    run(tracker, people, 3, seed=seed)                                   # t = 0, 0.1, 0.2 s
+    assert len(tracker.moving_obstacles()) == len(people)
 
 
 def test_a_turning_and_a_stopping_person_are_followed():

@@ -20,7 +20,7 @@ from simplebot_navigation.costmap.obstacle_layer import scan_problem
 from simplebot_navigation.geometry import compose2, inverse2, quaternion_to_rotation_matrix, transform_points
 from simplebot_navigation.move_base.parameter_tree import OBSTACLE_TRACKING
 from simplebot_navigation.parameters import fields_of
-from simplebot_navigation.perception import ObstacleTracker, Scan, TrackerParams
+from simplebot_navigation.perception import ObstacleTracker, Scan, TrackerParams, tracking_kernels
 from simplebot_navigation.perception.feed import MovingObstacles
 from simplebot_navigation.perception.structure import StaticCells
 from simplebot_navigation.ros.conversions import checked_occupancy_map, transform_to_xyyaw
@@ -54,6 +54,7 @@ class ObstacleTracking:
         declare_defaults(node, {name: getattr(self.params, name) for name in fields_of(TrackerParams)},
                          prefix=OBSTACLE_TRACKING, specs=fields_of(TrackerParams))
         self.tracker = ObstacleTracker(self.params)
+        tracking_kernels.warm_up()     # loaded now, not at the first scan
         self.throttle = Throttle()
         self.tracks_pub = create_publisher(node, ObstacleArrayMsg, TRACKS_TOPIC, 10)
         self.markers_pub = create_publisher(node, MarkerArray, f"{TRACKS_TOPIC}/markers", 1)
