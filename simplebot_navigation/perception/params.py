@@ -48,6 +48,9 @@ class TrackerParams:
     moving_hold: float = param(0.0, "s", "how long a speed must hold to change the moving flag", ge=0.0, le=10.0)
     clearing_time: float = param(1.5, "s", "the costmaps clear where a moving track was during this long",
                                  ge=0.0, le=10.0)
+    clearing_displacement: float = param(0.25, "m", "a moving track's marks are cleared once it is this far from "
+                                         "where it was first seen (a static thing taken for moving for a moment, a "
+                                         "tree seen past another, keeps its marks)", ge=0.0, le=5.0)
     clearing_margin: float = param(0.1, "m", "added to a track's radius where its marks are cleared (the "
                                    "costmap adds one cell more)", ge=0.0, le=1.0)
     external_timeout: float = param(0.5, "s", "obstacles another node publishes on the local planner's "

@@ -6,8 +6,8 @@ clusters, assign clusters to tracks (Hungarian on centre distance, gated by each
 tracks, start a track at first sight from each unassigned cluster, delete tracks that visible scans keep missing,
 and judge which tracks move. Clusters wider than max_obstacle_size are walls and never tracked. A track's second
 sighting sets its velocity from the displacement; from then on a filter mixing a stopped, a steady and a
-manoeuvring model follows it. A whole cluster measures the centre; a cut one (occluded) measures it only by a
-circle of the track's radius fitted to the visible arc, once that radius is known from a whole outline.
+manoeuvring model follows it. A whole cluster measures the centre; a cut one (occluded) by a circle fitted to
+the visible arc.
 """
 
 from __future__ import annotations
@@ -34,19 +34,17 @@ MIN_RADIUS = 0.05
 #: a cluster with this share of its returns on structure is structure
 STRUCTURE_SHARE = 0.5
 #: the association gate widens by this many sigmas of a track's position, up to MAX_GATE
-GATE_SIGMAS = 2.0
-MAX_GATE = 1.5
+GATE_SIGMAS, MAX_GATE = 2.0, 1.5
 #: a cut cluster whose returns lie farther than this (RMS) from the circle fitted to them is no arc of the track
 FIT_RMS = 0.02
 #: a fitted centre counts no closer than this (1 sigma, metres) in any direction
 FIT_FLOOR = 0.01
 #: a radius fitted to a cut outline counts when its sigma is at most this (metres)
 FIT_RADIUS_SIGMA = 0.05
-#: a fitted centre is used when it lies within this normalised squared distance of the prediction (chi-square,
-#: two degrees of freedom: 99 %)
+#: a fitted centre is used within this normalised squared distance of the prediction (chi-square, 2 dof: 99 %)
 FIT_GATE = 9.21
-#: a track turns moving only while its stopped model's probability is below this
-STOPPED_BELOW = 0.5
+#: a track turns moving only while its stopped model's probability is below this (a slow walker's: the second)
+STOPPED_BELOW, TRAVELLED_STOPPED_BELOW = 0.5, 0.1
 
 
 @dataclass(frozen=True)
@@ -63,7 +61,7 @@ class Track:
     stamp: float
 
 
-_FIELDS = ("ids", "models", "model_covs", "probs", "state", "cov", "radius", "radius_known", "born", "last_seen",
+_FIELDS = ("ids", "models", "model_covs", "probs", "state", "cov", "radius", "radius_known", "born", "origin", "last_seen",
            "last_fix", "hits", "missed", "confirmed", "moving", "since", "velocity_updates", "on_structure")
 
 
@@ -102,6 +100,7 @@ class ObstacleTracker:
         self.radius = np.empty(0)
         self.radius_known = np.empty(0, dtype=bool)             # seen whole at least once
         self.born = np.empty(0)
+        self.origin = np.empty((0, 2))                          # where it was first seen
         self.last_seen = np.empty(0)
         self.last_fix = np.empty(0)                             # stamp of its last position measurement
         self.hits = np.empty(0, dtype=np.int64)
@@ -145,7 +144,7 @@ class ObstacleTracker:
         self._judge_motion(stamp)
         live = self.confirmed
         self.trail.add(stamp, self.ids[live], np.column_stack([self.state[live, :2], self.radius[live]]),
-                       self.ids[live & self.moving])
+                       self.ids[live & self._clearing()])
         return True
 
     def _predict(self, dt: float) -> None:
@@ -298,6 +297,7 @@ class ObstacleTracker:
                      model_covs=np.repeat(cov[:, None], kalman.MODELS, 1),
                      probs=np.tile(kalman.INITIAL_PROBABILITY, (n, 1)), state=state, cov=cov,
                      radius=np.maximum(new.radius, MIN_RADIUS), radius_known=~new.occluded, born=np.full(n, stamp),
+                     origin=new.centre.copy(),
                      last_seen=np.full(n, stamp), last_fix=np.full(n, stamp), hits=np.ones(n, dtype=np.int64),
                      missed=np.zeros(n, dtype=np.int64), confirmed=np.full(n, p.confirm_hits <= 1),
                      moving=np.zeros(n, dtype=bool), since=np.full(n, np.nan),
@@ -305,13 +305,15 @@ class ObstacleTracker:
         self._next_id += n
 
     def _judge_motion(self, stamp: float) -> None:
-        """The moving flag flips once the opposite condition has held for moving_hold: a speed above
-        moving_speed by moving_confidence sigmas, measured by two displacements at least, off structure, to
-        turn moving; below static_speed to stop. A track on structure stops at once."""
-        p = self.params
-        speed, sigma, stopped = kalman.moving_speed_and_sigma(self.models, self.model_covs, self.probs)
-        fast = self.confirmed & (self.velocity_updates >= 2) & ~self.on_structure & (stopped < STOPPED_BELOW) & \
-            (speed - p.moving_confidence * sigma > p.moving_speed)
+        """The moving flag flips once the opposite condition has held for moving_hold: off structure, with two
+        displacements at least, a speed above moving_speed by moving_confidence sigmas, or (a slow walker, whose
+        speed never clears the filter's steady-state sigma of about 0.23 m/s) one above moving_speed with the
+        stopped model ruled out and clearing_displacement gone from the first place, to turn moving; below
+        static_speed to stop. A track on structure stops at once."""
+        p, (speed, sigma, stopped) = self.params, kalman.moving_speed_and_sigma(self.models, self.model_covs, self.probs)
+        travelled = (stopped < TRAVELLED_STOPPED_BELOW) & (speed > p.moving_speed) & self._displaced()
+        fast = self.confirmed & (self.velocity_updates >= 2) & ~self.on_structure & (
+            ((stopped < STOPPED_BELOW) & (speed - p.moving_confidence * sigma > p.moving_speed)) | travelled)
         opposite = np.where(self.moving, kalman.speed_and_sigma(self.state, self.cov)[0] < p.static_speed, fast)
         self.since = np.where(opposite, np.where(np.isnan(self.since), stamp, self.since), np.nan)
         flip = opposite & (stamp - self.since >= p.moving_hold)
@@ -330,22 +332,20 @@ class ObstacleTracker:
     # -- results -----------------------------------------------------------------------------
     def tracks(self, include_tentative: bool = False) -> list[Track]:
         """Every confirmed track (and the tentative ones too, if asked) as of the last update."""
-        out = []
-        for i in np.flatnonzero(self.confirmed | include_tentative):
-            out.append(Track(int(self.ids[i]), self.state[i, :2].copy(), self.state[i, 2:].copy(), self.cov[i].copy(),
-                             float(self.radius[i]), float(self.stamp - self.born[i]), bool(self.confirmed[i]),
-                             bool(self.moving[i]), float(self.stamp)))
-        return out
+        return [Track(int(self.ids[i]), self.state[i, :2].copy(), self.state[i, 2:].copy(), self.cov[i].copy(),
+                      float(self.radius[i]), float(self.stamp - self.born[i]), bool(self.confirmed[i]),
+                      bool(self.moving[i]), float(self.stamp)) for i in np.flatnonzero(self.confirmed | include_tentative)]
 
     def moving_obstacles(self, now: float | None = None) -> np.ndarray:
         """Rows [x, y, vx, vy, radius] of the moving tracks, positions extrapolated to `now` (default: the last
         update's stamp)."""
-        moving = self.confirmed & self.moving
-        if not moving.any():
-            return np.empty((0, 5))
+        return self._rows_at(self.confirmed & self.moving, now)
+
+    def _rows_at(self, rows: np.ndarray, now: float | None) -> np.ndarray:
+        """[x, y, vx, vy, radius] of the `rows` tracks, positions extrapolated to `now`."""
         dt = 0.0 if now is None or self.stamp is None else float(now) - self.stamp
-        state = self.state[moving]
-        return np.column_stack([state[:, :2] + dt * state[:, 2:], state[:, 2:], self.radius[moving]])
+        state = self.state[rows]
+        return np.column_stack([state[:, :2] + dt * state[:, 2:], state[:, 2:], self.radius[rows]])
 
     def moving_covariances(self, now: float | None = None) -> np.ndarray:
         """(K, 4, 4) covariances over x, y, vx, vy of the rows of moving_obstacles(now), in the same order,
@@ -358,10 +358,18 @@ class ObstacleTracker:
         """The ids of the rows of moving_obstacles, in the same order."""
         return self.ids[self.confirmed & self.moving]
 
+    def _clearing(self) -> np.ndarray:
+        """The moving tracks whose marks are cleared: those that have left the place they were first seen by
+        clearing_displacement (a static thing briefly taken for moving keeps its marks)."""
+        return self.confirmed & self.moving & self._displaced()
+
+    def _displaced(self) -> np.ndarray:
+        return np.hypot(*(self.state[:, :2] - self.origin).T) >= self.params.clearing_displacement
+
     def clearing_circles(self, now: float) -> np.ndarray:
-        """(K, 3) circles x, y, r where moving tracks were within clearing_time of `now`, plus where they are
+        """(K, 3) circles x, y, r where clearing tracks were within clearing_time of `now`, plus where they are
         now, each radius widened by clearing_margin: the marks the costmaps should clear."""
-        now_rows = self.moving_obstacles(now)[:, [0, 1, 4]]
+        now_rows = self._rows_at(self._clearing(), now)[:, [0, 1, 4]]
         now_rows[:, 2] += self.params.clearing_margin
         return np.concatenate([self.trail.circles(now, self.params.clearing_margin), now_rows])
 

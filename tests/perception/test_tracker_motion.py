@@ -6,7 +6,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from simplebot_navigation.perception import ObstacleTracker, StaticCells
+from simplebot_navigation.perception import ObstacleTracker, StaticCells, TrackerParams
 from simplebot_navigation.testing.lidar_scenes import Cylinder, scans_at, truth_at
 
 PERIOD = 0.1
@@ -166,3 +166,33 @@ def test_moving_covariances_follow_the_rows_and_grow_with_time():
     assert now.shape == (len(rows), 4, 4) == later.shape
     assert (later[:, 0, 0] > now[:, 0, 0]).all() and np.allclose(later, np.swapaxes(later, 1, 2))
     assert (np.linalg.eigvalsh(now) > 0).all()
+
+
+@pytest.mark.parametrize("displacement", [1.0, 0.0])
+def test_a_moving_tracks_marks_are_cleared_once_it_has_left_where_it_was_first_seen(displacement):
+    """The costmaps clear after a moving track only once it is clearing_displacement from where it was first seen
+    (0: as soon as it moves): a static thing taken for moving for a moment keeps its marks."""
+    person = Cylinder(0.25, (2.0, -1.5), (0.0, 1.0))
+    tracker = ObstacleTracker(TrackerParams(clearing_displacement=displacement))
+    seen = []
+    run(tracker, [person], 15,
+        after=lambda t: seen.append((t, len(tracker.moving_obstacles(t)) > 0, len(tracker.clearing_circles(t)) > 0)))
+    moving_at = next(t for t, moving, _ in seen if moving)
+    clearing_at = next(t for t, _, clearing in seen if clearing)
+    assert moving_at < 0.35
+    if displacement == 0.0:
+        assert clearing_at == moving_at
+    else:
+        assert displacement - 0.1 <= clearing_at <= displacement + 0.15       # 1 m/s
+
+
+@pytest.mark.parametrize("speed", [0.5, 0.6])
+def test_a_slow_walker_turns_moving_once_it_has_left_its_first_place(speed):
+    """At 0.5-0.6 m/s the speed never clears the filter's steady-state sigma by moving_confidence sigmas; the
+    stopped model ruled out and 0.25 m gone from the first place, it is moving."""
+    person = Cylinder(0.25, (2.0, -1.0), (0.0, speed))
+    tracker = ObstacleTracker()
+    seen = []
+    run(tracker, [person], 15, after=lambda t: seen.append((t, len(tracker.moving_obstacles(t)))))
+    moving_at = next(t for t, count in seen if count)
+    assert moving_at < 0.25 / speed + 0.25
