@@ -43,8 +43,8 @@ FIT_FLOOR = 0.01
 FIT_RADIUS_SIGMA = 0.05
 #: a fitted centre is used within this normalised squared distance of the prediction (chi-square, 2 dof: 99 %)
 FIT_GATE = 9.21
-#: a track turns moving only while its stopped model's probability is below this (a slow walker's: the second)
-STOPPED_BELOW, TRAVELLED_STOPPED_BELOW = 0.5, 0.1
+#: a track turns moving only while its stopped model's probability is below this
+STOPPED_BELOW = 0.5
 
 
 @dataclass(frozen=True)
@@ -305,15 +305,12 @@ class ObstacleTracker:
         self._next_id += n
 
     def _judge_motion(self, stamp: float) -> None:
-        """The moving flag flips once the opposite condition has held for moving_hold: off structure, with two
-        displacements at least, a speed above moving_speed by moving_confidence sigmas, or (a slow walker, whose
-        speed never clears the filter's steady-state sigma of about 0.23 m/s) one above moving_speed with the
-        stopped model ruled out and clearing_displacement gone from the first place, to turn moving; below
-        static_speed to stop. A track on structure stops at once."""
+        """The moving flag flips once the opposite condition has held for moving_hold: a speed above
+        moving_speed by moving_confidence sigmas, measured by two displacements at least, off structure, to
+        turn moving; below static_speed to stop. A track on structure stops at once."""
         p, (speed, sigma, stopped) = self.params, kalman.moving_speed_and_sigma(self.models, self.model_covs, self.probs)
-        travelled = (stopped < TRAVELLED_STOPPED_BELOW) & (speed > p.moving_speed) & self._displaced()
-        fast = self.confirmed & (self.velocity_updates >= 2) & ~self.on_structure & (
-            ((stopped < STOPPED_BELOW) & (speed - p.moving_confidence * sigma > p.moving_speed)) | travelled)
+        fast = self.confirmed & (self.velocity_updates >= 2) & ~self.on_structure & (stopped < STOPPED_BELOW) & \
+            (speed - p.moving_confidence * sigma > p.moving_speed)
         opposite = np.where(self.moving, kalman.speed_and_sigma(self.state, self.cov)[0] < p.static_speed, fast)
         self.since = np.where(opposite, np.where(np.isnan(self.since), stamp, self.since), np.nan)
         flip = opposite & (stamp - self.since >= p.moving_hold)
@@ -361,10 +358,8 @@ class ObstacleTracker:
     def _clearing(self) -> np.ndarray:
         """The moving tracks whose marks are cleared: those that have left the place they were first seen by
         clearing_displacement (a static thing briefly taken for moving keeps its marks)."""
-        return self.confirmed & self.moving & self._displaced()
-
-    def _displaced(self) -> np.ndarray:
-        return np.hypot(*(self.state[:, :2] - self.origin).T) >= self.params.clearing_displacement
+        moved = np.hypot(*(self.state[:, :2] - self.origin).T) >= self.params.clearing_displacement
+        return self.confirmed & self.moving & moved
 
     def clearing_circles(self, now: float) -> np.ndarray:
         """(K, 3) circles x, y, r where clearing tracks were within clearing_time of `now`, plus where they are
