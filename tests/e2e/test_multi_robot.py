@@ -31,7 +31,8 @@ WALL_S = 700.0
 DRIVE_WALL_S = 480.0
 STANDING_LIMIT_S = 10.0
 #: names every node may share: the clock, TF, diagnostics and ROS's own
-SHARED = {"/clock", "/tf", "/tf_static", "/diagnostics", "/rosout", "/parameter_events"}
+#: topics every robot shares: /map is the one map of the building (the obstacle tracker's static_map_topic)
+SHARED = {"/clock", "/tf", "/tf_static", "/diagnostics", "/rosout", "/parameter_events", "/map"}
 
 LIST_TOPICS = """
 import json, sys, time, rclpy
