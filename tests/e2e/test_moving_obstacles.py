@@ -102,7 +102,7 @@ def assert_crossed(world, result, stale, when):
     assert stale == 0, f"{stale} lethal cells at t = {when:.1f} s that no wall or recent obstacle explains"
 
 
-@pytest.mark.parametrize("world", ["crowd:0", "crowd:13", "crowd:17"], ids=["easy", "medium", "hard"])
+@pytest.mark.parametrize("world", ["crowd:0", "crowd:13", "crowd:11"], ids=["easy", "medium", "hard"])
 def test_the_round_robot_crosses_a_crowd(world):
     assert_crossed(world, *drive(world, CROWD))
 
