@@ -169,3 +169,26 @@ def test_a_map_marking_the_persons_path_static_keeps_it_from_moving(lab):
     assert received, f"no message on {TRACKS}"
     assert not any(msg.obstacles for msg in received), "a track moved on the map's static cells"
     assert len(move_base.obstacle_feed.moving_obstacles(move_base.controller._now(), "odom")) == 0
+
+
+def test_a_hostile_map_is_refused_with_a_reason_and_tracking_goes_on(lab):
+    """A map another node publishes may be wrong: too few cells for its size, a resolution that is no number, or
+    more cells than the bound. Each is refused with a warning naming why; the walking person is still tracked."""
+    move_base, robot, listener, received, executor = lab
+    warned: list[str] = []
+    tracking = move_base.obstacle_tracking
+    original = tracking._warn
+    tracking._warn = lambda key, text: (warned.append(text), original(key, text))
+    publisher = listener.create_publisher(OccupancyGrid, "/map", LATCHED)
+    for width, height, resolution, cells in ((10, 10, 0.1, 5), (10, 10, math.nan, 100), (2001, 2000, 0.05, 0)):
+        grid = OccupancyGrid()
+        grid.header.frame_id = "odom"
+        grid.info.width, grid.info.height, grid.info.resolution = width, height, resolution
+        grid.data = [100] * cells
+        publisher.publish(grid)
+        spin_until(executor, lambda: False, 0.3)
+    said = "\n".join(warned)
+    for reason in ("5 cells for 10 x 10", "cells of nan m", "more than obstacle tracking's bound of 4000000"):
+        assert reason in said, said
+    spin_until(executor, lambda: robot.elapsed() > 4.0, 30.0)
+    assert any(msg.obstacles for msg in received), "no moving track after the hostile maps"
