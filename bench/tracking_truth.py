@@ -1,7 +1,7 @@
 """The obstacle tracker against the simulator's ground truth (docs/reference.md §6).
 
     python bench/tracking_truth.py [--worlds crowd:hard people:0-4 ...] [--speed 1.0] [--through-contacts]
-                                   [--lab] [--forest N] [--seconds S]
+                                   [--lab] [--forest N] [--forest-speed V] [--seconds S]
 
 Runs the in-process simulator (no ROS): both lidars of the robot go into ObstacleTracker one scan per update, as
 move_base feeds it, 10 times a second, the scans taken from the lidars' true poses so that tracks and ground truth
@@ -21,9 +21,9 @@ measures another tree's tracker.
    moving tracks; tracker time per scan pair p50/p95 (ms, the first 10 pairs of a run left out).
 2. False moving tracks on static structure: --lab drives the box (lab) robot at 0.4 m/s through the lab tour's
    goals in order (the lab's six rooms, routes planned by global_planner on the lab's map, followed by pure
-   pursuit: walls, doors and turns in doorways); --forest N drives the round robot at 2 m/s through forest worlds
-   0..N-1 from start to exit. Every moving track there is false: the count of tracks reported moving, of those
-   moving longer than 0.5 s, and their total moving time.
+   pursuit: walls, doors and turns in doorways); --forest N drives the round robot at --forest-speed (default
+   2 m/s) through forest worlds 0..N-1 from start to exit. Every moving track there is false: the count of tracks
+   reported moving, of those moving longer than 0.5 s, and their total moving time.
 
 --seconds caps every run's simulated time (a quick look). The tables end with the worlds, the load average
 (os.getloadavg) before and after, and which tracker module ran.
@@ -139,11 +139,14 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--speed", type=float, default=1.0, help="the crowd runs' speed, m/s (0 < speed <= 2)")
     parser.add_argument("--through-contacts", action="store_true", help="keep measuring after the first contact")
     parser.add_argument("--lab", action="store_true", help="the lab tour, for false moving tracks")
-    parser.add_argument("--forest", type=int, default=0, metavar="N", help="forest worlds 0..N-1 at 2 m/s")
+    parser.add_argument("--forest", type=int, default=0, metavar="N", help="forest worlds 0..N-1")
+    parser.add_argument("--forest-speed", type=float, default=FOREST_SPEED,
+                        help=f"the forest runs' speed, m/s (0 < speed <= {FOREST_SPEED:g}; default {FOREST_SPEED:g})")
     parser.add_argument("--seconds", type=float, default=None, help="cap each run's simulated seconds")
     args = parser.parse_args(argv)
-    if not 0 < args.speed <= FOREST_SPEED:
-        parser.error(f"--speed must be within (0, {FOREST_SPEED:g}] m/s, got {args.speed:g}")
+    for name, speed in (("--speed", args.speed), ("--forest-speed", args.forest_speed)):
+        if not 0 < speed <= FOREST_SPEED:
+            parser.error(f"{name} must be within (0, {FOREST_SPEED:g}] m/s, got {speed:g}")
     if args.forest < 0 or (args.seconds is not None and not args.seconds > 0):
         parser.error("--forest must be >= 0 and --seconds > 0")
     try:
@@ -161,7 +164,7 @@ def main(argv: list[str] | None = None) -> dict:
     if args.names:
         results["crowd"] = crowd_table(args.names, args.speed, args.seconds, args.through_contacts)
     jobs = ([("lab", LAB_BODY, LAB_SPEED, LAB_COST_SCALING)] if args.lab else []) + \
-        [(f"forest:{i}", ROUND_BODY, FOREST_SPEED, FOREST_COST_SCALING) for i in range(args.forest)]
+        [(f"forest:{i}", ROUND_BODY, args.forest_speed, FOREST_COST_SCALING) for i in range(args.forest)]
     if jobs:
         results["static"] = static_table(jobs, args.seconds)
     load_after = os.getloadavg()

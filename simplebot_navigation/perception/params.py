@@ -25,6 +25,10 @@ class TrackerParams:
                                   "moving robot sees break up); 0: off", ge=0.0, le=10.0)
     association_gate: float = param(0.6, "m", "farthest a cluster centre may lie from a track's predicted "
                                     "centre to update it", gt=0.0, le=5.0)
+    max_obstacle_speed: float = param(3.0, "m/s", "fastest obstacle tracked: a track seen once that would have "
+                                      "to move faster to reach a cluster starts again there (a tree seen past "
+                                      "another, two neighbours seen as one), as does a moving one whose cluster "
+                                      "lies far outside its prediction", gt=0.0, le=20.0)
     acceleration_noise: float = param(0.5, "m/s^2", "process noise of the steady motion model (constant velocity, "
                                       "1 sigma): walking on", gt=0.0, le=50.0)
     manoeuvre_noise: float = param(4.0, "m/s^2", "process noise of the manoeuvre model (constant velocity, 1 "

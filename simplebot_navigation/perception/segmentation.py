@@ -26,6 +26,10 @@ RANGE_LIMIT_MARGIN = 0.3
 JOINED_GAP = 0.25
 JOINED_SPAN = 0.3
 JOINED_TOLERANCE = 0.03
+#: a round outline seen whole lies within one radius from its nearest return to its farthest; a whole cluster
+#: deeper than ROUND_DEPTH radii (and 3 sigma of range noise) is a surface seen at a grazing angle, whose pieces
+#: slide along it as the sensor moves (a cut arc's radius, from its angular width, is too small for this test)
+ROUND_DEPTH = 1.5
 #: Gauss-Newton steps of the known-radius circle fit
 FIT_ITERATIONS = 5
 #: Levenberg damping of the fit's steps, in returns' worth of information in every direction
@@ -57,6 +61,26 @@ class Scan:
         r = np.where(self.valid(), self.ranges, np.nan)
         return self.origin + r[:, None] * np.stack([np.cos(self.angles), np.sin(self.angles)], axis=1)
 
+    def shows_gone(self, centres: np.ndarray, radius: np.ndarray) -> np.ndarray:
+        """Whether this scan shows each object (centres (M, 2), radius (M,)) gone: within its field of view and range, the beam towards its centre
+        passes the centre (not stopped by something nearer, by the object itself or by something touching it, nor
+        lost)."""
+        step = self.angles[1] - self.angles[0] if len(self.angles) > 1 else 0.0
+        if not step or not len(centres):
+            return np.zeros(len(centres), dtype=bool)
+        offset = centres - self.origin
+        distance = np.hypot(offset[:, 0], offset[:, 1])
+        bearing = np.arctan2(offset[:, 1], offset[:, 0])
+        span = ((bearing - self.angles[0]) * np.sign(step)) % (2 * np.pi)
+        index = np.round(span / abs(step)).astype(np.int64)
+        inside = (index >= 0) & (index < len(self.angles)) & (distance + radius < self.range_max) & \
+            (distance - radius > self.range_min)
+        with np.errstate(invalid="ignore"):
+            beyond = self.ranges >= self.range_max                  # +inf too: nothing there
+        reach = np.where(self.valid(), self.ranges, np.where(beyond, np.inf, -np.inf))   # NaN: no information
+        beam = np.clip(index, 0, len(self.angles) - 1)
+        return inside & (reach[beam] >= distance)
+
     def valid(self) -> np.ndarray:
         with np.errstate(invalid="ignore"):
             return np.isfinite(self.ranges) & (self.ranges >= max(self.range_min, 0.0)) & \
@@ -68,8 +92,10 @@ class Clusters:
     """K clusters: centre (K, 2), radius (K,), width (K,), count (K,), occluded (K,), structure (K,): the
     share of each cluster's returns that lie on structure (StructureMap), and first, last (K,): the beams of its
     outer returns (numbered on from `first_beam` of segment(), so that clusters of several scans index their
-    concatenated points), unfit (K,): no object's whole outline: cut by the range limit (what lies beyond is unknown)
-    or joined to a neighbouring return (a surface broken up)."""
+    concatenated points), unfit (K,): no object's whole outline: cut by the range limit and straight (what lies
+    beyond is unknown), joined to a neighbouring return (a surface broken up) or, seen whole, deeper than round (a
+    surface at a grazing angle); range_cut (K,): occluded by the range limit alone (its cut moves along the line of
+    sight, not across it as one by something nearer or by the field's edge does)."""
     centre: np.ndarray
     radius: np.ndarray
     width: np.ndarray
@@ -79,13 +105,15 @@ class Clusters:
     first: np.ndarray
     last: np.ndarray
     unfit: np.ndarray
+    range_cut: np.ndarray
 
-    _FIELDS = ("centre", "radius", "width", "count", "occluded", "structure", "first", "last", "unfit")
+    _FIELDS = ("centre", "radius", "width", "count", "occluded", "structure", "first", "last", "unfit", "range_cut")
 
     @classmethod
     def empty(cls) -> Clusters:
         return cls(np.empty((0, 2)), np.empty(0), np.empty(0), np.empty(0, dtype=int), np.empty(0, dtype=bool),
-                   np.empty(0), np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64), np.empty(0, dtype=bool))
+                   np.empty(0), np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64), np.empty(0, dtype=bool),
+                   np.empty(0, dtype=bool))
 
     @classmethod
     def concatenate(cls, parts: list[Clusters]) -> Clusters:
@@ -109,13 +137,13 @@ def segment(scan: Scan, breakpoint_angle: float, breakpoint_distance: float, ran
     if valid.sum() < max(min_points, 1):
         return Clusters.empty()
     on_structure = np.zeros(len(valid)) if structure is None else np.asarray(structure, dtype=float)
-    centre, radius, count, occluded, share, first, last, unfit = segment_scan(
+    centre, radius, count, occluded, share, first, last, unfit, range_cut = segment_scan(
         np.asarray(scan.ranges, dtype=float), np.asarray(scan.angles, dtype=float), valid, on_structure,
         np.asarray(scan.origin, dtype=float), float(breakpoint_angle), float(breakpoint_distance),
         float(range_noise), int(min_points), float(scan.range_max), MAX_MISSING_BEAMS, RANGE_LIMIT_MARGIN,
-        JOINED_GAP, JOINED_SPAN, JOINED_TOLERANCE)
+        JOINED_GAP, JOINED_SPAN, JOINED_TOLERANCE, ROUND_DEPTH)
     return Clusters(centre, radius, 2.0 * radius, count, occluded, share, first_beam + first, first_beam + last,
-                    unfit)
+                    unfit, range_cut)
 
 
 def segment_reference(scan: Scan, breakpoint_angle: float, breakpoint_distance: float, range_noise: float,
@@ -140,12 +168,15 @@ def segment_reference(scan: Scan, breakpoint_angle: float, breakpoint_distance: 
     centre, radius = _circles(scan.origin, r, a, starts, ends, counts, beam_step)
     keep = counts >= min_points
     occluded, far, joined = _occluded_ends(scan, beams, r, starts[keep], ends[keep])
+    range_cut = far & ~_cut_across(scan, beams, r, starts[keep], ends[keep])
     cut_far = np.flatnonzero(far)
     far[cut_far] = _straight(r[:, None] * np.column_stack([cos_a, sin_a]), starts[keep][cut_far], ends[keep][cut_far])
     on_structure = np.zeros(len(beams)) if structure is None else structure[beams].astype(float)
     share = np.add.reduceat(on_structure, starts) / counts
+    deep = np.maximum.reduceat(r, starts) - np.minimum.reduceat(r, starts) > ROUND_DEPTH * radius + 3.0 * range_noise
     return Clusters(centre[keep], radius[keep], 2.0 * radius[keep], counts[keep], occluded, share[keep],
-                    first_beam + beams[starts[keep]], first_beam + beams[ends[keep]], far | joined)
+                    first_beam + beams[starts[keep]], first_beam + beams[ends[keep]], far | joined | (deep[keep] & ~occluded),
+                    range_cut)
 
 
 def _circles(origin, r, a, starts, ends, counts, beam_step: float) -> tuple[np.ndarray, np.ndarray]:
@@ -185,11 +216,9 @@ def _occluded_ends(scan: Scan, beams: np.ndarray, r: np.ndarray, starts: np.ndar
     """(cut, far, joined) per cluster: its outline is cut at either end by a nearer neighbour, the scan's edge or
     the range limit; cut by the range limit; joined to a neighbouring return less than JOINED_GAP away by a
     straight surface (one broken up at a grazing angle: its pieces slide along it as the sensor moves)."""
-    last = len(scan.ranges) - 1
-    cut = (beams[starts] == 0) | (beams[ends] == last)
     near_limit = scan.range_max - RANGE_LIMIT_MARGIN
     far = (r[starts] > near_limit) | (r[ends] > near_limit)
-    cut |= far
+    cut = far | _cut_across(scan, beams, r, starts, ends)
     joined = np.zeros(len(starts), dtype=bool)
     a = scan.angles[beams]
     xy = r[:, None] * np.column_stack([np.cos(a), np.sin(a)])
@@ -197,12 +226,21 @@ def _occluded_ends(scan: Scan, beams: np.ndarray, r: np.ndarray, starts: np.ndar
         has = (neighbour >= 0) & (neighbour < len(beams))
         e, n = end[has], neighbour[has]
         adjacent = np.abs(beams[e] - beams[n]) <= 2
-        cut[has] |= (r[n] < r[e]) & adjacent
         close = adjacent & (np.hypot(*(xy[e] - xy[n]).T) < JOINED_GAP)
         k = np.flatnonzero(has)[close]
         joined[k] |= continues_straight(xy, e[close], n[close] - e[close], starts[k], ends[k], JOINED_SPAN,
                                         JOINED_GAP, JOINED_TOLERANCE)
     return cut, far, joined
+
+
+def _cut_across(scan: Scan, beams: np.ndarray, r: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """(K,) whether cluster k's outline is cut by a nearer neighbouring return or by the scan's first or last beam."""
+    cut = (beams[starts] == 0) | (beams[ends] == len(scan.ranges) - 1)
+    for end, neighbour in ((starts, starts - 1), (ends, ends + 1)):
+        has = (neighbour >= 0) & (neighbour < len(beams))
+        e, n = end[has], neighbour[has]
+        cut[has] |= (r[n] < r[e]) & (np.abs(beams[e] - beams[n]) <= 2)
+    return cut
 
 
 def fit_circles(points: np.ndarray, first: np.ndarray, last: np.ndarray, radius: np.ndarray, known: np.ndarray,

@@ -7,7 +7,7 @@ tracks, start a track at first sight from each unassigned cluster, delete tracks
 and judge which tracks move. Clusters wider than max_obstacle_size are walls and never tracked. A track's second
 sighting sets its velocity from the displacement; from then on a filter mixing a stopped, a steady and a
 manoeuvring model follows it. A whole cluster measures the centre; a cut one (occluded) by a circle fitted to
-the visible arc.
+the visible arc (measurement.py).
 """
 
 from __future__ import annotations
@@ -18,10 +18,10 @@ from typing import Callable
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from simplebot_navigation.perception import kalman, tracking_kernels
+from simplebot_navigation.perception import kalman, measurement, tracking_kernels
+from simplebot_navigation.perception.measurement import MIN_RADIUS
 from simplebot_navigation.perception.params import TrackerParams
-from simplebot_navigation.perception.segmentation import (FIT_DAMPING, FIT_ITERATIONS, FIXED_INFORMATION, Clusters,
-                                                          Scan, segment)
+from simplebot_navigation.perception.segmentation import Clusters, Scan, segment
 from simplebot_navigation.perception.structure import StructureMap
 from simplebot_navigation.perception.trail import ClearingTrail
 
@@ -29,20 +29,15 @@ from simplebot_navigation.perception.trail import ClearingTrail
 RADIUS_SMOOTHING = 0.3
 #: a new cluster this close to an existing track's outline is a fragment of it, not a new track
 FRAGMENT_MARGIN = 0.1
-#: the smallest radius reported
-MIN_RADIUS = 0.05
 #: a cluster with this share of its returns on structure is structure
 STRUCTURE_SHARE = 0.5
 #: the association gate widens by this many sigmas of a track's position, up to MAX_GATE
 GATE_SIGMAS, MAX_GATE = 2.0, 1.5
-#: a cut cluster whose returns lie farther than this (RMS) from the circle fitted to them is no arc of the track
-FIT_RMS = 0.02
-#: a fitted centre counts no closer than this (1 sigma, metres) in any direction
-FIT_FLOOR = 0.01
-#: a radius fitted to a cut outline counts when its sigma is at most this (metres)
-FIT_RADIUS_SIGMA = 0.05
-#: a fitted centre is used within this normalised squared distance of the prediction (chi-square, 2 dof: 99 %)
-FIT_GATE = 9.21
+#: a measurement farther than JUMP_DISTANCE (metres) from a track's prediction or JUMP_GATE outside it
+#: (normalised squared, chi-square 2 dof: 99.9 %), or beyond what max_obstacle_speed allows a track seen once by
+#: JUMP_SIGMAS, is a jump to another thing: the track starts again there (no person strays 0.3 m from a steady
+#: walk within a scan; a coasting track's covariance would let it take a tree that stands 1 m away)
+JUMP_DISTANCE, JUMP_GATE, JUMP_SIGMAS = 0.3, 13.8, 3.0
 #: a track turns moving only while its stopped model's probability is below this
 STOPPED_BELOW = 0.5
 
@@ -192,51 +187,31 @@ class ObstacleTracker:
         return cov
 
     def _correct(self, clusters: Clusters, cluster_of: np.ndarray, points: np.ndarray, stamp: float) -> None:
-        seen = cluster_of >= 0
+        seen = np.flatnonzero(cluster_of >= 0)
+        matched = cluster_of[seen]
         self.last_seen[seen] = stamp
-        self.on_structure[seen] = (clusters.structure[cluster_of[seen]] >= STRUCTURE_SHARE) | \
-            clusters.unfit[cluster_of[seen]]
+        self.on_structure[seen] = (clusters.structure[matched] >= STRUCTURE_SHARE) | clusters.unfit[matched]
         self.hits[seen] += 1
         self.missed[seen] = 0
-        matched = cluster_of[seen]
         whole = ~clusters.occluded[matched]
         # A cut outline shows only part of the obstacle: it may make a track larger, never smaller.
         observed = np.maximum(clusters.radius[matched], MIN_RADIUS)
         observed = np.where(whole, observed, np.maximum(observed, self.radius[seen]))
         self.radius[seen] += RADIUS_SMOOTHING * (observed - self.radius[seen])
-        self.radius_known[np.flatnonzero(seen)[whole]] = True
-        tracks, measured, noise = self._measurements(clusters, cluster_of, points)
-        self._fix(tracks, measured, noise, stamp)
+        self.radius_known[seen[whole]] = True
+        m = measurement.centres(clusters, matched, points, self.state[seen, :2], self._position_covs(seen),
+                                self.radius[seen], self.radius_known[seen], self.params)
+        self.radius[seen[m.learnt]], self.radius_known[seen[m.learnt]] = m.learnt_radius, True
+        self._fix(seen[m.tracks], m.centre, m.noise, stamp)
         self.confirmed |= self.hits >= self.params.confirm_hits
-
-    def _measurements(self, clusters: Clusters, cluster_of: np.ndarray, points: np.ndarray):
-        """(tracks, centres (M, 2), covariances (M, 2, 2)) that this update measures: a whole cluster's centre,
-        and for one cut by something clearly nearer or the field's edge the circle fitted to its returns, of the track's radius once that is known, else of
-        the radius that fits (kept when the arc fixes it to FIT_RADIUS_SIGMA)."""
-        seen = np.flatnonzero(cluster_of >= 0)
-        occluded = clusters.occluded[cluster_of[seen]]
-        whole, cut = seen[~occluded], seen[occluded & ~clusters.unfit[cluster_of[seen]]]
-        sigma2 = self.params.measurement_noise ** 2
-        measured = [clusters.centre[cluster_of[whole]]]
-        noise = [np.broadcast_to(np.eye(2) * sigma2, (len(whole), 2, 2))]
-        if len(cut):
-            k, known = cluster_of[cut], self.radius_known[cut]
-            centre, cov, radius, radius_sigma, rms = tracking_kernels.fit_circles(
-                points, clusters.first[k], clusters.last[k], self.radius[cut], known, self.state[cut, :2],
-                max(self.params.range_noise, FIT_FLOOR), FIT_ITERATIONS, FIT_DAMPING, FIXED_INFORMATION)
-            good = (rms <= FIT_RMS) & np.isfinite(centre).all(axis=1) & (radius_sigma <= FIT_RADIUS_SIGMA) & \
-                (radius >= MIN_RADIUS) & (radius <= 0.5 * self.params.max_obstacle_size) & \
-                (_normalised_squared(centre - self.state[cut, :2], self._position_covs(cut) + cov) <= FIT_GATE)
-            learnt = cut[good & ~known]
-            self.radius[learnt], self.radius_known[learnt] = radius[good & ~known], True
-            cut = cut[good]
-            measured.append(centre[good])
-            noise.append(cov[good] + np.eye(2) * FIT_FLOOR ** 2)
-        return np.concatenate([whole, cut]), np.concatenate(measured), np.concatenate(noise)
 
     def _fix(self, tracks: np.ndarray, measured: np.ndarray, noise: np.ndarray, stamp: float) -> None:
         """Correct the tracks by position measurements: the filter where a track has a velocity; a track's
         second sighting (at a later stamp) sets it from the displacement; one at the same stamp averages."""
+        jumped = self._jumps(tracks, measured, noise, stamp)
+        if jumped.any():
+            self._restart(tracks[jumped], measured[jumped], noise[jumped], stamp)
+            tracks, measured, noise = tracks[~jumped], measured[~jumped], noise[~jumped]
         if not len(tracks):
             return
         going = self.velocity_updates[tracks] > 0
@@ -265,6 +240,33 @@ class ObstacleTracker:
             self.cov[again, :2, :2] = prior - gain @ prior
         self.last_fix[tracks] = stamp
 
+    def _jumps(self, tracks: np.ndarray, measured: np.ndarray, noise: np.ndarray, stamp: float) -> np.ndarray:
+        """Measurements the track's obstacle cannot have made: the segmentation or the association took another
+        thing for it, and a velocity from the displacement would be false."""
+        offset, cov = measured - self.state[tracks, :2], self.cov[tracks, :2, :2] + noise
+        known, distance = self.velocity_updates[tracks] > 0, np.hypot(*offset.T)
+        reach = self.params.max_obstacle_speed * (stamp - self.last_fix[tracks]) + \
+            JUMP_SIGMAS * np.sqrt(np.trace(cov, axis1=1, axis2=2))
+        return np.where(known, (distance > JUMP_DISTANCE) | (measurement.normalised_squared(offset, cov) > JUMP_GATE),
+                        distance > reach)
+
+    def _restart(self, tracks: np.ndarray, measured: np.ndarray, noise: np.ndarray, stamp: float) -> None:
+        """The tracks start again at the measurements, their velocities measured anew from the next sighting
+        (until then kept, as are their ids and moving flags: a person lost among others and found again stays
+        moving; a false track turns static once its new velocity says so)."""
+        state, cov = self._first_sight(measured, noise)
+        state[:, 2:] = self.state[tracks, 2:]
+        self.state[tracks], self.cov[tracks] = state, cov
+        self.models[tracks], self.model_covs[tracks] = state[:, None], cov[:, None]
+        self.origin[tracks], self.last_fix[tracks], self.velocity_updates[tracks] = measured, stamp, 0
+
+    def _first_sight(self, centres: np.ndarray, noise: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """States and covariances of obstacles seen once: standing, with an uncertain velocity."""
+        cov = np.zeros((len(centres), 4, 4))
+        cov[:, :2, :2] = noise
+        cov[:, 2, 2] = cov[:, 3, 3] = self.params.initial_speed_sigma ** 2
+        return np.column_stack([centres, np.zeros((len(centres), 2))]), cov
+
     def _forget_missed(self, scans: list[Scan], stamp: float) -> None:
         """A track no scan matched counts a miss if some scan should have seen it; too many misses, a tentative
         track's first miss, or too long unseen delete it."""
@@ -272,7 +274,7 @@ class ObstacleTracker:
         if len(unmatched):
             visible = np.zeros(len(unmatched), dtype=bool)
             for scan in scans:
-                visible |= _visible(scan, self.state[unmatched, :2], self.radius[unmatched])
+                visible |= scan.shows_gone(self.state[unmatched, :2], self.radius[unmatched])
             self.missed[unmatched[visible]] += 1
         p = self.params
         drop = (self.missed >= p.max_missed) | ((self.missed > 0) & ~self.confirmed) | \
@@ -291,8 +293,7 @@ class ObstacleTracker:
         if not n:
             return
         p = self.params
-        state = np.column_stack([new.centre, np.zeros((n, 2))])
-        cov = np.tile(np.diag([p.measurement_noise ** 2] * 2 + [p.initial_speed_sigma ** 2] * 2), (n, 1, 1))
+        state, cov = self._first_sight(new.centre, np.tile(np.eye(2) * p.measurement_noise ** 2, (n, 1, 1)))
         self._append(ids=np.arange(self._next_id, self._next_id + n), models=np.repeat(state[:, None], kalman.MODELS, 1),
                      model_covs=np.repeat(cov[:, None], kalman.MODELS, 1),
                      probs=np.tile(kalman.INITIAL_PROBABILITY, (n, 1)), state=state, cov=cov,
@@ -367,29 +368,3 @@ class ObstacleTracker:
         now_rows = self._rows_at(self._clearing(), now)[:, [0, 1, 4]]
         now_rows[:, 2] += self.params.clearing_margin
         return np.concatenate([self.trail.circles(now, self.params.clearing_margin), now_rows])
-
-
-def _normalised_squared(offset: np.ndarray, cov: np.ndarray) -> np.ndarray:
-    """(M,) offset^T cov^-1 offset of (M, 2) offsets with (M, 2, 2) covariances."""
-    return np.einsum("mi,mij,mj->m", offset, np.linalg.inv(cov), offset)
-
-
-def _visible(scan: Scan, centres: np.ndarray, radius: np.ndarray) -> np.ndarray:
-    """Whether a scan shows each object gone: within its field of view and range, the beam towards its centre
-    passes the centre (not stopped by something nearer, by the object itself or by something touching it, nor
-    lost)."""
-    step = scan.angles[1] - scan.angles[0] if len(scan.angles) > 1 else 0.0
-    if not step or not len(centres):
-        return np.zeros(len(centres), dtype=bool)
-    offset = centres - scan.origin
-    distance = np.hypot(offset[:, 0], offset[:, 1])
-    bearing = np.arctan2(offset[:, 1], offset[:, 0])
-    span = ((bearing - scan.angles[0]) * np.sign(step)) % (2 * np.pi)
-    index = np.round(span / abs(step)).astype(np.int64)
-    inside = (index >= 0) & (index < len(scan.angles)) & (distance + radius < scan.range_max) & \
-        (distance - radius > scan.range_min)
-    with np.errstate(invalid="ignore"):
-        beyond = scan.ranges >= scan.range_max                  # +inf too: nothing there
-    reach = np.where(scan.valid(), scan.ranges, np.where(beyond, np.inf, -np.inf))   # NaN: no information
-    beam = np.clip(index, 0, len(scan.angles) - 1)
-    return inside & (reach[beam] >= distance)

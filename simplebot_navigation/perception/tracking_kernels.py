@@ -233,9 +233,9 @@ def _bulge(xy, start, end):
 @njit(cache=True, nogil=True, error_model="numpy")
 def segment_scan(ranges, angles, valid, structure, origin, breakpoint_angle, breakpoint_distance, range_noise,
                  min_points, range_max, max_missing_beams, range_limit_margin, joined_gap, joined_span,
-                 joined_tolerance):
+                 joined_tolerance, round_depth):
     """segmentation.segment_reference compiled: (centre, radius, count, occluded, structure share, first beam,
-    last beam, unfit) of the clusters of one scan with at least min_points returns."""
+    last beam, unfit, range_cut) of the clusters of one scan with at least min_points returns."""
     beams = np.flatnonzero(valid)
     n = len(beams)
     r, a = ranges[beams], angles[beams]
@@ -261,6 +261,7 @@ def segment_scan(ranges, angles, valid, structure, origin, breakpoint_angle, bre
     m = len(keep)
     centre, radius, count = np.empty((m, 2)), np.empty(m), np.empty(m, dtype=np.int64)
     occluded, share, unfit = np.zeros(m, dtype=np.bool_), np.empty(m), np.zeros(m, dtype=np.bool_)
+    range_cut = np.zeros(m, dtype=np.bool_)
     beam_step = abs(angles[1] - angles[0]) if len(angles) > 1 else 0.0
     near_limit = range_max - range_limit_margin
     for c in range(m):
@@ -269,8 +270,9 @@ def segment_scan(ranges, angles, valid, structure, origin, breakpoint_angle, bre
         half_angle = min(0.5 * (abs(a[e] - a[s]) + beam_step), 1.4)
         radius[c] = 0.5 * (r[s] + r[e]) * np.tan(half_angle)
         bearing = 0.5 * (a[s] + a[e])
-        depth, hits = 0.0, 0.0
+        depth, hits, nearest, farthest = 0.0, 0.0, r[s], r[s]
         for i in range(s, e + 1):
+            nearest, farthest = min(nearest, r[i]), max(farthest, r[i])
             phi = a[i] - bearing
             across = r[i] * np.sin(phi)
             depth += r[i] * np.cos(phi) + np.sqrt(max(radius[c] ** 2 - across ** 2, 0.0))
@@ -280,7 +282,6 @@ def segment_scan(ranges, angles, valid, structure, origin, breakpoint_angle, bre
         centre[c, 0], centre[c, 1] = origin[0] + depth * np.cos(bearing), origin[1] + depth * np.sin(bearing)
         occluded[c] = beams[s] == 0 or beams[e] == len(ranges) - 1
         far = r[s] > near_limit or r[e] > near_limit
-        occluded[c] |= far
         joined = False
         for end, d in ((s, -1), (e, 1)):
             nb = end + d
@@ -291,8 +292,11 @@ def segment_scan(ranges, angles, valid, structure, origin, breakpoint_angle, bre
                 one = np.array([end])
                 joined |= continues_straight(xy, one, np.array([d]), np.array([s]), np.array([e]), joined_span,
                                              joined_gap, joined_tolerance)[0]
-        unfit[c] = joined or (far and _bulge(xy, s, e) <= joined_tolerance)
-    return centre, radius, count, occluded, share, beams[starts[keep]], beams[ends[keep]], unfit
+        range_cut[c] = far and not occluded[c]
+        occluded[c] |= far
+        unfit[c] = joined or (far and _bulge(xy, s, e) <= joined_tolerance) or \
+            (not occluded[c] and farthest - nearest > round_depth * radius[c] + 3.0 * range_noise)
+    return centre, radius, count, occluded, share, beams[starts[keep]], beams[ends[keep]], unfit, range_cut
 
 
 def warm_up() -> None:
@@ -307,4 +311,4 @@ def warm_up() -> None:
                 np.zeros((1, 2)), 0.01, 1, 0.5, 1e12)
     ranges, angles = np.full(8, 1.0), np.linspace(-0.4, 0.4, 8)
     segment_scan(ranges, angles, np.ones(8, dtype=np.bool_), np.zeros(8), np.zeros(2), 0.17, 0.05, 0.01, 3, 5.6, 1,
-                 0.3, 0.25, 0.3, 0.03)
+                 0.3, 0.25, 0.3, 0.03, 1.5)

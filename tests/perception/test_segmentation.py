@@ -82,3 +82,22 @@ def test_an_arc_cut_by_the_range_limit_is_an_outline_and_a_straight_piece_is_not
     assert len(arc) == 1 and arc.occluded[0] and not arc.unfit[0]
     wall = clusters_of(_scan(segments=[(5.2, -0.3, 6.2, 0.3)]))
     assert len(wall) == 1 and wall.unfit[0]
+    assert arc.range_cut[0]
+
+
+def test_an_arc_cut_by_something_nearer_is_not_cut_by_the_range_limit():
+    """A person half hidden behind another: its cut slides across the line of sight as the sensor moves."""
+    clusters = clusters_of(_scan(circles=[(1.5, 0.15, 0.25), (2.5, -0.2, 0.25)]))
+    behind = int(np.argmax(np.hypot(*clusters.centre.T)))
+    assert clusters.occluded[behind] and not clusters.range_cut[behind]
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_whole_piece_of_wall_seen_at_a_grazing_angle_is_no_outline(seed):
+    """A free-standing board 1.2 m long, 20 degrees off the line of sight: its returns span 1.2 m in range and 9
+    degrees in bearing, as if of a thing 0.15 m in radius. Taken for a round thing its centre slides as the sensor
+    moves, so it is unfit; a round outline's returns lie within its radius in range."""
+    clusters = clusters_of(_scan(segments=[(1.5, 0.3, 2.525, 0.923)], seed=seed))
+    assert len(clusters) == 1 and not clusters.occluded[0] and clusters.unfit[0]
+    person = clusters_of(_scan(circles=[(2.0, 0.3, 0.25)], seed=seed))
+    assert len(person) == 1 and not person.unfit[0]
