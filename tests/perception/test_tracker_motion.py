@@ -36,6 +36,19 @@ def run(tracker, things, steps, robot=lambda t: (0.0, 0.0, 0.0), walls=(), seed=
             after(t)
 
 
+@dataclass(frozen=True)
+class Swapped:
+    """A post at `before` until `at`, then one at `after` (the segmentation handing a track another thing: a tree
+    coming out from behind another as the first goes behind a third, two neighbours merged)."""
+    radius: float
+    before: tuple[float, float]
+    after: tuple[float, float]
+    at: float
+
+    def state(self, t):
+        return np.asarray(self.before if t < self.at else self.after, dtype=float), np.zeros(2)
+
+
 def nearest(tracker, position):
     tracks = tracker.tracks()
     return min(tracks, key=lambda track: np.hypot(*(track.position - position)), default=None)
@@ -185,3 +198,19 @@ def test_a_moving_tracks_marks_are_cleared_once_it_has_left_where_it_was_first_s
     else:
         assert displacement - 0.1 <= clearing_at <= displacement + 0.15       # 1 m/s
 
+
+
+@pytest.mark.parametrize("offset", [0.35, 0.6])
+def test_a_track_handed_another_thing_starts_again_there_and_never_moves(offset):
+    """A post seen for 1 s, then one `offset` beside it: within the association gate, but no standing thing moves
+    that far in a scan. The track starts again at the new post (its velocity measured anew) instead of reading
+    the jump as a walk."""
+    posts = [Swapped(0.15, (2.5, 0.0), (2.5, offset), at=1.0)]
+    tracker = ObstacleTracker()
+    moving, ids = [], set()
+    run(tracker, posts, 25, after=lambda t: (moving.extend(tr.id for tr in tracker.tracks() if tr.moving),
+                                             ids.update(tr.id for tr in tracker.tracks())))
+    assert not moving, f"tracks reported moving: {sorted(set(moving))}"
+    track = nearest(tracker, (2.5, offset))
+    assert np.hypot(*(track.position - (2.5, offset))) < 0.05 and np.hypot(*track.velocity) < 0.1
+    assert len(ids) == 1, "the post's track follows it to its new place, as before"
