@@ -1,11 +1,11 @@
 """Where a tracked obstacle will be, and how much room to leave it, some seconds ahead (docs/reference.md §4.8).
 
-A track is a position and a velocity with the Kalman filter's covariance. It is predicted at constant velocity
-up to a horizon and held at its horizon position after it; the circle to keep out of grows with the time ahead:
+A track is a position and a velocity with the Kalman filter's covariance. It is predicted at constant velocity;
+the circle to keep out of grows with the time ahead, up to a horizon, and stays as large after it:
 
     radius(t) = radius + min(max_uncertainty, sqrt(position_spread^2 + t^2 velocity_spread^2)) + radius_growth t
 
-with t capped at the horizon, the spreads n_sigma standard deviations of position and velocity. Pure numpy, no
+with t capped at the horizon in the radius, the spreads n_sigma standard deviations of position and velocity. Pure numpy, no
 planner: TEB uses it (teb/obstacles.py), and so can any planner that reasons in space and time.
 """
 
@@ -70,27 +70,24 @@ def full_rows(rows: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class MotionPrediction:
-    """The prediction's settings: the horizon (s, inf: none), the cap on the uncertainty's extra radius (m) and a
-    growth of the radius per second ahead (m/s) on top of it, whatever the covariance."""
+    """The prediction's settings: the horizon (s, inf: none) after which the keep-out circle stops growing, the
+    cap on the uncertainty's extra radius (m) and a growth of the radius per second ahead (m/s) on top of it,
+    whatever the covariance."""
     horizon: float = math.inf
     max_uncertainty: float = math.inf
     radius_growth: float = 0.0
 
-    def clipped(self, times) -> np.ndarray:
-        """The times the prediction is taken at: beyond the horizon the obstacle is held where it is at the
-        horizon, so a distance stays a continuous function of time (an edge dropped at the horizon would let a
-        pose whose time crosses it jump into the obstacle)."""
-        return np.minimum(np.asarray(times, dtype=float), self.horizon)
-
     def centres(self, rows: np.ndarray, times) -> np.ndarray:
-        """(K, T, 2): each obstacle's centre at each time."""
-        t = self.clipped(times)
+        """(K, T, 2): each obstacle's centre at each time, at constant velocity (beyond the horizon too: one held
+        where it is at the horizon stands in the prediction where it will not be, and a band passing behind it
+        there runs into it later)."""
+        t = np.asarray(times, dtype=float)
         return rows[:, None, X:Y + 1] + t[None, :, None] * rows[:, None, VX:VY + 1]
 
     def radii(self, rows: np.ndarray, times) -> np.ndarray:
-        """(K, T): each obstacle's keep-out radius at each time."""
+        """(K, T): each obstacle's keep-out radius at each time, as large after the horizon as at it."""
         rows = full_rows(rows)
-        t = self.clipped(times)[None, :]
+        t = np.minimum(np.asarray(times, dtype=float), self.horizon)[None, :]
         spread = np.hypot(rows[:, POSITION_SPREAD, None], t * rows[:, VELOCITY_SPREAD, None])
         return rows[:, RADIUS, None] + np.minimum(spread, self.max_uncertainty) + self.radius_growth * t
 

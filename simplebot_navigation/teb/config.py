@@ -143,9 +143,9 @@ class TebConfig:
                                                        "its velocity times the time ahead (0: none)", ge=0, le=5.0)
     dynamic_obstacle_max_uncertainty: float = param(0.1, "m", "Here: the most the uncertainty adds to a predicted "
                                                     "obstacle's radius", ge=0, le=2.0)
-    dynamic_obstacle_prediction_horizon: float = param(4.0, "s", "Here: moving obstacles are predicted this far "
-                                                       "ahead and held there after it (0: no horizon)", ge=0,
-                                                       le=30.0)
+    dynamic_obstacle_prediction_horizon: float = param(4.0, "s", "Here: a moving obstacle's keep-out circle grows "
+                                                       "with the time ahead up to this far, and stays as large "
+                                                       "after it (0: no horizon)", ge=0, le=30.0)
     dynamic_obstacle_evasion_horizon: float = param(2.5, "s", "Here: when the band or a standstill would meet a "
                                                     "predicted moving obstacle within this time, drive the sampled "
                                                     "command that meets one latest (0: stop as TEB does)",

@@ -48,7 +48,7 @@ def rollout_contacts(poses, times, obstacles, model, bounding_radius, margin, cl
                      max_uncertainty, radius_growth):
     """For rollouts (S, N, 3) from one pose, timed (N,), obstacles (K, 7) prediction rows (x y vx vy radius and
     the position and velocity spreads, perception/prediction.py): the time of the first pose within ``margin``
-    of an obstacle's keep-out circle, predicted up to ``horizon`` and held there, or ``closing`` nearer than the
+    of an obstacle's keep-out circle, growing up to ``horizon`` and as large after it, or ``closing`` nearer than the
     first pose is to it if that is less (inf if none), and the smallest distance up to then, at most
     clearance_cap."""
     n_roll, n_pose = poses.shape[0], poses.shape[1]
@@ -68,12 +68,11 @@ def rollout_contacts(poses, times, obstacles, model, bounding_radius, margin, cl
     for s in range(n_roll):
         for n in range(n_pose):
             t = times[n]
-            tc = min(t, horizon)
             x, y, th = poses[s, n, 0], poses[s, n, 1], poses[s, n, 2]
             c, sn = math.cos(th), math.sin(th)
             for k in range(n_obst):
-                ox = obstacles[k, 0] + tc * obstacles[k, 2]
-                oy = obstacles[k, 1] + tc * obstacles[k, 3]
+                ox = obstacles[k, 0] + t * obstacles[k, 2]
+                oy = obstacles[k, 1] + t * obstacles[k, 3]
                 bound = math.hypot(ox - x, oy - y) - radius[n, k] - bounding_radius
                 if bound >= nearest[s] and bound >= limit[k]:
                     continue

@@ -75,7 +75,7 @@ def test_covariances_are_validated_and_the_bad_rows_reported_once():
 
 
 # -- where the growth is used ------------------------------------------------------------------------
-def test_the_edges_keep_out_of_the_grown_circle_and_hold_it_beyond_the_horizon():
+def test_the_edges_keep_out_of_the_grown_circle_which_stops_growing_at_the_horizon():
     cfg = TebConfig.from_params({"include_dynamic_obstacles": True, "dynamic_obstacle_prediction_horizon": 3.0,
                                  "dynamic_obstacle_max_uncertainty": 0.3})
     band = straight_band(cfg, length=4.0)
@@ -84,9 +84,8 @@ def test_the_edges_keep_out_of_the_grown_circle_and_hold_it_beyond_the_horizon()
     edges = TebOptimizer(cfg, FootprintModel.point()).build_edges(band, None, None, 50.0, rows, 50.0)
     times = band.time_stamps[edges.dyn_pose]
     assert times.max() > 3.5                                          # poses beyond the horizon have edges
-    held = np.minimum(times, 3.0)
-    np.testing.assert_allclose(edges.dyn_obstacle[:, 1], -1.0 + 0.3 * held)
-    spread = cfg.dynamic_obstacle_uncertainty_sigmas * np.hypot(0.03, 0.2 * held)
+    np.testing.assert_allclose(edges.dyn_obstacle[:, 1], -1.0 + 0.3 * times)    # it walks on beyond it
+    spread = cfg.dynamic_obstacle_uncertainty_sigmas * np.hypot(0.03, 0.2 * np.minimum(times, 3.0))
     np.testing.assert_allclose(edges.dyn_obstacle[:, 2], 0.25 + np.minimum(spread, 0.3))
     assert edges.dyn_obstacle[:, 2].max() > 0.25 + 0.29
 
