@@ -7,6 +7,11 @@ Layers, lowest first; a module may import its own layer and the layers below, ne
   ros                                               the nodes and their ROS shells
   launch, scenarios, viewer, testing                what a user runs (and what tests and benches share)
 Within a layer, two packages import each other one way at most (scenarios/ uses launch/, never back).
+
+Inside ros/ the same rule holds between its folders and top-level modules (ROS_LAYERS), lowest first:
+  conversions, poses, tf, qos, params, ...      what every node shares: messages, poses, frames, the node's main
+  costmap                                       what nodes are built from (move_base holds two Costmap2DROS)
+  move_base, amcl, simulator, tools, the nodes  the nodes
 """
 
 from __future__ import annotations
@@ -19,10 +24,17 @@ import pytest
 PACKAGE = "simplebot_navigation"
 ROOT = Path(__file__).resolve().parents[1] / PACKAGE
 LAYERS = [
-    {"geometry", "geometry_kernels", "paths", "parameters", "kernel_cache", "web_host", ""},
+    {"geometry", "geometry_kernels", "paths", "parameters", "kernel_cache", "web_host", "laser_scan", "log_throttle",
+     ""},
     {"costmap", "planning", "teb", "sim", "move_base", "safety", "perception", "maps", "localization"},
     {"ros"},
     {"launch", "scenarios", "viewer", "testing"},
+]
+#: inside ros/: its folders and top-level modules, lowest first
+ROS_LAYERS = [
+    {"conversions", "poses", "tf", "qos", "params", "publishers", "executor", "lifecycle_state", "node_main", ""},
+    {"costmap"},
+    {"move_base", "amcl", "simulator", "tools", "collision_monitor_node", "map_server_node", "map_saver_node"},
 ]
 CORE = LAYERS[1] | {"geometry", "parameters"}
 MAX_LINES = 400
@@ -147,6 +159,43 @@ def test_packages_of_a_layer_do_not_depend_on_each_other_both_ways():
     cycles = cycles_in(graph)
     assert not cycles, "\n".join(" -> ".join(cycle) + ": " + "; ".join(examples[edge] for edge in zip(cycle, cycle[1:]))
                                   for cycle in cycles)
+
+
+def ros_part(module: str) -> str | None:
+    """The folder or top-level module of ros/ a module belongs to (None: outside ros/)."""
+    parts = module.split(".")
+    return parts[2] if len(parts) > 2 and parts[1] == "ros" else ("" if module == f"{PACKAGE}.ros" else None)
+
+
+def ros_layer_of(module: str) -> int:
+    part = ros_part(module)
+    for level, members in enumerate(ROS_LAYERS):
+        if part in members:
+            return level
+    raise AssertionError(f"{module} is in no layer of ros/: add {part!r} to ROS_LAYERS in {Path(__file__).name}")
+
+
+def ros_graph() -> dict[str, set[str]]:
+    """The imports between ros/'s modules."""
+    return {name: {t for t in targets if ros_part(t) is not None}
+            for name, targets in internal_graph().items() if ros_part(name) is not None}
+
+
+def test_inside_ros_no_module_imports_a_higher_layer():
+    offenders = [f"{name} (ros layer {ros_layer_of(name)}) imports {target} (ros layer {ros_layer_of(target)})"
+                 for name, targets in ros_graph().items() for target in sorted(targets)
+                 if ros_layer_of(target) > ros_layer_of(name)]
+    assert not offenders, "\n".join(offenders)
+
+
+def test_inside_ros_the_parts_of_a_layer_do_not_depend_on_each_other_both_ways():
+    graph: dict[str, set[str]] = {}
+    for name, targets in ros_graph().items():
+        for target in targets:
+            if ros_part(name) != ros_part(target) and ros_layer_of(name) == ros_layer_of(target):
+                graph.setdefault(ros_part(name), set()).add(ros_part(target))
+    cycles = cycles_in(graph)
+    assert not cycles, "\n".join(" -> ".join(cycle) for cycle in cycles)
 
 
 @pytest.mark.parametrize("path", source_files() + sorted(ROOT.rglob("*.js")), ids=lambda p: str(p.relative_to(ROOT)))

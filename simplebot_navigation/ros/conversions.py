@@ -140,3 +140,8 @@ def occupancy_map_from_msg(msg: OccupancyGrid) -> OccupancyMap:
     return OccupancyMap(data, float(str(np.float32(info.resolution))),
                         (info.origin.position.x, info.origin.position.y, yaw_of(info.origin.orientation)),
                         msg.header.frame_id)
+
+
+def stamp_seconds(t) -> float:
+    """An rclpy Time in seconds."""
+    return t.nanoseconds * 1e-9

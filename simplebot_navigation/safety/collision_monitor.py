@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from simplebot_navigation.costmap.footprint import footprint_radii, parse_footprint
-from simplebot_navigation.costmap.obstacle_layer import scan_problem
+from simplebot_navigation.laser_scan import scan_problem
 from simplebot_navigation.geometry import inverse_transform_points
 from simplebot_navigation.parameters.spec import ParameterError, fields_of, param
 from simplebot_navigation.safety import collision_kernels as kernels

@@ -37,7 +37,7 @@ from simplebot_navigation.parameters import ParameterError, fields_of
 from simplebot_navigation.parameters.spec import Param
 from simplebot_navigation.ros.amcl import amcl_messages as messages
 from simplebot_navigation.ros.conversions import checked_occupancy_map, pose_array_msg, transform_to_xyyaw
-from simplebot_navigation.ros.costmap.costmap_log import Throttle
+from simplebot_navigation.log_throttle import Throttle
 from simplebot_navigation.ros.node_main import SetUpNode, run_node
 from simplebot_navigation.ros.params import declare_defaults, descriptor, given_parameter_tree
 from simplebot_navigation.ros.lifecycle_state import serve_lifecycle_state

@@ -24,7 +24,7 @@ from sensor_msgs.msg import LaserScan, PointCloud2, PointField
 from simplebot_navigation.costmap.obstacle_layer import ObservationSource
 from simplebot_navigation.costmap.static_layer import StaticLayer
 from simplebot_navigation.geometry import quaternion_to_rotation_matrix
-from simplebot_navigation.ros.conversions import yaw_of
+from simplebot_navigation.ros.conversions import stamp_seconds, yaw_of
 from simplebot_navigation.ros.costmap.costmap_log import speaking_for
 from simplebot_navigation.ros.qos import LATCHED
 from simplebot_navigation.ros.tf import TransformException, strip_frame
@@ -34,10 +34,6 @@ UPDATES_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 MESSAGE_FILTER_QUEUE = 50
 #: how often queued messages are retried while any wait
 MESSAGE_FILTER_RETRY_S = 0.02
-
-
-def stamp_seconds(t: Time) -> float:
-    return t.nanoseconds * 1e-9
 
 
 _CLOUD_TYPES = {PointField.FLOAT32: "f4", PointField.FLOAT64: "f8"}

@@ -10,14 +10,13 @@ from __future__ import annotations
 
 import contextvars
 import logging
-import math
 import threading
-import time
 from contextlib import contextmanager
 
 import rclpy.logging
 
 from simplebot_navigation.costmap.costmap_core import warm_up
+from simplebot_navigation.log_throttle import Throttle
 
 #: the Costmap2DROS whose work is running in this context (it has `name` and `logger`)
 _SPEAKER: contextvars.ContextVar[object | None] = contextvars.ContextVar("costmap_speaker", default=None)
@@ -25,20 +24,6 @@ _SPEAKER: contextvars.ContextVar[object | None] = contextvars.ContextVar("costma
 _TOPIC: contextvars.ContextVar[str] = contextvars.ContextVar("costmap_topic", default="")
 _process_lock = threading.Lock()
 _process_prepared = False
-
-
-class Throttle:
-    """Per-key wall-clock throttling (rclpy's throttle is per call site, not per message)."""
-
-    def __init__(self):
-        self._last: dict = {}
-
-    def __call__(self, key, period: float) -> bool:
-        now = time.monotonic()
-        if now - self._last.get(key, -math.inf) < period:
-            return False
-        self._last[key] = now
-        return True
 
 
 class _NodeLogHandler(logging.Handler):

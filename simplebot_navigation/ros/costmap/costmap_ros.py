@@ -23,9 +23,10 @@ from rclpy.time import Time
 from simplebot_navigation.costmap.costmap_core import CostmapCore
 from simplebot_navigation.costmap.costmap_2d import Costmap2D
 from simplebot_navigation.costmap.params import parameter_specs
-from simplebot_navigation.ros.conversions import yaw_of
-from simplebot_navigation.ros.costmap.costmap_input import CostmapInput, stamp_seconds
-from simplebot_navigation.ros.costmap.costmap_log import Throttle, prepare_process, speaking_for
+from simplebot_navigation.ros.conversions import stamp_seconds, yaw_of
+from simplebot_navigation.ros.costmap.costmap_input import CostmapInput
+from simplebot_navigation.log_throttle import Throttle
+from simplebot_navigation.ros.costmap.costmap_log import prepare_process, speaking_for
 from simplebot_navigation.ros.costmap.costmap_publisher import CostmapPublisher
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
 from simplebot_navigation.ros.tf import (Buffer, ConnectivityException, ExtrapolationException, LookupException,

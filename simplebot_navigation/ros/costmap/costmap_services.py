@@ -11,7 +11,7 @@ from nav2_msgs.srv import (ClearCostmapAroundPose, ClearCostmapAroundRobot, Clea
                            ClearEntireCostmap, GetCostmap)
 
 from simplebot_navigation.ros.conversions import pose_to_xyyaw, xyyaw_to_pose
-from simplebot_navigation.ros.move_base.move_base_goal import in_frame, validate_pose
+from simplebot_navigation.ros.poses import in_frame, validate_pose
 from simplebot_navigation.ros.qos import SERVICE_QOS
 
 #: the side (m) of a square to clear is at most this

@@ -21,7 +21,7 @@ from rclpy.time import Time
 from simplebot_navigation.geometry import transform_points
 from simplebot_navigation.perception.feed import MovingObstacles
 from simplebot_navigation.ros.conversions import transform_to_xyyaw
-from simplebot_navigation.ros.costmap.costmap_log import Throttle
+from simplebot_navigation.log_throttle import Throttle
 from simplebot_navigation.ros.move_base.obstacle_msgs import RefusedMessage, read_obstacle_array
 from simplebot_navigation.ros.tf import ExtrapolationException, TransformException, strip_frame
 

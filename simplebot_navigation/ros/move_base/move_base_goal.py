@@ -1,6 +1,5 @@
-"""A goal of the move_base node, from its action server or from /move_base_simple/goal, and the
-checks a pose must pass before move_base plans to it or from it: one rule for action goals and for
-both make_plan services (move_base's and its global planner's)."""
+"""A goal of the move_base node, from its action server or from /move_base_simple/goal, and the poses of a
+make_plan request (move_base's and its global planner's), checked by the rule of ros/poses.py."""
 
 from __future__ import annotations
 
@@ -13,7 +12,8 @@ from nav_msgs.srv import GetPlan
 from rclpy.task import Future
 
 from simplebot_navigation.ros.conversions import pose_to_xyyaw
-from simplebot_navigation.ros.tf import TransformException, strip_frame
+from simplebot_navigation.ros.poses import in_frame, validate_pose
+from simplebot_navigation.ros.tf import strip_frame
 
 
 class MoveBaseGoal:
@@ -37,40 +37,6 @@ class MoveBaseGoal:
         self.text = ""
         self.cause = ""          # why it was aborted, for Nav2's error codes (nav2_requests.ERROR_CODES)
         self.finished_wall = None
-
-
-def validate_pose(pose: PoseStamped, role: str = "goal") -> str | None:
-    """Why a pose cannot be planned to or from (move_base's isQuaternionValid plus a finite position and
-    a frame), or None; ``role`` names it in the reason."""
-    p, q = pose.pose.position, pose.pose.orientation
-    values = (p.x, p.y, p.z, q.x, q.y, q.z, q.w)
-    if not all(math.isfinite(v) for v in values):
-        return f"{role} has a NaN or inf: position ({p.x}, {p.y}, {p.z}), orientation ({q.x}, {q.y}, {q.z}, {q.w})"
-    norm2 = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w
-    if norm2 < 1e-6:
-        return f"{role} has an invalid quaternion (length close to zero)"
-    n = math.sqrt(norm2)
-    x, y = q.x / n, q.y / n
-    z_axis_z = 1.0 - 2.0 * (x * x + y * y)
-    if abs(z_axis_z - 1.0) > 1e-3:
-        return f"{role} orientation is not upright: the quaternion must only rotate about z"
-    if not pose.header.frame_id:
-        return f"{role} has an empty frame_id"
-    return None
-
-
-def in_frame(pose: PoseStamped, frame: str, tf, role: str = "goal") -> tuple[PoseStamped | None, str | None]:
-    """``pose`` in ``frame`` by the latest transform of the buffer ``tf``, or None and why not."""
-    if strip_frame(pose.header.frame_id) == frame:
-        target = PoseStamped()
-        target.header.frame_id = frame
-        target.header.stamp = pose.header.stamp
-        target.pose = pose.pose
-        return target, None
-    try:
-        return tf.transform_pose(pose, frame, latest=True), None
-    except TransformException as err:
-        return None, f"cannot transform the {role} from {pose.header.frame_id} to {frame}: {err}"
 
 
 def plan_request(request: GetPlan.Request, costmap_ros) -> tuple[tuple, tuple, float | None]:

@@ -28,7 +28,8 @@ from simplebot_navigation.move_base.state_machine import MoveBaseCore
 from simplebot_navigation.parameters import fields_of
 from simplebot_navigation.ros.conversions import pose_to_xyyaw, xyyaw_to_pose
 from simplebot_navigation.ros.costmap.costmap_ros import Costmap2DROS
-from simplebot_navigation.ros.move_base.move_base_goal import MoveBaseGoal, in_frame, validate_pose
+from simplebot_navigation.ros.move_base.move_base_goal import MoveBaseGoal
+from simplebot_navigation.ros.poses import in_frame, validate_pose
 from simplebot_navigation.ros.move_base.move_base_parameters import MoveBaseLiveParameters
 from simplebot_navigation.ros.move_base.move_base_recoveries import MoveBaseRecoveryContext
 from simplebot_navigation.ros.move_base.move_base_services import serve_move_base_services

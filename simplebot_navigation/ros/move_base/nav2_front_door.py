@@ -29,7 +29,8 @@ from simplebot_navigation.move_base.nav2_requests import (ERROR_CODES, MAX_LOOPS
 from simplebot_navigation.ros.conversions import duration_msg, duration_s, path_msg, pose_to_xyyaw, xyyaw_to_pose
 from simplebot_navigation.ros.costmap.costmap_services import CostmapServices
 from simplebot_navigation.ros.lifecycle_state import serve_lifecycle_state
-from simplebot_navigation.ros.move_base.move_base_goal import MoveBaseGoal, validate_pose
+from simplebot_navigation.ros.move_base.move_base_goal import MoveBaseGoal
+from simplebot_navigation.ros.poses import validate_pose
 from simplebot_navigation.ros.qos import SERVICE_QOS
 
 #: the interfaces whose error codes a navigation goal's failure reports (nav2_requests.ERROR_CODES)

@@ -7,7 +7,7 @@ from rclpy.time import Time
 
 from simplebot_navigation.perception.feed import ObstacleFeed, ObstacleSource
 from simplebot_navigation.ros.conversions import transform_to_xyyaw
-from simplebot_navigation.ros.costmap.costmap_log import Throttle
+from simplebot_navigation.log_throttle import Throttle
 from simplebot_navigation.ros.tf import Buffer, TransformException
 
 WARNING_PERIOD_S = 5.0

@@ -16,16 +16,15 @@ from rclpy.node import Node
 from rclpy.time import Time
 from visualization_msgs.msg import MarkerArray
 
-from simplebot_navigation.costmap.obstacle_layer import scan_problem
+from simplebot_navigation.laser_scan import scan_problem
 from simplebot_navigation.geometry import compose2, inverse2, quaternion_to_rotation_matrix, transform_points
 from simplebot_navigation.move_base.parameter_tree import OBSTACLE_TRACKING
 from simplebot_navigation.parameters import fields_of
 from simplebot_navigation.perception import ObstacleTracker, Scan, TrackerParams, tracking_kernels
 from simplebot_navigation.perception.feed import MovingObstacles
 from simplebot_navigation.perception.structure import StaticCells
-from simplebot_navigation.ros.conversions import checked_occupancy_map, transform_to_xyyaw
-from simplebot_navigation.ros.costmap.costmap_input import stamp_seconds
-from simplebot_navigation.ros.costmap.costmap_log import Throttle
+from simplebot_navigation.ros.conversions import checked_occupancy_map, stamp_seconds, transform_to_xyyaw
+from simplebot_navigation.log_throttle import Throttle
 from simplebot_navigation.ros.move_base.obstacle_msgs import obstacle_array_msg, track_markers
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
 from simplebot_navigation.ros.publishers import create_publisher

@@ -32,7 +32,7 @@ from rclpy.serialization import deserialize_message
 from rclpy.subscription import Subscription
 
 from simplebot_navigation.parameters.spec import Param
-from simplebot_navigation.ros.costmap.costmap_log import Throttle
+from simplebot_navigation.log_throttle import Throttle
 from simplebot_navigation.ros.tools.foxglove_server import STATUS_WARNING, FoxgloveServer
 from simplebot_navigation.ros.tools.message_json import message_from_json
 from simplebot_navigation.ros.node_main import SetUpNode, run_node
