@@ -86,12 +86,16 @@ def package_of(module: str) -> str:
     return module.split(".")[1] if "." in module else ""
 
 
-def layer_of(module: str) -> int:
-    sub = package_of(module)
-    for level, members in enumerate(LAYERS):
-        if sub in members:
+def level_in(layers: list[set[str]], part: str, module: str, table: str) -> int:
+    """The index of the layer that holds `part` (module's package or part of ros/), named in errors."""
+    for level, members in enumerate(layers):
+        if part in members:
             return level
-    raise AssertionError(f"{module} is in no layer: add its package to LAYERS in {Path(__file__).name}")
+    raise AssertionError(f"{module} is in no layer: add {part!r} to {table} in {Path(__file__).name}")
+
+
+def layer_of(module: str) -> int:
+    return level_in(LAYERS, package_of(module), module, "LAYERS")
 
 
 def test_every_package_has_a_layer():
@@ -168,11 +172,7 @@ def ros_part(module: str) -> str | None:
 
 
 def ros_layer_of(module: str) -> int:
-    part = ros_part(module)
-    for level, members in enumerate(ROS_LAYERS):
-        if part in members:
-            return level
-    raise AssertionError(f"{module} is in no layer of ros/: add {part!r} to ROS_LAYERS in {Path(__file__).name}")
+    return level_in(ROS_LAYERS, ros_part(module), module, "ROS_LAYERS")
 
 
 def ros_graph() -> dict[str, set[str]]:
