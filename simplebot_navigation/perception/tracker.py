@@ -7,7 +7,8 @@ tracks, start a track at first sight from each unassigned cluster, delete tracks
 and judge which tracks move. Clusters wider than max_obstacle_size are walls and never tracked. A track's second
 sighting sets its velocity from the displacement; from then on a filter mixing a stopped, a steady and a
 manoeuvring model follows it. A whole cluster measures the centre; a cut one (occluded) by a circle fitted to
-the visible arc (measurement.py).
+the visible arc (measurement.py). A measurement too far from a track's prediction is another thing: the track
+starts again there.
 """
 
 from __future__ import annotations
@@ -207,7 +208,8 @@ class ObstacleTracker:
 
     def _fix(self, tracks: np.ndarray, measured: np.ndarray, noise: np.ndarray, stamp: float) -> None:
         """Correct the tracks by position measurements: the filter where a track has a velocity; a track's
-        second sighting (at a later stamp) sets it from the displacement; one at the same stamp averages."""
+        second sighting (at a later stamp) sets it from the displacement; one at the same stamp averages. A
+        measurement the track's obstacle cannot have made (_jumps) starts the track again there instead."""
         jumped = self._jumps(tracks, measured, noise, stamp)
         if jumped.any():
             self._restart(tracks[jumped], measured[jumped], noise[jumped], stamp)
