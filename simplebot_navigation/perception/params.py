@@ -28,7 +28,8 @@ class TrackerParams:
     max_obstacle_speed: float = param(3.0, "m/s", "fastest obstacle tracked: a track seen once that would have "
                                       "to move faster to reach a cluster starts again there (a tree seen past "
                                       "another, two neighbours seen as one), as does a moving one whose cluster "
-                                      "lies far outside its prediction", gt=0.0, le=20.0)
+                                      "lies far outside its prediction; at least a slow walk, or nothing could "
+                                      "ever get a velocity", ge=0.5, le=20.0)
     acceleration_noise: float = param(0.5, "m/s^2", "process noise of the steady motion model (constant velocity, "
                                       "1 sigma): walking on", gt=0.0, le=50.0)
     manoeuvre_noise: float = param(4.0, "m/s^2", "process noise of the manoeuvre model (constant velocity, 1 "

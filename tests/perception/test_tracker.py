@@ -144,6 +144,9 @@ def test_parameters_are_checked_with_their_relations():
     with pytest.raises(ParameterError, match="association_gate"):
         TrackerParams.from_params({"association_gate": -1.0})
     assert "unknown parameter 'gate'" in TrackerParams.from_params({"gate": 1.0}).warnings[0]
+    for speed in (1e-300, 1e308, float("nan")):         # a tiny one would restart every walker at every scan
+        with pytest.raises(ParameterError, match="max_obstacle_speed"):
+            TrackerParams.from_params({"max_obstacle_speed": speed})
 
 
 #: a door as the lab's north meeting room has: a wall 1 m ahead of the robot with a 1.2 m gap, the corridor's far wall
