@@ -223,3 +223,19 @@ def test_imports_are_absolute(path):
     relative = [node.lineno for node in ast.walk(ast.parse(path.read_text()))
                 if isinstance(node, ast.ImportFrom) and node.level > 0]
     assert not relative, f"{path.relative_to(ROOT.parent)}: relative imports at lines {relative}; write them absolute"
+
+
+#: the parts move_base's node is assembled from that own no ROS interface: they get what they use, never the node
+#: (the costmaps, the planner plugins and obstacle tracking own subscriptions and publishers, so they get it)
+MOVE_BASE_HELPERS = ("goal_arbiter", "cycle_poses", "move_base_goal", "move_base_supervision", "move_base_parameters",
+                     "move_base_stats", "move_base_services", "move_base_recoveries", "nav2_front_door")
+
+
+@pytest.mark.parametrize("helper", MOVE_BASE_HELPERS)
+def test_no_helper_of_move_base_takes_the_node(helper):
+    tree = ast.parse((ROOT / "ros" / "move_base" / f"{helper}.py").read_text())
+    functions = [f for f in ast.walk(tree) if isinstance(f, (ast.FunctionDef, ast.AsyncFunctionDef))]
+    taking = [f"{f.name} (line {f.lineno})" for f in functions
+              if any(a.arg == "node" for a in f.args.args + f.args.kwonlyargs)]
+    reaching = [f"line {n.lineno}" for n in ast.walk(tree) if isinstance(n, ast.Attribute) and n.attr == "node"]
+    assert not taking and not reaching, f"{helper}: takes the node in {taking}, reaches for it at {reaching}"

@@ -170,6 +170,11 @@ class LocalPlannerPlugin(Controller, Protocol):
     plan_frame, obstacle_feed)``, plan_frame being the global costmap's frame the plans come in and obstacle_feed
     the MovingObstacleFeed (perception/feed.py) every moving obstacle comes from."""
 
+    def begin_cycle(self, pose) -> None:
+        """The start of a control cycle that drives a goal: the robot pose (x, y, yaw, stamp) in the local
+        costmap's frame, looked up once for the cycle (None when TF has none). ``compute`` and
+        ``is_goal_reached`` of this cycle use it; a planner that moves its plan between frames does it here."""
+
     def reconfigure(self, config) -> None:
         """New values of its namespace, already checked (the registration's ``config`` built them)."""
 

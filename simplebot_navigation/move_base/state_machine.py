@@ -80,11 +80,12 @@ class CycleOutput:
 
 class MoveBaseCore:
     def __init__(self, config: MoveBaseConfig, recoveries: list[Recovery],
-                 plan: Callable[[tuple[float, float, float]], np.ndarray | str], controller: Controller,
+                 plan: Callable[[tuple[float, float, float], tuple[float, float, float]], np.ndarray | str],
+                 controller: Controller,
                  plan_blocked: Callable[[np.ndarray, tuple[float, float, float]], np.ndarray] | None = None,
                  trail: PoseTrail | None = None):
-        """``plan(goal)`` returns the poses (N, 3) or, on failure, the planner's reason;
-        ``plan_blocked(poses, robot pose)`` marks the poses on cells the planner would not enter now;
+        """``plan(start, goal)`` returns the poses (N, 3) from the cycle's robot pose or, on failure, the
+        planner's reason; ``plan_blocked(poses, robot pose)`` marks the poses on cells the planner would not enter now;
         ``trail`` records where the robot drove (for recoveries that back up along it)."""
         self.cfg = config
         self.trail = trail if trail is not None else PoseTrail()
@@ -247,7 +248,7 @@ class MoveBaseCore:
             return ""
         if self.cfg.planner_frequency > 0:
             self._next_plan_time = now + 1.0 / self.cfg.planner_frequency
-        plan = self._plan(self.goal)
+        plan = self._plan(pose, self.goal)
         if not isinstance(plan, str) and len(plan):
             self._last_valid_plan = now
             self._retries = 0

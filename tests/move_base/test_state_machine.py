@@ -61,7 +61,7 @@ def run(core, seconds, dt=0.05, pose=(0.0, 0.0, 0.0), current=True, start=0.0):
     return outputs
 
 
-def make_core(plan=lambda goal: PLAN, controller=None, recoveries=None, plan_blocked=None, **cfg):
+def make_core(plan=lambda start, goal: PLAN, controller=None, recoveries=None, plan_blocked=None, **cfg):
     config = MoveBaseConfig.from_params(cfg)
     log = []
     recoveries = recoveries if recoveries is not None else [
@@ -83,7 +83,7 @@ def test_plans_controls_and_succeeds():
 
 
 def test_no_plan_clears_for_planner_patience_then_runs_every_recovery_then_aborts():
-    core, log = make_core(plan=lambda goal: "no path to (1.000, 0.000)")
+    core, log = make_core(plan=lambda start, goal: "no path to (1.000, 0.000)")
     outputs = run(core, 60.0)
     t, last = outputs[-1]
     assert last.outcome == "aborted"
@@ -95,7 +95,7 @@ def test_no_plan_clears_for_planner_patience_then_runs_every_recovery_then_abort
 
 
 def test_max_planning_retries_short_circuits_the_patience():
-    core, log = make_core(plan=lambda goal: "no path", max_planning_retries=2)
+    core, log = make_core(plan=lambda start, goal: "no path", max_planning_retries=2)
     outputs = run(core, 1.0)
     assert log[:1] == ["conservative_reset"]
     # the third failed plan (retries 3 > 2) starts the first recovery in the same cycle
@@ -150,7 +150,7 @@ def test_stale_sensors_stop_the_robot_and_name_the_source():
 def test_a_new_plan_restarts_the_recovery_sequence_once_the_robot_gets_closer():
     answers = iter(["no path"] * 102 + [PLAN] * 1000)
     controller = ScriptedController([ControlResult(False)] * 1000)
-    core, log = make_core(plan=lambda goal: next(answers), controller=controller, controller_patience=100.0)
+    core, log = make_core(plan=lambda start, goal: next(answers), controller=controller, controller_patience=100.0)
     run(core, 6.0)                       # the goal is 1 m away
     assert log == ["conservative_reset"] and core.trigger == Trigger.PLANNING_R
     run(core, 0.2, start=6.0)            # plans again, but no nearer to the goal
@@ -164,7 +164,7 @@ def test_plans_that_keep_failing_near_an_unreachable_goal_end_in_an_abort():
     plans = []
     log = []
 
-    def plan(goal):
+    def plan(start, goal):
         if len(plans) > len(log):   # one plan at the start and one after every recovery
             return "no path"
         plans.append(PLAN)
@@ -200,7 +200,7 @@ def on_cells(*cells):
 def test_a_blocked_plan_is_replaced_in_the_same_cycle():
     answers = iter([STRAIGHT, AROUND])
     obstacle = []
-    core, _ = make_core(plan=lambda goal: next(answers), plan_blocked=lambda p, r: on_cells(*obstacle)(p, r))
+    core, _ = make_core(plan=lambda start, goal: next(answers), plan_blocked=lambda p, r: on_cells(*obstacle)(p, r))
     first = core.cycle(0.0, (0.0, 0.0, 0.0), True)
     assert first.cmd == (0.3, 0.0) and core.replans == 1
     obstacle.append((0.5, 0.0))      # seen after planning
@@ -212,7 +212,7 @@ def test_a_blocked_plan_is_replaced_in_the_same_cycle():
 def test_a_plan_made_through_a_blocked_cell_is_not_replaced_for_it():
     """Next to a robot standing in an inflated zone the planner's own poses can lie on blocked cells:
     that crossing is not new, and replanning for it every cycle would only thrash."""
-    core, _ = make_core(plan=lambda goal: STRAIGHT, plan_blocked=on_cells((0.5, 0.0)))
+    core, _ = make_core(plan=lambda start, goal: STRAIGHT, plan_blocked=on_cells((0.5, 0.0)))
     outputs = [core.cycle(0.05 * i, (0.0, 0.0, 0.0), True) for i in range(40)]
     assert core.replans == 1 and all(out.cmd == (0.3, 0.0) for out in outputs)
 
@@ -222,7 +222,7 @@ def test_only_a_crossing_the_robot_will_reach_soon_replaces_the_plan():
     it would send the robot back and forth between two routes."""
     long_plan = np.column_stack([np.arange(0.0, 10.01, 0.1), np.zeros(101), np.zeros(101)])
     obstacle = [(6.0, 0.0)]
-    core, _ = make_core(plan=lambda goal: long_plan, plan_blocked=lambda p, r: on_cells(*obstacle)(p, r))
+    core, _ = make_core(plan=lambda start, goal: long_plan, plan_blocked=lambda p, r: on_cells(*obstacle)(p, r))
     core.cycle(0.0, (0.0, 0.0, 0.0), True)
     obstacle.append((8.0, 0.0))
     core.cycle(0.05, (0.0, 0.0, 0.0), True)
@@ -234,7 +234,7 @@ def test_only_a_crossing_the_robot_will_reach_soon_replaces_the_plan():
 def test_replans_for_new_obstacles_come_at_most_once_a_second():
     obstacle = []
 
-    def plan(goal):
+    def plan(start, goal):
         obstacle.clear()              # the new plan avoids what was seen ...
         return STRAIGHT.copy()
 
@@ -370,7 +370,7 @@ def test_creeping_along_a_winding_plan_is_progress_and_a_route_that_comes_and_go
     for 80 s: the plan left to drive is what shrinks. Plans that alternate with a longer route do not
     restart that count, so a robot circling where plans come and go still runs out of progress."""
     plan = winding_plan()
-    core, log = make_core(plan=lambda goal: plan, planner_frequency=1.0, progress_timeout=30.0)
+    core, log = make_core(plan=lambda start, goal: plan, planner_frequency=1.0, progress_timeout=30.0)
     core.set_goal((0.95, 10.0, 0.0), 0.0)
     for i in range(1600):
         assert not core.cycle(i * 0.05, along(plan, 0.0025 * i), True).outcome
@@ -379,7 +379,7 @@ def test_creeping_along_a_winding_plan_is_progress_and_a_route_that_comes_and_go
     longer = np.vstack([[[0.0, 0.0, 0.0], [-5.0, 0.0, 0.0], [-5.0, 10.0, 0.0]], plan[-1:]])
     for other in (longer, plan[[0, -1]]):        # a longer route, and a shortcut straight to the goal
         core_time = [0.0]
-        core, log = make_core(plan=lambda goal: (plan, other)[int(core_time[0]) % 2], planner_frequency=1.0,
+        core, log = make_core(plan=lambda start, goal: (plan, other)[int(core_time[0]) % 2], planner_frequency=1.0,
                               progress_timeout=30.0)
         core.set_goal((0.95, 10.0, 0.0), 0.0)
         for i in range(1600):            # back and forth along the first 0.6 m of the winding rows

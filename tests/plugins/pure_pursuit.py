@@ -38,6 +38,7 @@ class PurePursuit:
         declare_defaults(node, {f: getattr(self.config, f) for f in fields_of(PurePursuitParams)}, prefix=self.name,
                          specs=fields_of(PurePursuitParams))
         self.plan = np.empty((0, 3))
+        self.pose = None
 
     # -- the Controller ---------------------------------------------------------------------------
     def set_plan(self, plan: np.ndarray) -> bool:
@@ -46,8 +47,11 @@ class PurePursuit:
         self.plan = np.asarray(plan, dtype=float)
         return True
 
+    def begin_cycle(self, pose) -> None:
+        self.pose = pose
+
     def compute(self) -> ControlResult:
-        pose = self.costmap_ros.get_robot_pose()
+        pose = self.pose
         if pose is None or not len(self.plan):
             return ControlResult(False, message="no pose or no plan")
         x, y, yaw = pose[:3]
@@ -59,7 +63,7 @@ class PurePursuit:
         return ControlResult(True, self.config.speed * max(0.0, math.cos(error)), 1.5 * error)
 
     def is_goal_reached(self) -> bool:
-        pose = self.costmap_ros.get_robot_pose()
+        pose = self.pose
         return (pose is not None and len(self.plan) > 0
                 and math.hypot(self.plan[-1, 0] - pose[0], self.plan[-1, 1] - pose[1]) <= self.config.xy_goal_tolerance)
 

@@ -1,5 +1,6 @@
-"""A goal of the move_base node, from its action server or from /move_base_simple/goal, and the poses of a
-make_plan request (move_base's and its global planner's), checked by the rule of ros/poses.py."""
+"""A goal of the move_base node, from its action server or from /move_base_simple/goal, the check every front door
+gives a requested pose once (GoalCheck), and the poses of a make_plan request (move_base's and its global
+planner's), checked by the rule of ros/poses.py."""
 
 from __future__ import annotations
 
@@ -25,11 +26,12 @@ class MoveBaseGoal:
     instead of planning and driving to a pose."""
 
     def __init__(self, pose: PoseStamped, handle=None, feedback=None, advance=None, behavior=None):
-        self.pose = pose
+        self.pose = pose          # as requested, in the requester's frame
         self.handle = handle
         self.feedback = feedback
         self.advance = advance
         self.behavior = behavior
+        self.behavior_started = False   # a behaviour starts in the first control cycle that has the robot's pose
         self.id = str(uuid.UUID(bytes=bytes(handle.goal_id.uuid))) if handle is not None else uuid.uuid4().hex
         self.stamp = pose.header.stamp
         self.done: Future | None = None
@@ -37,6 +39,38 @@ class MoveBaseGoal:
         self.text = ""
         self.cause = ""          # why it was aborted, for Nav2's error codes (nav2_requests.ERROR_CODES)
         self.finished_wall = None
+
+
+class GoalCheck:
+    """The one check of a requested pose: valid (validate_pose), moved into the global costmap's frame by the
+    latest transform, and inside that costmap. Each front door runs it once per pose and hands the result on."""
+
+    def __init__(self, global_costmap):
+        self._costmap_ros = global_costmap
+
+    @property
+    def frame(self) -> str:
+        return self._costmap_ros.global_frame
+
+    def __call__(self, pose: PoseStamped, role: str = "goal") -> tuple[PoseStamped | None, str | None, str]:
+        """(the pose in the global frame, None, "") or (None, why not, the cause: "invalid_goal", "transform" or
+        "goal_outside_map", for Nav2's error codes)."""
+        reason = validate_pose(pose, role)
+        if reason is not None:
+            return None, reason, "invalid_goal"
+        frame = self.frame
+        target, reason = in_frame(pose, frame, self._costmap_ros.tf, role)
+        if target is None:
+            return None, reason, "transform"
+        x, y = target.pose.position.x, target.pose.position.y
+        master = self._costmap_ros.costmap
+        if master.world_to_map(x, y) is None:
+            x1 = master.origin_x + master.size_x * master.resolution
+            y1 = master.origin_y + master.size_y * master.resolution
+            return None, (f"{role} ({x:.6g}, {y:.6g}) is outside the global costmap "
+                          f"[{master.origin_x:.2f}, {x1:.2f}] x [{master.origin_y:.2f}, {y1:.2f}] in {frame}"), \
+                "goal_outside_map"
+        return target, None, ""
 
 
 def plan_request(request: GetPlan.Request, costmap_ros) -> tuple[tuple, tuple, float | None]:

@@ -10,13 +10,16 @@ import math
 import sys
 import time
 
-from actionlib_msgs.msg import GoalID, GoalStatus as ActionlibStatus
+from actionlib_msgs.msg import GoalID, GoalStatus as ActionlibStatus, GoalStatusArray
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped, Twist
+from nav_msgs.srv import GetPlan
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.task import Future
+from std_srvs.srv import Empty
 
 from move_base_msgs.action import MoveBase
 from simplebot_navigation.move_base.config import MoveBaseConfig
@@ -26,20 +29,24 @@ from simplebot_navigation.move_base.plugins import GLOBAL_PLANNERS, LOCAL_PLANNE
 from simplebot_navigation.move_base.recovery import PoseTrail
 from simplebot_navigation.move_base.state_machine import MoveBaseCore
 from simplebot_navigation.parameters import fields_of
-from simplebot_navigation.ros.conversions import pose_to_xyyaw, xyyaw_to_pose
+from simplebot_navigation.ros.conversions import xyyaw_to_pose
 from simplebot_navigation.ros.costmap.costmap_ros import Costmap2DROS
-from simplebot_navigation.ros.move_base.move_base_goal import MoveBaseGoal
-from simplebot_navigation.ros.poses import in_frame, validate_pose
+from simplebot_navigation.ros.costmap.costmap_services import CostmapServices
+from simplebot_navigation.ros.lifecycle_state import serve_lifecycle_state
+from simplebot_navigation.ros.move_base.cycle_poses import CyclePoses
+from simplebot_navigation.ros.move_base.goal_arbiter import GoalArbiter
+from simplebot_navigation.ros.move_base.move_base_goal import GoalCheck, MoveBaseGoal
 from simplebot_navigation.ros.move_base.move_base_parameters import MoveBaseLiveParameters
 from simplebot_navigation.ros.move_base.move_base_recoveries import MoveBaseRecoveryContext
-from simplebot_navigation.ros.move_base.move_base_services import serve_move_base_services
-from simplebot_navigation.ros.move_base.move_base_stats import OUTCOMES, MoveBaseReports
+from simplebot_navigation.ros.move_base.move_base_services import MoveBaseServices
+from simplebot_navigation.ros.move_base.move_base_stats import MoveBaseReports
 from simplebot_navigation.ros.move_base.move_base_supervision import MoveBaseSupervisor
 from simplebot_navigation.ros.move_base.nav2_front_door import Nav2FrontDoor
 from simplebot_navigation.ros.move_base.external_obstacles import ExternalObstacles
 from simplebot_navigation.ros.move_base.obstacle_feed import tf_obstacle_feed
 from simplebot_navigation.ros.move_base.obstacle_tracking import ObstacleTracking
-from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
+from simplebot_navigation.ros.params import (declare_defaults, describe_declared, given_parameter_tree,
+                                             refuse_unknown_parameters)
 from simplebot_navigation.ros.publishers import create_publisher, drop_event_handlers_of_best_effort_subscriptions
 from simplebot_navigation.ros.qos import SERVICE_QOS
 from simplebot_navigation.ros.tf import Buffer, TransformListener
@@ -54,13 +61,18 @@ MISSED_RATE_WARNING_PERIOD_S = 5.0
 
 
 class MoveBaseNode(Node):
+    """Assembled in the order of what each part needs: parameters; TF; the obstacle feed; the costmaps; the
+    plugins; the cycle's poses, the recoveries, the state machine and the goal arbiter; then the front doors, the
+    loops (supervisor, reports) and live parameters, each given only parts built before it."""
+
     def __init__(self, **kwargs):
         started = time.perf_counter()
         kwargs.setdefault("automatically_declare_parameters_from_overrides", True)
         super().__init__("move_base", **kwargs)
+        log = self.get_logger()
         self.cfg = MoveBaseConfig.from_params(given_parameter_tree(self))
         for warning in self.cfg.warnings:
-            self.get_logger().warn(warning)
+            log.warn(warning)
         self._declare_own_defaults()
         self.tf = Buffer(node=self)
         self.tf_listener = TransformListener(self.tf, self)
@@ -80,41 +92,72 @@ class MoveBaseNode(Node):
         self.controller = LOCAL_PLANNERS.spec(self.cfg.base_local_planner).load()(
             self, self.cfg.base_local_planner, self.local_costmap, self.tf, self.cfg.controller_frequency,
             self.global_costmap.global_frame, self.obstacle_feed)
+
+        # The robot's pose, read once per control cycle, for everything that cycle runs.
+        self.poses = CyclePoses(self.global_costmap, self.local_costmap)
         self.trail = PoseTrail()
-        self.core = MoveBaseCore(self.cfg, self._build_recoveries(), self._plan_to, self.controller,
+        self.recovery_context = MoveBaseRecoveryContext(self.poses, self.trail, given_parameter_tree(self),
+                                                        self.cfg.conservative_reset_dist)
+        self.recovery_instances: dict = {}
+        self.core = MoveBaseCore(self.cfg, self._build_recoveries(), self._plan, self.controller,
                                  self.planner.blocked_poses, self.trail)
-
         self.cmd_vel_pub = create_publisher(self, Twist, "cmd_vel", 1)
-        self.current_goal_pub = create_publisher(self, PoseStamped, "~/current_goal", 1)
-        group = ReentrantCallbackGroup()
-        self.action_server = ActionServer(self, MoveBase, "move_base", execute_callback=self._execute,
-                                          goal_callback=lambda _req: GoalResponse.ACCEPT,
-                                          cancel_callback=lambda _handle: CancelResponse.ACCEPT,
-                                          callback_group=group, goal_service_qos_profile=SERVICE_QOS,
-                                          result_service_qos_profile=SERVICE_QOS,
-                                          cancel_service_qos_profile=SERVICE_QOS)
-        self.create_subscription(PoseStamped, "move_base_simple/goal", self._on_simple_goal, 1)
-        self.create_subscription(GoalID, "~/cancel", self._on_cancel, 1)
-        serve_move_base_services(self)
-
-        self.goal: MoveBaseGoal | None = None
-        self.finished: list[MoveBaseGoal] = []
+        current_goal_pub = create_publisher(self, PoseStamped, "~/current_goal", 1)
+        self.arbiter = GoalArbiter(self.core, self.publish_zero, self.now_s, log, current_goal_pub.publish)
+        self.check_goal = GoalCheck(self.global_costmap)
         self.period = 1.0 / self.cfg.controller_frequency
+        self._serve_front_doors(log)
+        self._start_loops(log)
+        self._take_live_parameters(log)
+        log.info(f"move_base ready: {self.cfg.base_global_planner} + {self.cfg.base_local_planner}, "
+                 f"controller {self.cfg.controller_frequency:g} Hz, {len(self.core.recoveries)} recovery behaviours "
+                 f"(start-up {time.perf_counter() - started:.1f} s)")
+
+    def _serve_front_doors(self, log) -> None:
+        """Every interface that asks for a goal, a plan or a cleared costmap: each checks a request once and hands
+        a goal to the arbiter."""
+        self.nav2 = Nav2FrontDoor(self.arbiter, self.check_goal, self.core, self.planner, self.cfg.base_global_planner,
+                                  self.global_costmap, self.get_clock(), log, self.recovery_context.footprint_clear,
+                                  lambda: self.period)
+        self.action_servers = serve_actions(self, ((MoveBase, "move_base", self._execute),) + self.nav2.actions)
+        self.create_subscription(PoseStamped, "move_base_simple/goal", self._on_simple_goal, 1)
+        self.create_subscription(GoalID, "~/cancel", lambda msg: self.arbiter.cancel(msg.id), 1)
+        services = MoveBaseServices(self.arbiter, self.planner, self.global_costmap, self.local_costmap,
+                                    self.get_clock(), log)
+        self.create_service(GetPlan, "~/make_plan", services.make_plan, qos_profile=SERVICE_QOS)
+        self.create_service(Empty, "~/clear_costmaps", services.clear_costmaps, qos_profile=SERVICE_QOS)
+        self.costmap_services = [CostmapServices(self, costmap, costmap.name)
+                                 for costmap in (self.global_costmap, self.local_costmap)]
+        serve_lifecycle_state(self, "bt_navigator",
+                              lambda: self.global_costmap.initialized and self.local_costmap.initialized)
+
+    def _start_loops(self, log) -> None:
+        """The control cycle on node time; the watchdog, status and diagnostics on the steady clock, so they keep
+        going when /clock stops."""
         self.cycle_stats = ControlLoopStats(self.period)
         self._last_missed_warning = -math.inf
         self._control_timer = self.create_timer(self.period, self._control_cycle)
-        self.supervisor = MoveBaseSupervisor(self)
-        self.reports = MoveBaseReports(self)
-        # On the steady clock: the watchdog, status and diagnostics must keep going when /clock stops.
+        self.supervisor = MoveBaseSupervisor(self.get_clock(), log, self.cfg, self.arbiter, self._forget_history)
+        self.reports = MoveBaseReports(create_publisher(self, GoalStatusArray, "~/status", 1),
+                                       create_publisher(self, DiagnosticArray, "/diagnostics", 10),
+                                       self.get_clock(), self.get_name(), self.arbiter, self.cycle_stats,
+                                       self.core.events, self.cfg)
         self._housekeeping_ticks = 0
         self.create_timer(HOUSEKEEPING_PERIOD_S, self._housekeeping, clock=Clock(clock_type=ClockType.STEADY_TIME))
         drop_event_handlers_of_best_effort_subscriptions(self)
-        self.live_parameters = MoveBaseLiveParameters(self)
-        self.nav2 = Nav2FrontDoor(self)
-        self.get_logger().info(f"move_base ready: {self.cfg.base_global_planner} + {self.cfg.base_local_planner}, "
-                               f"controller {self.cfg.controller_frequency:g} Hz, "
-                               f"{len(self.core.recoveries)} recovery behaviours "
-                               f"(start-up {time.perf_counter() - started:.1f} s)")
+
+    def _take_live_parameters(self, log) -> None:
+        """Last: every part has declared its parameters."""
+        self.live_parameters = MoveBaseLiveParameters(
+            given_parameter_tree(self), log, cfg=self.cfg, global_costmap=self.global_costmap,
+            local_costmap=self.local_costmap, planner=self.planner, controller=self.controller,
+            recoveries=self.recovery_instances, tracking=self.obstacle_tracking, external=self.external_obstacles,
+            set_controller_frequency=self.set_controller_frequency)
+        describe_declared(self, self.live_parameters.table)
+        refuse_unknown_parameters(self)
+        self.add_pre_set_parameters_callback(self.live_parameters.normalize)
+        self.add_on_set_parameters_callback(self.live_parameters.check)
+        self.add_post_set_parameters_callback(self.live_parameters.stored)
 
     # -- public state for tests and the scenario runner ---------------------------------------------
     @property
@@ -134,6 +177,11 @@ class MoveBaseNode(Node):
     def recoveries(self) -> int:
         return sum(self.core.events.recoveries.values())
 
+    @property
+    def goal(self):
+        """The active MoveBaseGoal, or None (the arbiter's)."""
+        return self.arbiter.active
+
     # -- set-up ---------------------------------------------------------------------------------
     def _declare_own_defaults(self) -> None:
         own = {k: v for k, v in vars(self.cfg).items() if k not in ("warnings", "recovery_behaviors")}
@@ -143,42 +191,49 @@ class MoveBaseNode(Node):
         """One instance per behaviour name (a name listed twice runs the same instance twice), its parameters
         declared as it runs with them (as ROS 1's move_base sets reset_distance)."""
         tree = given_parameter_tree(self)
-        behaviors, instances = [], {}
-        self.recovery_instances = instances
-        context = self.recovery_context = MoveBaseRecoveryContext(self, self.trail)
+        behaviors, instances = [], self.recovery_instances
         for entry in self.cfg.recovery_behaviors:
             name = entry["name"]
             if name not in instances:
                 params = tree.get(name) if isinstance(tree.get(name), dict) else {}
-                instances[name] = RECOVERY_BEHAVIORS.spec(entry["type"]).load()(context, name, params)
+                instances[name] = RECOVERY_BEHAVIORS.spec(entry["type"]).load()(self.recovery_context, name, params)
                 declare_defaults(self, instances[name].parameters(), prefix=name)
                 for warning in instances[name].warnings:
                     self.get_logger().warn(warning)
             behaviors.append(instances[name])
         return behaviors
 
-    # -- planning ---------------------------------------------------------------------------------
-    def _robot_pose_global(self):
-        return self.global_costmap.get_robot_pose()
+    def _forget_history(self) -> None:
+        """Time jumped back: what the costmaps, the tracker and the controller kept belongs to another timeline."""
+        for costmap in (self.global_costmap, self.local_costmap):
+            costmap.forget_history()
+        self.obstacle_tracking.reset()
+        self.controller.reset()
 
-    def _plan_to(self, goal_xyyaw):
-        start = self._robot_pose_global()
-        if start is None:
-            self.get_logger().warn(f"cannot plan: no robot pose in {self.global_costmap.global_frame}: "
-                                   f"{self.global_costmap.last_pose_error}", throttle_duration_sec=2.0)
-            return f"no robot pose in {self.global_costmap.global_frame}"
-        result = self.planner.make_plan(start[:3], goal_xyyaw)
+    # -- planning ---------------------------------------------------------------------------------
+    def _plan(self, start, goal_xyyaw):
+        """The state machine's planner: from this cycle's robot pose (``start``) to the goal."""
+        result = self.planner.make_plan(start, goal_xyyaw)
         return result.poses if result.ok else result.message
 
-    # -- goals --------------------------------------------------------------------------------------
+    # -- the simple goal and move_base's action ---------------------------------------------------------
+    def _submit(self, goal: MoveBaseGoal) -> None:
+        """A goal of move_base's own interfaces: checked once; one that fails the check still preempts the
+        active goal and ends aborted, as ROS 1's move_base."""
+        target, reason, cause = self.check_goal(goal.pose)
+        if reason is None:
+            self.arbiter.submit(goal, target)
+        else:
+            self.arbiter.reject(goal, reason, cause)
+
     def _on_simple_goal(self, msg: PoseStamped) -> None:
-        self._accept_goal(MoveBaseGoal(msg))
+        self._submit(MoveBaseGoal(msg))
 
     async def _execute(self, handle):
         goal = MoveBaseGoal(handle.request.target_pose, handle,
                             feedback=lambda pose: handle.publish_feedback(self._move_base_feedback(pose)))
         goal.done = Future()
-        self._accept_goal(goal)
+        self._submit(goal)
         status = await goal.done
         if status == ActionlibStatus.SUCCEEDED:
             handle.succeed()
@@ -194,83 +249,6 @@ class MoveBaseNode(Node):
         feedback.base_position.header.stamp = pose.stamp.to_msg()
         feedback.base_position.pose = xyyaw_to_pose(*pose[:3])
         return feedback
-
-    def take_over(self, goal: MoveBaseGoal) -> None:
-        """``goal`` becomes the active one: the one before it, from whichever interface, is preempted."""
-        if self.goal is not None:
-            self._finish(self.goal, ActionlibStatus.PREEMPTED, "preempted by a new goal")
-        goal.status = ActionlibStatus.ACTIVE
-        self.goal = goal
-        self.core.events.goal(self.now_s(), goal.id)
-        self.supervisor.goal_accepted()
-
-    def _accept_goal(self, goal: MoveBaseGoal) -> None:
-        self.take_over(goal)
-        reason, cause = validate_pose(goal.pose), "invalid_goal"
-        target = None
-        if reason is None:
-            target, reason, cause = self.goal_in_global_frame(goal.pose)
-        if reason is not None:
-            self.get_logger().error(f"Aborting on goal because it was sent with an invalid goal: {reason}")
-            self.end_goal(goal, ActionlibStatus.ABORTED, reason, cause)
-            return
-        self.current_goal_pub.publish(target)
-        xyyaw = pose_to_xyyaw(target.pose)
-        self.get_logger().info(f"new goal ({xyyaw[0]:.2f}, {xyyaw[1]:.2f}, yaw {xyyaw[2]:.2f}) "
-                               f"in {target.header.frame_id}")
-        self.publish_zero()
-        self.core.set_goal(xyyaw, self.now_s())
-
-    def goal_in_global_frame(self, pose: PoseStamped, role: str = "goal"):
-        """(the pose in the global frame, None, "") or (None, why not, the cause for Nav2's error code)."""
-        frame = self.global_costmap.global_frame
-        target, reason = in_frame(pose, frame, self.tf, role)
-        if target is None:
-            return None, reason, "transform"
-        x, y = target.pose.position.x, target.pose.position.y
-        master = self.global_costmap.costmap
-        if master.world_to_map(x, y) is None:
-            x1, y1 = master.origin_x + master.size_x * master.resolution, \
-                master.origin_y + master.size_y * master.resolution
-            return None, (f"{role} ({x:.6g}, {y:.6g}) is outside the global costmap "
-                          f"[{master.origin_x:.2f}, {x1:.2f}] x [{master.origin_y:.2f}, {y1:.2f}] in {frame}"), \
-                "goal_outside_map"
-        return target, None, ""
-
-    def start_behavior(self, goal: MoveBaseGoal) -> None:
-        """A Nav2 behaviour (goal.behavior) becomes the active goal, from the robot's pose now."""
-        self.take_over(goal)
-        self.core.reset()
-        self.publish_zero()
-        pose = self._robot_pose_global()
-        if pose is None:
-            self.end_goal(goal, ActionlibStatus.ABORTED, f"no robot pose in {self.global_costmap.global_frame}: "
-                                                         f"{self.global_costmap.last_pose_error}", "TF_ERROR")
-            return
-        goal.behavior.start(self.now_s(), pose[:3])
-
-    def _on_cancel(self, msg: GoalID) -> None:
-        if self.goal is not None and (not msg.id or msg.id == self.goal.id):
-            self.get_logger().info("goal canceled")
-            self.end_goal(self.goal, ActionlibStatus.PREEMPTED, "canceled")
-
-    def end_goal(self, goal: MoveBaseGoal, status: int, text: str, cause: str = "") -> None:
-        """End a goal from outside the state machine (cancel, preemption, an error): stop the robot, drop the
-        goal from the state machine, and report the end."""
-        self.core.reset()
-        self.publish_zero()
-        self._finish(goal, status, text, cause)
-
-    def _finish(self, goal: MoveBaseGoal, status: int, text: str, cause: str = "") -> None:
-        goal.status, goal.text, goal.cause = status, text, cause
-        goal.finished_wall = time.monotonic()
-        self.core.events.outcome(self.now_s(), OUTCOMES.get(status, f"status {status}"), text)
-        if goal is self.goal:
-            self.goal = None
-        self.finished.append(goal)
-        if goal.done is not None and not goal.done.done():
-            goal.done.set_result(status)
-        self.reports.publish_status()
 
     # -- the control cycle --------------------------------------------------------------------------
     def now_s(self) -> float:
@@ -289,14 +267,17 @@ class MoveBaseNode(Node):
         self.cycle_stats.ran(self.now_s())
         self.supervisor.loop_ran()
         self.live_parameters.apply_pending()
-        goal = self.goal
+        goal = self.arbiter.active
         if goal is None:
             return
         if goal.handle is not None and goal.handle.is_cancel_requested:
-            self.end_goal(goal, ActionlibStatus.PREEMPTED, "canceled")
+            self.arbiter.finish(goal, ActionlibStatus.PREEMPTED, "canceled")
             return
         started = time.perf_counter()
-        pose = self._robot_pose_global()
+        pose = self.poses.read()
+        if goal.behavior is not None and not goal.behavior_started:
+            if not self._start_behavior(goal, pose):
+                return
         if pose is None:
             self.publish_zero()
             self.get_logger().warn(f"waiting for the robot pose: {self.global_costmap.last_pose_error}",
@@ -306,6 +287,7 @@ class MoveBaseNode(Node):
         if goal.behavior is not None:
             self._behavior_cycle(goal, pose)
             return
+        self.controller.begin_cycle(self.poses.in_local)
         if goal.advance is not None:
             target = goal.advance(pose)
             if target is not None:
@@ -315,7 +297,7 @@ class MoveBaseNode(Node):
         stale = self.local_costmap.stale_sources()
         if stale:
             self.supervisor.wait_for_data(f"sensor data out of date: {', '.join(f'local_costmap/{s}' for s in stale)}")
-            if self.goal is None:
+            if self.arbiter.active is None:
                 return
         else:
             self.supervisor.data_ok()
@@ -331,10 +313,10 @@ class MoveBaseNode(Node):
             self.get_logger().info(out.event)
         if out.outcome == "succeeded":
             self.get_logger().info("Goal reached")
-            self._finish(goal, ActionlibStatus.SUCCEEDED, out.message)
+            self.arbiter.finish(goal, ActionlibStatus.SUCCEEDED, out.message)
         elif out.outcome == "aborted":
             self.get_logger().error(out.message)
-            self._finish(goal, ActionlibStatus.ABORTED, out.message, out.cause)
+            self.arbiter.finish(goal, ActionlibStatus.ABORTED, out.message, out.cause)
         elif out.message:
             self.get_logger().warn(out.message, throttle_duration_sec=2.0)
         elapsed = time.perf_counter() - started
@@ -342,6 +324,16 @@ class MoveBaseNode(Node):
             self._last_missed_warning = time.monotonic()
             self.get_logger().warn(f"Control loop missed its desired rate of {self.cfg.controller_frequency:.4f}Hz"
                                    f"... the loop actually took {elapsed:.4f} seconds")
+
+    def _start_behavior(self, goal: MoveBaseGoal, pose) -> bool:
+        """A Nav2 behaviour starts from the first pose its cycles read; without one it ends at once (TF_ERROR)."""
+        if pose is None:
+            self.arbiter.finish(goal, ActionlibStatus.ABORTED, f"no robot pose in {self.global_costmap.global_frame}: "
+                                                               f"{self.global_costmap.last_pose_error}", "TF_ERROR")
+            return False
+        goal.behavior.start(self.now_s(), pose[:3])
+        goal.behavior_started = True
+        return True
 
     def _behavior_cycle(self, goal: MoveBaseGoal, pose) -> None:
         """One step of a Nav2 behaviour (Spin, BackUp, ...): it drives while the local costmap is current."""
@@ -357,10 +349,10 @@ class MoveBaseNode(Node):
             goal.feedback(pose)
         if step.outcome == "":
             self.get_logger().info(step.message)
-            self._finish(goal, ActionlibStatus.SUCCEEDED, step.message)
+            self.arbiter.finish(goal, ActionlibStatus.SUCCEEDED, step.message)
         elif step.outcome is not None:
             self.get_logger().error(step.message)
-            self._finish(goal, ActionlibStatus.ABORTED, step.message, step.outcome)
+            self.arbiter.finish(goal, ActionlibStatus.ABORTED, step.message, step.outcome)
 
     def destroy_node(self) -> None:
         self.supervisor.stop()
@@ -381,6 +373,16 @@ class MoveBaseNode(Node):
 
     def publish_zero(self) -> None:
         self._publish_cmd(0.0, 0.0)
+
+
+def serve_actions(node: Node, actions) -> list[ActionServer]:
+    """An action server per (action type, name, execute callback), every goal accepted (the arbiter preempts)."""
+    group = ReentrantCallbackGroup()
+    return [ActionServer(node, action, name, execute_callback=execute, callback_group=group,
+                         goal_callback=lambda _request: GoalResponse.ACCEPT,
+                         cancel_callback=lambda _handle: CancelResponse.ACCEPT, goal_service_qos_profile=SERVICE_QOS,
+                         result_service_qos_profile=SERVICE_QOS, cancel_service_qos_profile=SERVICE_QOS)
+            for action, name, execute in actions]
 
 
 def main(args=None) -> int:

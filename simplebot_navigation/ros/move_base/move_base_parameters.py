@@ -1,7 +1,7 @@
 """move_base's parameters while it runs: what ``ros2 param set`` accepts takes effect, and what it refuses
 it refuses with the reason; ``ros2 param describe`` gives each parameter its description and range.
 
-A collaborator of MoveBaseNode (``MoveBaseLiveParameters(node)``). The checks and the configurations come from
+A part of MoveBaseNode, given the parts a change reaches, never the node. The checks and the configurations come from
 move_base/live_parameters.py (no rclpy); this shell converts ROS 2 parameters, answers the set request at once,
 and applies an accepted change at the start of the next control cycle (``apply_pending``), on the executor's
 thread: TEB, the costmaps and their layers, the global planner and the recoveries take their new
@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import array
 import threading
-from typing import Protocol
 
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.parameter import Parameter
@@ -21,8 +20,7 @@ from simplebot_navigation.move_base.live_parameters import (GLOBAL_PLANNER, LOCA
                                                             LiveParameters, update_move_base_config)
 from simplebot_navigation.move_base.parameter_tree import OBSTACLE_TRACKING
 from simplebot_navigation.parameters import ParameterError
-from simplebot_navigation.ros.params import (NODE_LEVEL, describe_declared, given_parameter_tree,
-                                             refuse_unknown_parameters)
+from simplebot_navigation.ros.params import NODE_LEVEL
 
 
 def _ours(name: str) -> bool:
@@ -38,43 +36,30 @@ def _changes(params: list[Parameter]) -> list[tuple]:
     return [(param.name, ros1_value(param.value)) for param in params if _ours(param.name)]
 
 
-class LiveParameterHost(Protocol):
-    """What MoveBaseLiveParameters changes: a rclpy Node (its parameters and logger) with these parts."""
-    cfg: object                 # MoveBaseConfig
-    global_costmap: object      # Costmap2DROS
-    local_costmap: object
-    planner: object             # GlobalPlannerPlugin
-    controller: object          # LocalPlannerPlugin
-    recovery_instances: dict    # behaviour name -> Recovery
-    obstacle_tracking: object   # ObstacleTracking (ros/move_base/obstacle_tracking.py)
-    external_obstacles: object  # ExternalObstacles (ros/move_base/external_obstacles.py)
-
-    def set_controller_frequency(self, hz: float) -> None:
-        """The control timer and its statistics follow the new rate (the controller is told here)."""
-
-
 class MoveBaseLiveParameters:
     """Run-time parameter changes of a move_base node (dynamic_reconfigure semantics). Built after every part
-    has declared its parameters: it describes those the launcher gave, then takes every change through the
-    parameter layer's checks."""
+    has declared its parameters, from the tree the launcher gave (``given``) and the parts a change reaches: the
+    configuration ``cfg``, both costmaps, the global ``planner`` and the ``controller`` plugins, the recovery
+    instances by name, obstacle ``tracking`` and ``external`` obstacles, and ``set_controller_frequency(hz)`` for the
+    node's timers. The node hands its parameter callbacks to ``normalize``, ``check`` and ``stored``."""
 
-    def __init__(self, node: LiveParameterHost):
-        self.node = node
-        self._live = LiveParameters(given_parameter_tree(node))
+    def __init__(self, given: dict, logger, *, cfg, global_costmap, local_costmap, planner, controller,
+                 recoveries: dict, tracking, external, set_controller_frequency):
+        self._log = logger
+        self.cfg, self.costmaps = cfg, (global_costmap, local_costmap)
+        self.local_costmap, self.planner, self.controller = local_costmap, planner, controller
+        self.recoveries, self.tracking, self.external = recoveries, tracking, external
+        self._set_controller_frequency = set_controller_frequency
+        self._live = LiveParameters(given)
         self._live_lock = threading.Lock()   # a set request may come from another thread than the cycle
-        describe_declared(node, self._live.table)
         self._prepared = None
-        refuse_unknown_parameters(node)
-        node.add_pre_set_parameters_callback(self._normalize_parameters)
-        node.add_on_set_parameters_callback(self._on_set_parameters)
-        node.add_post_set_parameters_callback(self._on_parameters_set)
 
     @property
     def table(self):
         """Every parameter a running node takes, by ROS 2 name, with its spec."""
         return self._live.table
 
-    def _normalize_parameters(self, params: list[Parameter]) -> list[Parameter]:
+    def normalize(self, params: list[Parameter]) -> list[Parameter]:
         """Store what the node runs with: 1 for a float parameter becomes 1.0 (ROS 1 read it as 1.0)."""
         out = []
         with self._live_lock:
@@ -88,7 +73,7 @@ class MoveBaseLiveParameters:
                 out.append(param if same else Parameter(param.name, value=normal))
         return out
 
-    def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
+    def check(self, params: list[Parameter]) -> SetParametersResult:
         """Accept or refuse a change as a whole, with the reason; it is kept once rclpy has stored it. Any
         exception in the checks is a refusal that says what failed: the caller always gets an answer, and the
         node keeps running with what it had."""
@@ -100,11 +85,11 @@ class MoveBaseLiveParameters:
                 self._prepared = self._live.prepare(changes)
             except Exception as err:  # noqa: BLE001 - see the docstring
                 reason = str(err) if isinstance(err, ParameterError) else f"{type(err).__name__}: {err}"
-                self.node.get_logger().warn(f"parameter change refused: {reason}")
+                self._log.warn(f"parameter change refused: {reason}")
                 return SetParametersResult(successful=False, reason=reason)
         return SetParametersResult(successful=True)
 
-    def _on_parameters_set(self, params: list[Parameter]) -> None:
+    def stored(self, params: list[Parameter]) -> None:
         """The parameters are stored (every on-set callback accepted them): the next control cycle takes them."""
         changes = _changes(params)
         if not changes:
@@ -115,10 +100,10 @@ class MoveBaseLiveParameters:
                 warnings = self._live.commit(prepared if prepared is not None and prepared.assignments == changes
                                              else self._live.prepare(changes))
             except Exception as err:  # noqa: BLE001 - only if another thread's change got in between: say so
-                self.node.get_logger().error(f"parameter change stored but not applied: {err}")
+                self._log.error(f"parameter change stored but not applied: {err}")
                 return
         for warning in warnings:
-            self.node.get_logger().warn(warning)
+            self._log.warn(warning)
 
     def apply_pending(self) -> None:
         """At the start of a control cycle: the changes accepted since the last one take effect."""
@@ -129,29 +114,29 @@ class MoveBaseLiveParameters:
         try:
             self._apply(change)
         except Exception as err:  # noqa: BLE001 - a failed reconfiguration must not end the control loop
-            self.node.get_logger().error(f"parameter change not fully applied ({change.describe()}): "
+            self._log.error(f"parameter change not fully applied ({change.describe()}): "
                                     f"{type(err).__name__}: {err}")
             return
-        self.node.get_logger().info(f"parameters changed: {change.describe()}")
+        self._log.info(f"parameters changed: {change.describe()}")
 
     def _apply(self, change) -> None:
-        node, configs, parts = self.node, change.configs, change.parts
-        if MOVE_BASE in parts and "controller_frequency" in update_move_base_config(node.cfg, configs.move_base):
-            node.set_controller_frequency(node.cfg.controller_frequency)
-        for costmap in (node.global_costmap, node.local_costmap):
+        configs, parts = change.configs, change.parts
+        if MOVE_BASE in parts and "controller_frequency" in update_move_base_config(self.cfg, configs.move_base):
+            self._set_controller_frequency(self.cfg.controller_frequency)
+        for costmap in self.costmaps:
             if costmap.name not in parts:
                 continue
             changed = costmap.reconfigure(configs.costmaps[costmap.name])
-            if "footprint" in changed and costmap is node.local_costmap:
-                node.controller.set_costmap_footprint(costmap.footprint)
+            if "footprint" in changed and costmap is self.local_costmap:
+                self.controller.set_costmap_footprint(costmap.footprint)
         if GLOBAL_PLANNER in parts:
-            node.planner.reconfigure(configs.global_planner)
+            self.planner.reconfigure(configs.global_planner)
         if LOCAL_PLANNER in parts:
-            node.controller.reconfigure(configs.local_planner)
+            self.controller.reconfigure(configs.local_planner)
         if OBSTACLE_TRACKING in parts:
-            node.obstacle_tracking.reconfigure(configs.obstacle_tracking)
-            node.external_obstacles.timeout = configs.obstacle_tracking.external_timeout
-        for name, recovery in node.recovery_instances.items():
+            self.tracking.reconfigure(configs.obstacle_tracking)
+            self.external.timeout = configs.obstacle_tracking.external_timeout
+        for name, recovery in self.recoveries.items():
             if name in parts:
                 for warning in recovery.configure(configs.recoveries[name]):
-                    node.get_logger().warn(warning)
+                    self._log.warn(warning)

@@ -8,34 +8,36 @@ from simplebot_navigation.costmap.footprint import footprint_costs
 from simplebot_navigation.geometry import inverse_transform_points, transform_points
 from simplebot_navigation.move_base.recovery import PoseTrail
 from simplebot_navigation.move_base.recovery.spin import free_area_left_right
-from simplebot_navigation.ros.params import given_parameter_tree
+from simplebot_navigation.ros.move_base.cycle_poses import CyclePoses
 
 
 class MoveBaseRecoveryContext:
     """The RecoveryContext of a move_base node: footprint checks and free space on its local costmap, clearing on
-    both, the pose trail its control cycle records."""
+    both, the pose trail its control cycle records. The robot's poses are the control cycle's (``poses``), the
+    cycle that steps the recoveries and behaviours; ``given`` is the node's parameter tree as the launcher gave it."""
 
-    def __init__(self, node, trail: PoseTrail):
-        self.node = node
+    def __init__(self, poses: CyclePoses, trail: PoseTrail, given: dict, conservative_reset_dist: float):
+        self.poses = poses
+        self.global_costmap, self.local_costmap = poses.global_costmap, poses.local_costmap
         self.trail = trail
-        self.costmaps = {"global": node.global_costmap, "local": node.local_costmap}
-        self.conservative_reset_dist = node.cfg.conservative_reset_dist
+        self.costmaps = {"global": self.global_costmap, "local": self.local_costmap}
+        self.conservative_reset_dist = conservative_reset_dist
+        self._given = given
 
     @property
     def circumscribed_radius(self) -> float:
-        return self.node.local_costmap.circumscribed_radius
+        return self.local_costmap.circumscribed_radius
 
     def planner_parameters(self, namespace: str) -> dict:
-        given = given_parameter_tree(self.node).get(namespace, {})
+        given = self._given.get(namespace, {})
         return given if isinstance(given, dict) else {}
 
     def _in_local_frame(self, poses: np.ndarray) -> np.ndarray | None:
         """Poses given in the global costmap's frame (as move_base steps recoveries), moved into the local
-        costmap's by where each costmap sees the robot now; None without both poses."""
-        node = self.node
-        if node.local_costmap.global_frame == node.global_costmap.global_frame:
+        costmap's by where each costmap saw the robot this cycle; None without both poses."""
+        if self.local_costmap.global_frame == self.global_costmap.global_frame:
             return poses
-        here, there = node.global_costmap.get_robot_pose(), node.local_costmap.get_robot_pose()
+        here, there = self.poses.in_global, self.poses.in_local
         if here is None or there is None:
             return None
         return transform_points(there[:3], inverse_transform_points(here[:3], poses))
@@ -47,7 +49,7 @@ class MoveBaseRecoveryContext:
         placed = self._in_local_frame(poses)
         if placed is None:
             return np.zeros(len(poses), dtype=bool)
-        local = self.node.local_costmap
+        local = self.local_costmap
         with local.lock:
             return footprint_costs(local.costmap, local.footprint, placed) >= 0
 
@@ -55,13 +57,13 @@ class MoveBaseRecoveryContext:
         placed = self._in_local_frame(np.asarray([pose], dtype=float))
         if placed is None:
             return 0.0, 0.0
-        local = self.node.local_costmap
+        local = self.local_costmap
         with local.lock:
             return free_area_left_right(local.costmap, placed[0], radius)
 
     def clear_costmap(self, costmap_ros, x, y, reset_distance, layer_names, invert, force_updating) -> list[str]:
-        """Clear around the robot's current pose in this costmap (the given x, y when it has none)."""
-        pose = costmap_ros.get_robot_pose()
+        """Clear around the robot's pose of this cycle in this costmap (the given x, y when it has none)."""
+        pose = self.poses.of(costmap_ros)
         if pose is not None:
             x, y = pose[0], pose[1]
         with costmap_ros.lock:

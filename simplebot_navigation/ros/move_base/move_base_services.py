@@ -3,40 +3,41 @@
 from __future__ import annotations
 
 from nav_msgs.srv import GetPlan
-from std_srvs.srv import Empty
 
 from simplebot_navigation.ros.conversions import path_msg
 from simplebot_navigation.ros.move_base.move_base_goal import plan_request
-from simplebot_navigation.ros.qos import SERVICE_QOS
 
 
-def serve_move_base_services(node) -> None:
-    """``~/make_plan`` and ``~/clear_costmaps`` on the move_base node."""
+class MoveBaseServices:
+    """The handlers of ``~/make_plan`` and ``~/clear_costmaps``; the node serves them. They get the GoalArbiter
+    (no plan for others while a goal is active), the global planner, both costmaps, the node's clock and logger."""
 
-    def make_plan(request: GetPlan.Request, response: GetPlan.Response) -> GetPlan.Response:
+    def __init__(self, arbiter, planner, global_costmap, local_costmap, clock, logger):
+        self._arbiter, self._planner = arbiter, planner
+        self._global, self._local = global_costmap, local_costmap
+        self._clock, self._log = clock, logger
+
+    def make_plan(self, request: GetPlan.Request, response: GetPlan.Response) -> GetPlan.Response:
         """Refused while a goal is active; the request is read by plan_request, the rule of the planner's own
         make_plan."""
-        frame = node.global_costmap.global_frame
+        frame = self._global.global_frame
         response.plan.header.frame_id = frame
-        if node.goal is not None:
-            node.get_logger().error("move_base must be in an inactive state to make a plan for an external user")
+        if self._arbiter.active is not None:
+            self._log.error("move_base must be in an inactive state to make a plan for an external user")
             return response
         try:
-            start, goal, tolerance = plan_request(request, node.global_costmap)
+            start, goal, tolerance = plan_request(request, self._global)
         except ValueError as err:
-            node.get_logger().error(f"make_plan: {err}")
+            self._log.error(f"make_plan: {err}")
             return response
-        result = node.planner.make_plan(start, goal, tolerance)
+        result = self._planner.make_plan(start, goal, tolerance)
         if result.ok:
-            response.plan = path_msg(result.poses, frame, node.get_clock().now().to_msg())
+            response.plan = path_msg(result.poses, frame, self._clock.now().to_msg())
         return response
 
-    def clear_costmaps(_request, response):
-        for costmap in (node.global_costmap, node.local_costmap):
+    def clear_costmaps(self, _request, response):
+        for costmap in (self._global, self._local):
             with costmap.lock:
                 costmap.reset_layers()
-        node.get_logger().info("costmaps cleared")
+        self._log.info("costmaps cleared")
         return response
-
-    node.create_service(GetPlan, "~/make_plan", make_plan, qos_profile=SERVICE_QOS)
-    node.create_service(Empty, "~/clear_costmaps", clear_costmaps, qos_profile=SERVICE_QOS)

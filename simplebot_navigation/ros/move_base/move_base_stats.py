@@ -4,21 +4,16 @@ them, bench/realtime.py the cycle times)."""
 
 from __future__ import annotations
 
-import time
-
 from actionlib_msgs.msg import GoalStatus as ActionlibStatus, GoalStatusArray
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 from simplebot_navigation.move_base.cycle_stats import CycleSnapshot
 from simplebot_navigation.move_base.events import MoveBaseStats
-from simplebot_navigation.ros.publishers import create_publisher
+from simplebot_navigation.ros.move_base.goal_arbiter import OUTCOMES
 
 NAVIGATION_STATUS = "move_base: navigation"
 #: a finished goal stays in /move_base/status this long (wall seconds)
 FINISHED_STATUS_KEEP_S = 5.0
-#: the goal outcomes move_base counts, by actionlib status
-OUTCOMES = {ActionlibStatus.SUCCEEDED: "succeeded", ActionlibStatus.ABORTED: "aborted",
-            ActionlibStatus.PREEMPTED: "preempted"}
 
 
 def navigation_status(stats: MoveBaseStats, hardware_id: str) -> DiagnosticStatus:
@@ -59,21 +54,24 @@ def control_loop_status(window: CycleSnapshot, total: CycleSnapshot, recent, fre
 
 class MoveBaseReports:
     """``~/status`` (the active goal and those finished lately, for users of the simple goal topic) and
-    ``/diagnostics`` of a move_base node, published by its housekeeping timer."""
+    ``/diagnostics`` of a move_base node, published by its housekeeping timer and whenever a goal ends.
 
-    def __init__(self, node):
-        self.node = node
-        self.status_pub = create_publisher(node, GoalStatusArray, "~/status", 1)
-        self.diagnostics_pub = create_publisher(node, DiagnosticArray, "/diagnostics", 10)
-        self._diagnostics_snapshot = node.cycle_stats.snapshot()
+    It gets the two publishers, the node's clock and name, the GoalArbiter, the control loop's ControlLoopStats,
+    the state machine's events and the configuration (controller_frequency, read live)."""
+
+    def __init__(self, status_pub, diagnostics_pub, clock, name: str, arbiter, cycle_stats, events, cfg):
+        self.status_pub, self.diagnostics_pub = status_pub, diagnostics_pub
+        self._clock, self._name, self._arbiter = clock, name, arbiter
+        self._cycle_stats, self._events, self._cfg = cycle_stats, events, cfg
+        self._diagnostics_snapshot = cycle_stats.snapshot()
+        arbiter.listen(on_end=lambda _goal: self.publish_status())
 
     def publish_status(self) -> None:
-        node = self.node
-        now = time.monotonic()
-        node.finished = [g for g in node.finished if now - g.finished_wall < FINISHED_STATUS_KEEP_S]
+        arbiter = self._arbiter
+        arbiter.forget_finished(FINISHED_STATUS_KEEP_S)
         msg = GoalStatusArray()
-        msg.header.stamp = node.get_clock().now().to_msg()
-        for goal in node.finished + ([node.goal] if node.goal is not None else []):
+        msg.header.stamp = self._clock.now().to_msg()
+        for goal in arbiter.finished + ([arbiter.active] if arbiter.active is not None else []):
             status = ActionlibStatus(status=goal.status, text=goal.text)
             status.goal_id.id = goal.id
             status.goal_id.stamp = goal.stamp
@@ -83,12 +81,11 @@ class MoveBaseReports:
     def publish_diagnostics(self) -> None:
         """Control-loop timing and navigation counters once a second (steady clock, so it reports even when
         /clock stops)."""
-        node = self.node
-        snapshot = node.cycle_stats.snapshot()
+        snapshot = self._cycle_stats.snapshot()
         window, self._diagnostics_snapshot = snapshot.since(self._diagnostics_snapshot), snapshot
         msg = DiagnosticArray(status=[
-            control_loop_status(window, snapshot, node.cycle_stats.take_recent(), node.cfg.controller_frequency,
-                                node.get_name()),
-            navigation_status(node.core.events.snapshot(), node.get_name())])
-        msg.header.stamp = node.get_clock().now().to_msg()
+            control_loop_status(window, snapshot, self._cycle_stats.take_recent(), self._cfg.controller_frequency,
+                                self._name),
+            navigation_status(self._events.snapshot(), self._name)])
+        msg.header.stamp = self._clock.now().to_msg()
         self.diagnostics_pub.publish(msg)

@@ -1,8 +1,8 @@
 """What move_base does when its inputs fail: a stopped clock, missing data, a backward time jump, and
 when its own planners fail with an exception.
 
-A collaborator of MoveBaseNode (``MoveBaseSupervisor(node)``): it works on the node's goal, costmaps and
-controller through the interface ``SupervisedNode`` states, so the node's file stays about its interfaces.
+It ends goals through the GoalArbiter and resets the node's parts through the one callable it is given; it
+never sees the node.
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import threading
 import time
 import traceback
 from pathlib import Path
-from typing import Callable, Protocol
+from typing import Callable
 
 from actionlib_msgs.msg import GoalStatus as ActionlibStatus
 from rclpy.clock import JumpHandle, JumpThreshold, TimeJump
@@ -59,41 +59,30 @@ class CommandWatchdog:
                     return
 
 
-class SupervisedNode(Protocol):
-    """What MoveBaseSupervisor watches over: a rclpy Node (its clock and logger) with these parts."""
-    cfg: object                 # MoveBaseConfig: watchdog_timeout, max_wait
-    goal: object                # the active MoveBaseGoal, or None
-    controller: object          # LocalPlannerPlugin
-    global_costmap: object      # Costmap2DROS
-    local_costmap: object
-
-    def publish_zero(self) -> None:
-        """Zero velocity to the base, from any thread."""
-
-    def end_goal(self, goal, status: int, text: str) -> None:
-        """Stop the robot, drop the goal from the state machine, report its end."""
-
-
 class MoveBaseSupervisor:
     """The watchdog, max_wait, the reaction to time jumping back, and internal errors of a move_base node.
 
-    The control cycle tells it ``loop_ran()`` and, while the goal lacks its pose or sensors, ``wait_for_data``
-    (``data_ok()`` when they are back); the steady housekeeping timer calls ``check_watchdog()``."""
+    It gets what it watches: the node's ``clock`` and ``logger``, its configuration ``cfg`` (watchdog_timeout,
+    max_wait, read live), the GoalArbiter, and ``forget()``, which drops what a restarted timeline makes wrong
+    (costmap history, tracks, the controller's trajectory). The control cycle tells it ``loop_ran()`` and, while the
+    goal lacks its pose or sensors, ``wait_for_data`` (``data_ok()`` when they are back); the steady housekeeping
+    timer calls ``check_watchdog()``."""
 
-    def __init__(self, node: SupervisedNode):
-        self.node = node
-        self.watchdog = CommandWatchdog(node.publish_zero, lambda: node.cfg.watchdog_timeout,
-                                        lambda: node.goal is not None)
+    def __init__(self, clock, logger, cfg, arbiter, forget: Callable[[], None]):
+        self._clock, self._log, self.cfg, self.arbiter, self._forget = clock, logger, cfg, arbiter, forget
+        self.watchdog = CommandWatchdog(arbiter.stop, lambda: cfg.watchdog_timeout,
+                                        lambda: arbiter.active is not None)
         self._tripped = False
         self._waiting_since: float | None = None   # node time since when the goal lacks its pose or sensors
-        self._jump_handle: JumpHandle = node.get_clock().create_jump_callback(
+        self._jump_handle: JumpHandle = clock.create_jump_callback(
             JumpThreshold(min_forward=None, min_backward=Duration(nanoseconds=-1), on_clock_change=False),
             post_callback=self._on_time_jump)
+        arbiter.listen(on_accept=self.goal_accepted)
 
     def _now(self) -> float:
-        return self.node.get_clock().now().nanoseconds / 1e9
+        return self._clock.now().nanoseconds / 1e9
 
-    def goal_accepted(self) -> None:
+    def goal_accepted(self, _goal=None) -> None:
         """A new goal: the watchdog judges the loop from now on, and the goal has not waited yet."""
         self.watchdog.beat()
         self._waiting_since = None
@@ -102,7 +91,7 @@ class MoveBaseSupervisor:
         self.watchdog.beat()
         if self._tripped:
             self._tripped = False
-            self.node.get_logger().info("control loop running again")
+            self._log.info("control loop running again")
 
     def stop(self) -> None:
         self.watchdog.stop()
@@ -112,19 +101,19 @@ class MoveBaseSupervisor:
         where = traceback.extract_tb(exc.__traceback__)[-1]
         text = (f"internal error in the control cycle: {type(exc).__name__}: {exc} "
                 f"({Path(where.filename).name}:{where.lineno}); robot stopped, goal aborted")
-        self.node.get_logger().error(text + "\n" + "".join(traceback.format_exception(exc)))
-        self.node.end_goal(goal, ActionlibStatus.ABORTED, text)
+        self._log.error(text + "\n" + "".join(traceback.format_exception(exc)))
+        self.arbiter.finish(goal, ActionlibStatus.ABORTED, text)
 
     def check_watchdog(self) -> None:
         """Say why the robot was stopped, and abort after max_wait. The loop runs on /clock, so a dead simulator
         (or time source) silences it; the watchdog's thread has already sent the zero command."""
-        cfg = self.node.cfg
+        cfg = self.cfg
         silent = self.watchdog.silent_for()
-        if cfg.watchdog_timeout <= 0 or self.node.goal is None or silent < cfg.watchdog_timeout:
+        if cfg.watchdog_timeout <= 0 or self.arbiter.active is None or silent < cfg.watchdog_timeout:
             return
         if not self._tripped:
             self._tripped = True
-            self.node.get_logger().error(f"no control cycle for {silent:.2f} s of wall time (is /clock running? "
+            self._log.error(f"no control cycle for {silent:.2f} s of wall time (is /clock running? "
                                          f"node time {self._now():.2f} s): robot stopped")
         if 0 < cfg.max_wait < silent:
             self._abort_waiting(f"no control cycle for {silent:.0f} s of wall time (is /clock running?)")
@@ -133,18 +122,14 @@ class MoveBaseSupervisor:
         """A restarted simulator or a looped bag: what was seen belongs to another timeline. Costmaps and the
         controller start again (TF clears itself), and a goal in progress is aborted, since its robot pose,
         plan and timers are gone. New goals work as soon as data flows again."""
-        node = self.node
         back = -jump.delta.nanoseconds * 1e-9
-        for costmap in (node.global_costmap, node.local_costmap):
-            costmap.forget_history()
-        node.obstacle_tracking.reset()
-        node.controller.reset()
+        self._forget()
         self._waiting_since = None
-        node.get_logger().warn(f"time jumped back by {back:.2f} s (simulator restarted?): costmaps cleared")
-        if node.goal is not None:
+        self._log.warn(f"time jumped back by {back:.2f} s (simulator restarted?): costmaps cleared")
+        if self.arbiter.active is not None:
             reason = f"time jumped back by {back:.2f} s (simulator restarted?)"
-            node.get_logger().error(f"Aborting the goal: {reason}")
-            node.end_goal(node.goal, ActionlibStatus.ABORTED, reason)
+            self._log.error(f"Aborting the goal: {reason}")
+            self.arbiter.finish(self.arbiter.active, ActionlibStatus.ABORTED, reason)
 
     def data_ok(self) -> None:
         self._waiting_since = None
@@ -154,10 +139,10 @@ class MoveBaseSupervisor:
         now = self._now()
         if self._waiting_since is None:
             self._waiting_since = now
-        elif 0 < self.node.cfg.max_wait < now - self._waiting_since:
+        elif 0 < self.cfg.max_wait < now - self._waiting_since:
             self._abort_waiting(f"{reason} for {now - self._waiting_since:.0f} s")
 
     def _abort_waiting(self, reason: str) -> None:
-        message = f"Aborting the goal: {reason} (max_wait {self.node.cfg.max_wait:g} s)"
-        self.node.get_logger().error(message)
-        self.node.end_goal(self.node.goal, ActionlibStatus.ABORTED, message)
+        message = f"Aborting the goal: {reason} (max_wait {self.cfg.max_wait:g} s)"
+        self._log.error(message)
+        self.arbiter.finish(self.arbiter.active, ActionlibStatus.ABORTED, message)

@@ -43,6 +43,7 @@ class TebLocalPlannerROS:
         self.name = plugin_namespace(plugin_type)
         self.plan_frame = plan_frame
         self._plan: np.ndarray | None = None    # the latest global plan, in plan_frame
+        self._pose = None                       # the robot pose of this control cycle (begin_cycle)
         self.node = node
         self.costmap_ros = costmap_ros
         self.tf = tf_buffer
@@ -120,7 +121,9 @@ class TebLocalPlannerROS:
             return None
         return transform_points(transform_to_xyyaw(tf), plan, dtype=plan.dtype)
 
-    def _follow_plan_frame(self) -> None:
+    def begin_cycle(self, pose) -> None:
+        """The cycle's robot pose in the local costmap's frame; the plan follows the latest map -> odom, once."""
+        self._pose = pose
         if self.plan_frame != self.frame and self._plan is not None:
             in_frame = self._in_local_frame(self._plan)
             if in_frame is not None:
@@ -130,8 +133,7 @@ class TebLocalPlannerROS:
         self.planner.reset()
 
     def compute(self) -> ControlResult:
-        self._follow_plan_frame()
-        pose = self.costmap_ros.get_robot_pose()
+        pose = self._pose
         if pose is None:
             return ControlResult(False, message=f"no robot pose: {self.costmap_ros.last_pose_error}")
         moving = self.obstacle_feed.moving_obstacles(self._now(), self.frame)
@@ -144,8 +146,7 @@ class TebLocalPlannerROS:
         return ControlResult(result.ok, result.v, result.omega, result.message)
 
     def is_goal_reached(self) -> bool:
-        self._follow_plan_frame()
-        pose = self.costmap_ros.get_robot_pose()
+        pose = self._pose
         return pose is not None and self.planner.is_goal_reached(pose[:3], self._robot_velocity())
 
     # -- visualisation ------------------------------------------------------------------------
