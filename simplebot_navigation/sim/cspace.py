@@ -86,6 +86,13 @@ class _Grid:
         occupied[r0:r1 + 1, c0:c1 + 1] |= inside
 
 
+def static_free(world: World, inflation: float, resolution: float = DEFAULT_RESOLUTION) -> tuple[np.ndarray, tuple]:
+    """(free, origin): the cells (rows = y) where a disc's centre stays more than ``inflation`` from every static
+    obstacle, and the (x, y) of cell (0, 0)'s corner."""
+    grid = _Grid(world, resolution)
+    return grid.clearance > inflation, grid.origin
+
+
 def analyse(world: World, robot_radius: float, goal: Pose2D | None = None, margin: float = DEFAULT_MARGIN,
             resolution: float = DEFAULT_RESOLUTION) -> CSpaceMetrics:
     """Difficulty of the drive from the world's start to ``goal`` (default: its first goal).
