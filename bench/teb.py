@@ -285,18 +285,18 @@ def compare_evaluations(scene: str, planner: TebLocalPlanner, samples, repeats: 
     """Time the compiled and the reference evaluation (with Jacobian and normal equations) of the
     same bands at the final obstacle weight, median over repeats per band."""
     cfg, optimizer = planner.cfg, planner.planner.optimizer
-    multiplier = cfg.weight_adapt_factor ** (cfg.no_outer_iterations - 1)
+    multiplier = cfg.optim.weight_adapt_factor ** (cfg.optim.no_outer_iterations - 1)
     compiled, reference = [], []
     for band, obstacles, vel, movers in samples:
-        edges = optimizer.build_edges(band, obstacles, None, cfg.weight_obstacle * multiplier, movers,
-                                      cfg.weight_dynamic_obstacle * multiplier)
+        edges = optimizer.build_edges(band, obstacles, None, cfg.optim.weight_obstacle * multiplier, movers,
+                                      cfg.optim.weight_dynamic_obstacle * multiplier)
         if edges.n < 1:
             continue
-        optimizer.start_velocity, optimizer.free_goal_vel = vel, cfg.free_goal_vel
+        optimizer.start_velocity, optimizer.free_goal_vel = vel, cfg.goal_tolerance.free_goal_vel
         params = optimizer.parameters(edges)
         args = (band.poses, band.time_diffs, params, edges.arrays, planner.model.kernel_model,
                 optimizer.residual_count(edges, params))
-        ref = ReferenceEvaluation(cfg, planner.model, vel, cfg.free_goal_vel)
+        ref = ReferenceEvaluation(cfg, planner.model, vel, cfg.goal_tolerance.free_goal_vel)
         layout = ref.layout(edges)
         t_c, t_r = [], []
         for _ in range(repeats):

@@ -1,8 +1,11 @@
 """Declared parameters: one field spec, one validation, one rule for unknown keys.
 
 Every configuration class is a dataclass whose parameter fields are made with ``param()``; the
-spec travels in the field's metadata, so defaults are written once. ``load`` turns one ROS 1
-namespace (a dict) into checked values plus warnings for the ROS shell to log. No rclpy here.
+spec travels in the field's metadata, so defaults are written once. A large class may group its
+parameters into sections (``section()``, as teb_config.h groups TebConfig's into structs): the names
+stay flat, so parsing, listing and setting by name see one namespace, and only attribute access goes
+through the section (``cfg.robot.max_vel_x``). ``load`` turns one ROS 1 namespace (a dict) into
+checked values plus warnings for the ROS shell to log. No rclpy here.
 
 The rules, the same for every namespace:
 - a value of the wrong type, a NaN or an infinity where a number is expected, or a value out of
@@ -23,6 +26,7 @@ from dataclasses import dataclass
 from typing import Any
 
 _META = "simplebot_navigation.parameter"
+_SECTION = "simplebot_navigation.parameter_section"
 
 
 class ParameterError(ValueError):
@@ -143,11 +147,56 @@ def param(default: Any, unit: str, doc: str, *, ge: float | None = None, gt: flo
     return dataclasses.field(default=default, metadata={_META: spec})
 
 
+def section(cls) -> Any:
+    """A dataclass field holding the section ``cls``, a dataclass of parameters (or of further sections)."""
+    return dataclasses.field(default_factory=cls, metadata={_SECTION: cls})
+
+
+@functools.cache
+def _layout(cls) -> dict[str, tuple[tuple[str, ...], Param]]:
+    """Every parameter of ``cls`` by its flat name: (the section attributes leading to it, its spec)."""
+    layout: dict[str, tuple[tuple[str, ...], Param]] = {}
+
+    def add(name: str, path: tuple[str, ...], spec: Param) -> None:
+        if name in layout:
+            raise TypeError(f"{cls.__name__}: parameter {name!r} is declared twice (names are flat across sections)")
+        layout[name] = (path, spec)
+
+    for f in dataclasses.fields(cls):
+        if _SECTION in f.metadata:
+            for name, (path, spec) in _layout(f.metadata[_SECTION]).items():
+                add(name, (f.name, *path), spec)
+        elif _META in f.metadata:
+            add(f.name, (), dataclasses.replace(f.metadata[_META], name=f.name))
+    return layout
+
+
 @functools.cache
 def fields_of(cls) -> dict[str, Param]:
-    """The parameters of a configuration dataclass, by name, in declaration order."""
-    return {f.name: dataclasses.replace(f.metadata[_META], name=f.name)
-            for f in dataclasses.fields(cls) if _META in f.metadata}
+    """The parameters of a configuration dataclass, sections included, by name, in declaration order."""
+    return {name: spec for name, (_, spec) in _layout(cls).items()}
+
+
+def _owner(config: Any, name: str) -> Any:
+    """The object (``config`` or one of its sections) whose attribute ``name`` is."""
+    for part in _layout(type(config))[name][0]:
+        config = getattr(config, part)
+    return config
+
+
+def value_of(config: Any, name: str) -> Any:
+    """The value of the parameter ``name`` (its flat name) in a configuration."""
+    return getattr(_owner(config, name), name)
+
+
+def set_value(config: Any, name: str, value: Any) -> None:
+    """Set the parameter ``name`` (its flat name) in a configuration, in the section that holds it."""
+    setattr(_owner(config, name), name, value)
+
+
+def values_of(config: Any) -> dict[str, Any]:
+    """Every parameter of a configuration by its flat name, in declaration order."""
+    return {name: value_of(config, name) for name in _layout(type(config))}
 
 
 #: where the ROS 2 form of a {name, type} list keeps each entry's type (``<name>.plugin``)
@@ -188,4 +237,15 @@ def load(specs: dict[str, Param], given: Any, where: str, also_known=()) -> tupl
 def build(cls, given: Any, where: str, also_known=()) -> tuple[Any, list[str]]:
     """An instance of the configuration dataclass ``cls`` from one namespace: (config, warnings)."""
     values, warnings = load(fields_of(cls), given if given is not None else {}, where, also_known)
-    return cls(**values), warnings
+    return _construct(cls, values), warnings
+
+
+def _construct(cls, values: dict[str, Any]) -> Any:
+    """``cls`` with the given values (by flat name) in its fields and sections, the defaults elsewhere."""
+    kwargs = {}
+    for f in dataclasses.fields(cls):
+        if _SECTION in f.metadata:
+            kwargs[f.name] = _construct(f.metadata[_SECTION], values)
+        elif f.name in values:
+            kwargs[f.name] = values[f.name]
+    return cls(**kwargs)

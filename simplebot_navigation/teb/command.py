@@ -13,12 +13,13 @@ def velocity_from_band(band, cfg):
     dt_ref per pose), with the sign of the motion along the start heading."""
     if band is None or len(band.poses) < 2:
         return None
-    look = max(1, min(cfg.control_look_ahead_poses,
-                      len(band.poses) - 1 - cfg.prevent_look_ahead_poses_near_goal))
+    trajectory = cfg.trajectory
+    look = max(1, min(trajectory.control_look_ahead_poses,
+                      len(band.poses) - 1 - trajectory.prevent_look_ahead_poses_near_goal))
     dt = 0.0
     for k in range(look):
         dt += band.time_diffs[k]
-        if dt >= cfg.dt_ref * look:
+        if dt >= trajectory.dt_ref * look:
             look = k + 1
             break
     if not dt > 0:
@@ -36,17 +37,18 @@ def velocity_from_band(band, cfg):
 def saturate(v, omega, current, cfg, controller_period: float):
     """Acceleration window over one control period around the odometry velocity, then the
     velocity limits (they win if both cannot hold)."""
-    dv = cfg.acc_lim_x * controller_period
-    dw = cfg.acc_lim_theta * controller_period
+    robot = cfg.robot
+    dv = robot.acc_lim_x * controller_period
+    dw = robot.acc_lim_theta * controller_period
     v = min(max(v, current[0] - dv), current[0] + dv)
     omega = min(max(omega, current[1] - dw), current[1] + dw)
-    backwards = cfg.max_vel_x_backwards if cfg.max_vel_x_backwards > 0 else cfg.max_vel_x
+    backwards = robot.max_vel_x_backwards if robot.max_vel_x_backwards > 0 else robot.max_vel_x
     ratio_v = 1.0
-    if v > cfg.max_vel_x:
-        ratio_v = cfg.max_vel_x / v
+    if v > robot.max_vel_x:
+        ratio_v = robot.max_vel_x / v
     elif v < -backwards:
         ratio_v = -backwards / v
-    ratio_w = abs(cfg.max_vel_theta / omega) if abs(omega) > cfg.max_vel_theta else 1.0
-    if cfg.use_proportional_saturation:
+    ratio_w = abs(robot.max_vel_theta / omega) if abs(omega) > robot.max_vel_theta else 1.0
+    if robot.use_proportional_saturation:
         ratio_v = ratio_w = min(ratio_v, ratio_w)
     return v * ratio_v, omega * ratio_w

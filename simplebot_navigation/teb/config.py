@@ -3,6 +3,10 @@
 The effective defaults are the dynamic_reconfigure cfg values (docs/reference.md §0.1, §4.2), not
 the C++ constructor values, because the reconfigure server overwrites every unset parameter.
 Each field is declared once, with unit, doc, range and status (simplebot_navigation.parameters).
+The parameters are grouped into sections as teb_config.h groups them (``cfg.robot.max_vel_x``,
+``cfg.optim.weight_obstacle``); their names stay flat, as in the YAML files and the ROS 2 parameters.
+The classes have slots, so setting a parameter on the wrong object (``cfg.max_vel_x = ...``) fails
+instead of doing nothing; by name, use simplebot_navigation.parameters' value_of and set_value.
 """
 
 from __future__ import annotations
@@ -11,7 +15,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from simplebot_navigation.parameters import ParameterError, build, param
+from simplebot_navigation.parameters import ParameterError, build, param, section
 
 #: physical bounds of a velocity limit: the fastest drive this stack is built for (a 2 m/s Jackal-class base;
 #: the simulated box reaches 1.05 m/s and about 4.5 rad/s); beyond them a limit is a typing error, not a robot
@@ -26,9 +30,9 @@ _CONVERTER = ("costmap cells are used as point obstacles; moving obstacles come 
 _LEGACY = "the left/right closest obstacle association is used"
 
 
-@dataclass
-class TebConfig:
-    # -- trajectory -------------------------------------------------------------
+@dataclass(slots=True)
+class Trajectory:
+    """The band: its resolution and size, the plan slice it follows, the feasibility check, the commanded pose."""
     teb_autosize: bool = param(True, "", "resize the band (add/remove poses) during optimisation")
     dt_ref: float = param(0.3, "s", "desired time between two band poses", gt=0)
     dt_hysteresis: float = param(0.1, "s", "hysteresis around dt_ref before resizing", ge=0)
@@ -54,7 +58,11 @@ class TebConfig:
     prevent_look_ahead_poses_near_goal: int = param(0, "", "poses before the goal the look-ahead stops", ge=0)
     min_resolution_collision_check_angular: float = param(math.pi, "rad", "max turn between checked poses",
                                                           gt=0)
-    # -- robot ------------------------------------------------------------------
+
+
+@dataclass(slots=True)
+class Robot:
+    """The robot's velocity and acceleration limits and kinematics."""
     max_vel_x: float = param(0.4, "m/s", "maximum forward speed", gt=0, le=MAX_DRIVE_SPEED)
     max_vel_x_backwards: float = param(0.2, "m/s", "maximum reverse speed", ge=0, le=MAX_DRIVE_SPEED)
     max_vel_y: float = param(0.0, "m/s", "maximum sideways speed", ge=0, not_for_this_robot=_HOLONOMIC)
@@ -74,17 +82,22 @@ class TebConfig:
     use_proportional_saturation: bool = param(False, "", "scale v and omega together when one saturates")
     transform_tolerance: float = param(0.5, "s", "tolerated age of the plan-to-costmap transform", ge=0,
                                        not_implemented="the plan is transformed with the latest transform")
-    odom_topic: str = param("odom", "", "odometry topic the current velocity is read from", restart=True)
-    map_frame: str = param("odom", "", "planning frame; as in ROS 1 the local costmap's global_frame is used",
-                           restart=True)
-    # -- goal tolerance ---------------------------------------------------------
+
+
+@dataclass(slots=True)
+class GoalTolerance:
+    """When the goal counts as reached."""
     xy_goal_tolerance: float = param(0.2, "m", "distance to the goal that counts as reached", ge=0)
     yaw_goal_tolerance: float = param(0.1, "rad", "yaw error that counts as reached", ge=0)
     free_goal_vel: bool = param(False, "", "allow a non-zero speed at the goal")
     trans_stopped_vel: float = param(0.1, "m/s", "speed below which the robot counts as stopped", ge=0)
     theta_stopped_vel: float = param(0.1, "rad/s", "turn rate below which the robot counts as stopped", ge=0)
     complete_global_plan: bool = param(True, "", "the goal is reached only after every via-point")
-    # -- obstacles --------------------------------------------------------------
+
+
+@dataclass(slots=True)
+class Obstacles:
+    """Which obstacles the optimiser sees and how they are associated with band poses."""
     min_obstacle_dist: float = param(0.5, "m", "minimum distance between footprint model and obstacles", ge=0)
     inflation_dist: float = param(0.6, "m", "buffer zone around obstacles with a small penalty", ge=0)
     dynamic_obstacle_inflation_dist: float = param(0.6, "m", "buffer zone around dynamic obstacles", ge=0)
@@ -109,7 +122,11 @@ class TebConfig:
                                                   not_implemented=_PROXIMITY)
     obstacle_proximity_upper_bound: float = param(0.5, "m", "distance where the slow-down starts", ge=0,
                                                   not_implemented=_PROXIMITY)
-    # -- optimisation -----------------------------------------------------------
+
+
+@dataclass(slots=True)
+class Optimization:
+    """The solver's iterations and the weights of its edges."""
     no_inner_iterations: int = param(5, "", "solver iterations per outer iteration", ge=1)
     no_outer_iterations: int = param(4, "", "resize-and-solve rounds per cycle", ge=1)
     optimization_activate: bool = param(True, "", "run the optimiser at all")
@@ -135,6 +152,19 @@ class TebConfig:
     weight_inflation: float = param(0.1, "", "weight of inflation_dist", ge=0)
     weight_dynamic_obstacle: float = param(50.0, "", "weight of dynamic obstacle distance", ge=0)
     weight_dynamic_obstacle_inflation: float = param(0.1, "", "weight of dynamic obstacle inflation", ge=0)
+    weight_velocity_obstacle_ratio: float = param(0.0, "", "weight of the speed limit near obstacles", ge=0,
+                                                  not_implemented=_PROXIMITY)
+    weight_viapoint: float = param(1.0, "", "weight of the distance to via-points", ge=0)
+    weight_prefer_rotdir: float = param(50.0, "", "weight of the turning direction oscillation recovery prefers",
+                                        ge=0)
+    weight_adapt_factor: float = param(2.0, "", "factor the obstacle weight grows by per outer iteration", ge=1)
+    obstacle_cost_exponent: float = param(1.0, "", "exponent of the obstacle cost (1: linear)", gt=0)
+
+
+@dataclass(slots=True)
+class MovingObstacles:
+    """This stack's additions for moving obstacles (teb_local_planner has no such section): how a predicted
+    obstacle's keep-out circle grows with the time ahead, and the evasion when the band would meet one."""
     dynamic_obstacle_radius_growth: float = param(0.0, "m/s", "Here: a predicted obstacle's radius grows by this "
                                                   "per second of prediction (with include_dynamic_obstacles)",
                                                   ge=0, le=2.0)
@@ -150,14 +180,11 @@ class TebConfig:
                                                     "predicted moving obstacle within this time, drive the sampled "
                                                     "command that meets one latest (0: stop as TEB does)",
                                                     ge=0, le=10.0)
-    weight_velocity_obstacle_ratio: float = param(0.0, "", "weight of the speed limit near obstacles", ge=0,
-                                                  not_implemented=_PROXIMITY)
-    weight_viapoint: float = param(1.0, "", "weight of the distance to via-points", ge=0)
-    weight_prefer_rotdir: float = param(50.0, "", "weight of the turning direction oscillation recovery prefers",
-                                        ge=0)
-    weight_adapt_factor: float = param(2.0, "", "factor the obstacle weight grows by per outer iteration", ge=1)
-    obstacle_cost_exponent: float = param(1.0, "", "exponent of the obstacle cost (1: linear)", gt=0)
-    # -- homotopy class planning ------------------------------------------------
+
+
+@dataclass(slots=True)
+class HomotopyClasses:
+    """Bands in several topological classes and how the followed one is chosen."""
     enable_homotopy_class_planning: bool = param(True, "", "optimise bands in several topological classes")
     enable_multithreading: bool = param(True, "", "optimise the bands in parallel threads",
                                         not_implemented="the bands are optimised one after another")
@@ -196,7 +223,11 @@ class TebConfig:
     length_start_orientation_vector: float = param(0.4, "m", "band length that defines its start heading",
                                                    ge=0, not_implemented=_HCP)
     max_ratio_detours_duration_best_duration: float = param(3.0, "", "drop classes this much slower", ge=0)
-    # -- recovery ---------------------------------------------------------------
+
+
+@dataclass(slots=True)
+class Recovery:
+    """Shrinking the horizon, and the oscillation recovery."""
     shrink_horizon_backup: bool = param(True, "", "halve the horizon while the band is infeasible")
     shrink_horizon_min_duration: float = param(10.0, "s", "how long the horizon stays halved after that", ge=0)
     oscillation_recovery: bool = param(True, "", "detect oscillation and prefer one turning direction")
@@ -210,9 +241,25 @@ class TebConfig:
                                               not_implemented="solver divergence is not detected")
     divergence_detection_max_chi_squared: float = param(10.0, "", "error above which a solution diverged", ge=0,
                                                         not_implemented="solver divergence is not detected")
-    # -- footprint model (the ~footprint_model sub-namespace; teb/footprint.py checks it) ------
+
+
+@dataclass(slots=True)
+class TebConfig:
+    """All of TebLocalPlannerROS's parameters: the frames and the footprint model here, the rest in sections."""
+    odom_topic: str = param("odom", "", "odometry topic the current velocity is read from", restart=True)
+    map_frame: str = param("odom", "", "planning frame; as in ROS 1 the local costmap's global_frame is used",
+                           restart=True)
+    #: the ~footprint_model sub-namespace; teb/footprint.py checks it
     footprint_model: dict = param({}, "", "footprint model: type point, circular, two_circles, line or polygon",
                                   restart=True)
+    trajectory: Trajectory = section(Trajectory)
+    robot: Robot = section(Robot)
+    goal_tolerance: GoalTolerance = section(GoalTolerance)
+    obstacles: Obstacles = section(Obstacles)
+    optim: Optimization = section(Optimization)
+    moving_obstacles: MovingObstacles = section(MovingObstacles)
+    hcp: HomotopyClasses = section(HomotopyClasses)
+    recovery: Recovery = section(Recovery)
     #: non-fatal findings while loading (unknown keys, parameters without effect)
     warnings: list = field(default_factory=list)
 
@@ -225,7 +272,8 @@ class TebConfig:
         cfg, warnings = build(cls, params, "TebLocalPlannerROS")
         cfg.warnings = warnings
         cfg.map_frame = cfg.map_frame.lstrip("/")
-        if cfg.max_samples < cfg.min_samples:
-            raise ParameterError(f"TebLocalPlannerROS/max_samples: must be >= min_samples ({cfg.min_samples}), "
-                                 f"got {cfg.max_samples}")
+        trajectory = cfg.trajectory
+        if trajectory.max_samples < trajectory.min_samples:
+            raise ParameterError(f"TebLocalPlannerROS/max_samples: must be >= min_samples ({trajectory.min_samples}), "
+                                 f"got {trajectory.max_samples}")
         return cfg

@@ -59,34 +59,34 @@ def edge_parameters(cfg, obstacle_weight: float, start_velocity, free_goal_vel: 
     sqrt(weight) * error, so chi2 carries the weight). rotdir: the preferred turning direction,
     +1 left, -1 right, 0 none; without one the prefer_rotdir weight is 0 and the family is skipped.
     dynamic_weight: weight_dynamic_obstacle times the outer loop's multiplier."""
+    robot, obstacles, optim = cfg.robot, cfg.obstacles, cfg.optim
     p = np.zeros(N_PARAMS)
-    p[P_EPS] = cfg.penalty_epsilon
-    p[P_VEL_W_X], p[P_VEL_W_TH] = math.sqrt(cfg.weight_max_vel_x), math.sqrt(cfg.weight_max_vel_theta)
-    p[P_VEL_LO_X], p[P_VEL_LO_TH] = -cfg.max_vel_x_backwards, -cfg.max_vel_theta
-    p[P_VEL_HI_X], p[P_VEL_HI_TH] = cfg.max_vel_x, cfg.max_vel_theta
-    p[P_ACC_W_X], p[P_ACC_W_TH] = math.sqrt(cfg.weight_acc_lim_x), math.sqrt(cfg.weight_acc_lim_theta)
-    p[P_ACC_LIM_X], p[P_ACC_LIM_TH] = cfg.acc_lim_x, cfg.acc_lim_theta
+    p[P_EPS] = optim.penalty_epsilon
+    p[P_VEL_W_X], p[P_VEL_W_TH] = math.sqrt(optim.weight_max_vel_x), math.sqrt(optim.weight_max_vel_theta)
+    p[P_VEL_LO_X], p[P_VEL_LO_TH] = -robot.max_vel_x_backwards, -robot.max_vel_theta
+    p[P_VEL_HI_X], p[P_VEL_HI_TH] = robot.max_vel_x, robot.max_vel_theta
+    p[P_ACC_W_X], p[P_ACC_W_TH] = math.sqrt(optim.weight_acc_lim_x), math.sqrt(optim.weight_acc_lim_theta)
+    p[P_ACC_LIM_X], p[P_ACC_LIM_TH] = robot.acc_lim_x, robot.acc_lim_theta
     p[P_START_V], p[P_START_OMEGA] = start_velocity
     p[P_FREE_GOAL] = float(free_goal_vel)
-    p[P_W_NH], p[P_W_FD] = math.sqrt(cfg.weight_kinematics_nh), math.sqrt(cfg.weight_kinematics_forward_drive)
-    p[P_W_TIME] = math.sqrt(cfg.weight_optimaltime)
-    p[P_W_OBSTACLE], p[P_MIN_OBSTACLE] = math.sqrt(obstacle_weight), cfg.min_obstacle_dist
-    p[P_EXPONENT] = cfg.obstacle_cost_exponent
+    p[P_W_NH], p[P_W_FD] = math.sqrt(optim.weight_kinematics_nh), math.sqrt(optim.weight_kinematics_forward_drive)
+    p[P_W_TIME] = math.sqrt(optim.weight_optimaltime)
+    p[P_W_OBSTACLE], p[P_MIN_OBSTACLE] = math.sqrt(obstacle_weight), obstacles.min_obstacle_dist
+    p[P_EXPONENT] = optim.obstacle_cost_exponent
     p[P_INFLATION] = float(with_inflation)
-    p[P_W_INFLATION], p[P_INFLATION_DIST] = math.sqrt(cfg.weight_inflation), cfg.inflation_dist
-    p[P_W_VIA] = math.sqrt(cfg.weight_viapoint)
-    p[P_ROTDIR] = float(rotdir)
-    p[P_W_ROTDIR] = math.sqrt(cfg.weight_prefer_rotdir) if rotdir else 0.0
-    p[P_W_DYNAMIC] = math.sqrt(dynamic_weight)
-    p[P_DYNAMIC_INFLATION] = float(with_dynamic_inflation(cfg))
-    p[P_W_DYNAMIC_INFLATION] = math.sqrt(cfg.weight_dynamic_obstacle_inflation)
-    p[P_DYNAMIC_INFLATION_DIST] = cfg.dynamic_obstacle_inflation_dist
+    p[P_W_INFLATION], p[P_INFLATION_DIST] = math.sqrt(optim.weight_inflation), obstacles.inflation_dist
+    p[P_W_VIA] = math.sqrt(optim.weight_viapoint)
+    p[P_ROTDIR], p[P_W_ROTDIR] = float(rotdir), (math.sqrt(optim.weight_prefer_rotdir) if rotdir else 0.0)
+    p[P_W_DYNAMIC], p[P_DYNAMIC_INFLATION] = math.sqrt(dynamic_weight), float(with_dynamic_inflation(cfg))
+    p[P_W_DYNAMIC_INFLATION] = math.sqrt(optim.weight_dynamic_obstacle_inflation)
+    p[P_DYNAMIC_INFLATION_DIST] = obstacles.dynamic_obstacle_inflation_dist
     return p
 
 
 def with_dynamic_inflation(cfg) -> bool:
     """The second error of a dynamic obstacle edge counts only beyond min_obstacle_dist."""
-    return cfg.dynamic_obstacle_inflation_dist > cfg.min_obstacle_dist and cfg.weight_dynamic_obstacle_inflation > 0
+    return (cfg.obstacles.dynamic_obstacle_inflation_dist > cfg.obstacles.min_obstacle_dist
+            and cfg.optim.weight_dynamic_obstacle_inflation > 0)
 
 
 def residual_count(n: int, n_obstacle: int, n_via: int, n_dynamic: int, params: np.ndarray) -> int:

@@ -71,7 +71,7 @@ class HomotopyClassPlanner:
 
     @property
     def enabled(self) -> bool:
-        return self.cfg.enable_homotopy_class_planning
+        return self.cfg.hcp.enable_homotopy_class_planning
 
     def clear(self) -> None:
         self.candidates = []
@@ -123,7 +123,7 @@ class HomotopyClassPlanner:
             self._explore(start, goal, clusters, class_obstacles, bounds)
         elif not self.candidates:
             self.candidates = [self._new_candidate(initial_plan, True)]
-        if not cfg.optimization_activate:
+        if not cfg.optim.optimization_activate:
             self.best = self.candidates[0] if self.candidates else None
             return self.best is not None
         self._optimize_candidates(obstacles, via_points, start_velocity, free_goal_vel, deadline)
@@ -165,7 +165,7 @@ class HomotopyClassPlanner:
                 cand.cost = math.inf
             else:
                 # Alternatives to the band being followed run the later half of the outer loop.
-                skip = cfg.no_outer_iterations // 2 if cand is not self.best and self.best is not None else 0
+                skip = cfg.optim.no_outer_iterations // 2 if cand is not self.best and self.best is not None else 0
                 cand.cost = self.optimizer.optimize(cand.band, obstacles, via_points, start_velocity,
                                                     free_goal_vel, compute_cost=self.enabled, skip_outer=skip,
                                                     dynamic_obstacles=self.moving)
@@ -184,9 +184,9 @@ class HomotopyClassPlanner:
         keep = []
         for cand in self.candidates:
             back = cand.band.poses[-1]
-            if (math.hypot(goal[0] - back[0], goal[1] - back[1]) < cfg.force_reinit_new_goal_dist
-                    and abs(float(normalize_theta(goal[2] - back[2]))) < cfg.force_reinit_new_goal_angular):
-                cand.band.update_and_prune(start, goal, cfg.min_samples)
+            if (math.hypot(goal[0] - back[0], goal[1] - back[1]) < cfg.trajectory.force_reinit_new_goal_dist
+                    and abs(float(normalize_theta(goal[2] - back[2]))) < cfg.trajectory.force_reinit_new_goal_angular):
+                cand.band.update_and_prune(start, goal, cfg.trajectory.min_samples)
                 keep.append(cand)
         if len(keep) != len(self.candidates):
             keep = []
@@ -195,9 +195,9 @@ class HomotopyClassPlanner:
 
     def _new_candidate(self, path: np.ndarray, from_initial_plan: bool) -> Candidate:
         band = TimedElasticBand()
-        band.init_from_path(path, self.cfg.max_vel_x, self.cfg.max_vel_theta,
-                            self.cfg.global_plan_overwrite_orientation, self.cfg.min_samples,
-                            self.cfg.allow_init_with_backwards_motion)
+        robot, trajectory = self.cfg.robot, self.cfg.trajectory
+        band.init_from_path(path, robot.max_vel_x, robot.max_vel_theta, trajectory.global_plan_overwrite_orientation,
+                            trajectory.min_samples, trajectory.allow_init_with_backwards_motion)
         return Candidate(band, from_initial_plan, signature=self._band_signature(band))
 
     def _signature(self, path_xy: np.ndarray, times: np.ndarray) -> Signature:
@@ -225,13 +225,13 @@ class HomotopyClassPlanner:
         self.candidates = kept
 
     def _ensure_initial_plan_candidate(self, initial_plan) -> None:
-        sig = self._signature(initial_plan[:, :2], path_times(initial_plan[:, :2], self.cfg.max_vel_x))
+        sig = self._signature(initial_plan[:, :2], path_times(initial_plan[:, :2], self.cfg.robot.max_vel_x))
         for cand in self.candidates:
             cand.from_initial_plan = False
         twin = self._has_class(sig)
         if twin is not None:
             twin.from_initial_plan = True
-        elif len(self.candidates) < self.cfg.max_number_classes:
+        elif len(self.candidates) < self.cfg.hcp.max_number_classes:
             self.candidates.append(self._new_candidate(initial_plan, True))
         else:
             # The global plan's class always gets a band; it replaces the most expensive one.
@@ -246,14 +246,14 @@ class HomotopyClassPlanner:
         cfg = self.cfg
         axis = goal[:2] - start[:2]
         length = float(np.hypot(*axis))
-        if length < 2 * cfg.min_obstacle_dist or not (clusters or len(self.moving)):
+        if length < 2 * cfg.obstacles.min_obstacle_dist or not (clusters or len(self.moving)):
             return
         axis /= length
         normal = np.array([-axis[1], axis[0]])
-        half_width = 0.5 * cfg.roadmap_graph_area_width
+        half_width = 0.5 * cfg.hcp.roadmap_graph_area_width
         for t_w, offsets in self._detours(start, axis, normal, length, clusters):
             for offset in offsets:
-                if len(self.candidates) >= cfg.max_number_classes:
+                if len(self.candidates) >= cfg.hcp.max_number_classes:
                     return
                 via = start[:2] + t_w * axis + offset * normal
                 if bounds is not None and not (bounds[0] <= via[0] <= bounds[2] and bounds[1] <= via[1] <= bounds[3]):
@@ -261,11 +261,11 @@ class HomotopyClassPlanner:
                 if abs(offset) > half_width or not _segments_clear(
                         np.array([start[:2], via, goal[:2]]), obstacles, self.model.inscribed_radius):
                     continue
-                path = _polyline(np.array([start[:2], via, goal[:2]]), cfg.max_vel_x * cfg.dt_ref)
+                path = _polyline(np.array([start[:2], via, goal[:2]]), cfg.robot.max_vel_x * cfg.trajectory.dt_ref)
                 heading = np.diff(path, axis=0)
                 seed = np.column_stack([path, np.append(np.arctan2(heading[:, 1], heading[:, 0]), 0.0)])
                 seed[0], seed[-1] = start, goal
-                sig = self._signature(seed[:, :2], path_times(seed[:, :2], cfg.max_vel_x))
+                sig = self._signature(seed[:, :2], path_times(seed[:, :2], cfg.robot.max_vel_x))
                 if self._has_class(sig) is None and not any(
                         np.hypot(*(via - r)) < REJECTED_SEED_RADIUS for r, _ in self.rejected):
                     cand = self._new_candidate(seed, False)
@@ -280,8 +280,8 @@ class HomotopyClassPlanner:
         around each cluster and each moving obstacle's meeting point within roadmap_graph_area_width,
         nearest to the line first."""
         cfg = self.cfg
-        half_width = 0.5 * cfg.roadmap_graph_area_width
-        clearance = self.model.inscribed_radius + cfg.min_obstacle_dist
+        half_width = 0.5 * cfg.hcp.roadmap_graph_area_width
+        clearance = self.model.inscribed_radius + cfg.obstacles.min_obstacle_dist
         ranked = []
         for pts in clusters:
             rel = pts - start[:2]
@@ -291,7 +291,7 @@ class HomotopyClassPlanner:
                 t_w = float(np.clip(np.mean(t[inside]), 0.25 * length, 0.75 * length))
                 ranked.append((float(np.min(np.abs(lat[inside]))), t_w,
                                (float(lat[inside].max()) + clearance, float(lat[inside].min()) - clearance)))
-        for t, lat, radius in moving_detours(start, axis, length, self.moving, cfg.max_vel_x):
+        for t, lat, radius in moving_detours(start, axis, length, self.moving, cfg.robot.max_vel_x):
             if 0 < t < length and abs(lat) - radius < half_width:
                 t_w = float(np.clip(t, 0.25 * length, 0.75 * length))
                 ranked.append((max(abs(lat) - radius, 0.0), t_w, (lat + radius + clearance, lat - radius - clearance)))
@@ -303,7 +303,7 @@ class HomotopyClassPlanner:
         delete_detours_backwards) or taking longer than max_ratio_detours_duration_best_duration
         times the fastest band. The band being followed is locked, as TEB locks the best class:
         a detour the robot has committed to is not deleted under it."""
-        cfg = self.cfg
+        hcp = self.cfg.hcp
         if len(self.candidates) < 2:
             return
         fastest = min(c.band.sum_of_time_diffs for c in self.candidates)
@@ -312,23 +312,23 @@ class HomotopyClassPlanner:
             poses = cand.band.poses
             d = poses[-1, :2] - poses[0, :2]
             norm = float(np.hypot(*d))
-            backwards = (cfg.delete_detours_backwards and norm > 1e-9 and
+            backwards = (hcp.delete_detours_backwards and norm > 1e-9 and
                          bool(np.any((np.cos(poses[:, 2]) * d[0] + np.sin(poses[:, 2]) * d[1]) / norm < -0.1)))
-            too_long = cand.band.sum_of_time_diffs > cfg.max_ratio_detours_duration_best_duration * fastest
+            too_long = cand.band.sum_of_time_diffs > hcp.max_ratio_detours_duration_best_duration * fastest
             if (backwards or too_long) and cand is not self.best:
                 continue
             kept.append(cand)
         self.candidates = kept or self.candidates
 
     def _select_best(self) -> None:
-        cfg = self.cfg
+        hcp = self.cfg.hcp
         best, best_cost = None, math.inf
         for cand in self.candidates:
             cost = cand.cost
             if cand is self.best:
-                cost *= cfg.selection_cost_hysteresis
+                cost *= hcp.selection_cost_hysteresis
             elif cand.from_initial_plan:
-                cost *= cfg.selection_prefer_initial_plan
+                cost *= hcp.selection_prefer_initial_plan
             if cost < best_cost or best is None:
                 best, best_cost = cand, cost
         self.best = best

@@ -63,10 +63,11 @@ def associate_obstacles(model, poses: np.ndarray, obstacles: np.ndarray, min_obs
 def motion_prediction(cfg) -> MotionPrediction:
     """The prediction the configuration asks for: with include_dynamic_obstacles false the obstacles stand
     where they are, as static circles of their tracked radius (planned_motion), and nothing grows."""
-    if not cfg.include_dynamic_obstacles:
+    if not cfg.obstacles.include_dynamic_obstacles:
         return MotionPrediction()
-    return MotionPrediction(cfg.dynamic_obstacle_prediction_horizon or math.inf,
-                            cfg.dynamic_obstacle_max_uncertainty, cfg.dynamic_obstacle_radius_growth)
+    moving = cfg.moving_obstacles
+    return MotionPrediction(moving.dynamic_obstacle_prediction_horizon or math.inf,
+                            moving.dynamic_obstacle_max_uncertainty, moving.dynamic_obstacle_radius_growth)
 
 
 def planned_motion(obstacles: np.ndarray, predict: bool, covariance: np.ndarray | None = None,

@@ -80,43 +80,45 @@ class TebOptimizer:
         taken at the same final weight as a full run). dynamic_obstacles: prediction rows
         (perception/prediction.py; planned_motion zeroes the velocities of those not to be predicted).
         Returns the selection cost of the final graph (inf unless compute_cost)."""
-        cfg = self.cfg
+        trajectory, optim = self.cfg.trajectory, self.cfg.optim
         self.start_velocity = (float(start_velocity[0]), float(start_velocity[1]))
         self.free_goal_vel = free_goal_vel
-        multiplier = cfg.weight_adapt_factor ** skip_outer
+        multiplier = optim.weight_adapt_factor ** skip_outer
         cost = math.inf
-        outer_iterations = cfg.no_outer_iterations if outer_iterations is None else outer_iterations
+        outer_iterations = optim.no_outer_iterations if outer_iterations is None else outer_iterations
         outer_iterations = max(1, outer_iterations - skip_outer)
         # TEB resizes until nothing changes when it predicts moving obstacles, whose edges depend on the poses'
         # times; here only when one is near the band (none or far away: the static planner, bit for bit).
-        fast_mode = not (cfg.include_dynamic_obstacles and self.dynamic_obstacles_near(band, dynamic_obstacles))
+        fast_mode = not (self.cfg.obstacles.include_dynamic_obstacles
+                         and self.dynamic_obstacles_near(band, dynamic_obstacles))
         for outer in range(outer_iterations):
-            if cfg.teb_autosize:
-                band.auto_resize(cfg.dt_ref, cfg.dt_hysteresis, cfg.min_samples, cfg.max_samples, fast_mode)
-            edges = self.build_edges(band, obstacles, via_points, cfg.weight_obstacle * multiplier,
-                                     dynamic_obstacles, cfg.weight_dynamic_obstacle * multiplier)
-            self.levenberg_marquardt(band, edges, cfg.no_inner_iterations)
+            if trajectory.teb_autosize:
+                band.auto_resize(trajectory.dt_ref, trajectory.dt_hysteresis, trajectory.min_samples,
+                                 trajectory.max_samples, fast_mode)
+            edges = self.build_edges(band, obstacles, via_points, optim.weight_obstacle * multiplier,
+                                     dynamic_obstacles, optim.weight_dynamic_obstacle * multiplier)
+            self.levenberg_marquardt(band, edges, optim.no_inner_iterations)
             if compute_cost and outer == outer_iterations - 1:
                 cost = self.selection_cost(band, edges)
-            multiplier *= cfg.weight_adapt_factor
+            multiplier *= optim.weight_adapt_factor
         return cost
 
     def build_edges(self, band, obstacles, via_points, obstacle_weight, dynamic_obstacles=None,
                     dynamic_weight: float = 0.0) -> EdgeSet:
         cfg = self.cfg
         empty = np.zeros(0, dtype=np.int64)
-        if obstacles is not None and len(obstacles) and cfg.weight_obstacle > 0:
-            pi, oi, gap = associate_obstacles(self.model, band.poses, obstacles, cfg.min_obstacle_dist,
-                                              cfg.obstacle_association_force_inclusion_factor,
-                                              cfg.obstacle_association_cutoff_factor)
+        if obstacles is not None and len(obstacles) and cfg.optim.weight_obstacle > 0:
+            pi, oi, gap = associate_obstacles(self.model, band.poses, obstacles, cfg.obstacles.min_obstacle_dist,
+                                              cfg.obstacles.obstacle_association_force_inclusion_factor,
+                                              cfg.obstacles.obstacle_association_cutoff_factor)
             obst_point = obstacles[oi]
         else:
             pi, obst_point, gap = empty, np.zeros((0, 2)), np.zeros(0)
         vp, vpts = empty, np.zeros((0, 2))
         n = len(band.poses)
-        if via_points is not None and len(via_points) and cfg.weight_viapoint > 0 and n > 2:
+        if via_points is not None and len(via_points) and cfg.optim.weight_viapoint > 0 and n > 2:
             vpts = np.asarray(via_points, dtype=float).reshape(-1, 2)
-            if cfg.via_points_ordered:
+            if cfg.trajectory.via_points_ordered:
                 d2 = ((band.poses[None, 1:-1, :2] - vpts[:, None, :]) ** 2).sum(axis=2)
                 idx, start = [], 0
                 for row in d2:
@@ -131,7 +133,7 @@ class TebOptimizer:
                 nearest = np.argmin(((band.poses[None, :, :2] - vpts[:, None, :]) ** 2).sum(axis=2), axis=1)
                 vp, vpts = np.minimum(nearest[nearest > 0], n - 2), vpts[nearest > 0]
         edges = EdgeSet(pi, obst_point, gap, vp, vpts, obstacle_weight, n=n - 1, dynamic_weight=dynamic_weight)
-        if dynamic_obstacles is not None and len(dynamic_obstacles) and cfg.weight_dynamic_obstacle > 0:
+        if dynamic_obstacles is not None and len(dynamic_obstacles) and cfg.optim.weight_dynamic_obstacle > 0:
             edges.dyn_pose, edges.dyn_obstacle = dynamic_obstacle_edges(self.model, band.poses, band.time_stamps,
                                                                         dynamic_obstacles, self.dynamic_reach,
                                                                         motion_prediction(cfg))
@@ -140,9 +142,10 @@ class TebOptimizer:
     @property
     def dynamic_reach(self) -> float:
         """Distance from the model's outline within which a predicted obstacle gets an edge (§4.8)."""
-        cfg = self.cfg
-        return max(cfg.min_obstacle_dist * cfg.obstacle_association_cutoff_factor,
-                   cfg.min_obstacle_dist + cfg.penalty_epsilon, cfg.dynamic_obstacle_inflation_dist)
+        obstacles = self.cfg.obstacles
+        return max(obstacles.min_obstacle_dist * obstacles.obstacle_association_cutoff_factor,
+                   obstacles.min_obstacle_dist + self.cfg.optim.penalty_epsilon,
+                   obstacles.dynamic_obstacle_inflation_dist)
 
     def dynamic_obstacles_near(self, band: TimedElasticBand, dynamic_obstacles: np.ndarray | None) -> bool:
         """Whether a moving obstacle comes within reach of the band as it stands (it would get an edge)."""
@@ -153,7 +156,8 @@ class TebOptimizer:
 
     @property
     def with_inflation(self) -> bool:
-        return self.cfg.inflation_dist > self.cfg.min_obstacle_dist and self.cfg.weight_inflation > 0
+        obstacles = self.cfg.obstacles
+        return obstacles.inflation_dist > obstacles.min_obstacle_dist and self.cfg.optim.weight_inflation > 0
 
     def parameters(self, edges: EdgeSet) -> np.ndarray:
         return edge_kernels.edge_parameters(self.cfg, edges.obstacle_weight, self.start_velocity, self.free_goal_vel,
@@ -176,14 +180,14 @@ class TebOptimizer:
     def selection_cost(self, band: TimedElasticBand, edges: EdgeSet) -> float:
         """computeCurrentCost: chi2 of all edges, obstacle (static and dynamic) and via-point edges
         rescaled for the homotopy selection; the total time replaces the time-optimal edges if asked."""
-        cfg = self.cfg
+        hcp = self.cfg.hcp
         params = self.parameters(edges)
         chi2 = edge_kernels.family_chi2(band.poses, band.time_diffs, params, edges.arrays, self.model.kernel_model,
                                    self.residual_count(edges, params))
-        chi2[edge_kernels.F_OBSTACLE] *= cfg.selection_obst_cost_scale
-        chi2[edge_kernels.F_DYNAMIC] *= cfg.selection_obst_cost_scale
-        chi2[edge_kernels.F_VIA] *= cfg.selection_viapoint_cost_scale
-        if cfg.selection_alternative_time_cost:
+        chi2[edge_kernels.F_OBSTACLE] *= hcp.selection_obst_cost_scale
+        chi2[edge_kernels.F_DYNAMIC] *= hcp.selection_obst_cost_scale
+        chi2[edge_kernels.F_VIA] *= hcp.selection_viapoint_cost_scale
+        if hcp.selection_alternative_time_cost:
             chi2[edge_kernels.F_TIME] = band.sum_of_time_diffs
         return float(chi2.sum())
 

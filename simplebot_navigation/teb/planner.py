@@ -13,7 +13,7 @@ import numpy as np
 
 from simplebot_navigation.costmap.footprint import footprint_radii
 from simplebot_navigation.geometry import normalize_theta
-from simplebot_navigation.parameters import fields_of
+from simplebot_navigation.parameters import fields_of, set_value, value_of
 from simplebot_navigation.teb.command import saturate, velocity_from_band
 from simplebot_navigation.teb.config import TebConfig
 from simplebot_navigation.teb.evasion import MIN_GAIN_S, band_contact_time, choose_evasion
@@ -57,10 +57,10 @@ class TebLocalPlanner:
         self.costmap_footprint = np.asarray(costmap_footprint, dtype=float).reshape(-1, 2)
         self.costmap_inscribed_radius = footprint_radii(self.costmap_footprint)[0]
         self.collision_model = collision_model(self.costmap_footprint, self.costmap_inscribed_radius)
-        if self.model.inscribed_radius + config.min_obstacle_dist < self.costmap_inscribed_radius:
+        if self.model.inscribed_radius + config.obstacles.min_obstacle_dist < self.costmap_inscribed_radius:
             self.warnings.append(
                 f"footprint model inscribed radius ({self.model.inscribed_radius:.3f}) + min_obstacle_dist "
-                f"({config.min_obstacle_dist:.3f}) is smaller than the costmap footprint's inscribed radius "
+                f"({config.obstacles.min_obstacle_dist:.3f}) is smaller than the costmap footprint's inscribed radius "
                 f"({self.costmap_inscribed_radius:.3f}): the optimiser may plan into the inflated zone")
         self.controller_period = float(controller_period)
         self.planner = HomotopyClassPlanner(config, self.model)
@@ -81,7 +81,8 @@ class TebLocalPlanner:
         #: oscillation recovery: the detector fed with the command of the previous cycle, the
         #: seconds (counted like _since_infeasible) since it last reported an oscillation, and the
         #: turning direction the optimiser prefers meanwhile
-        self.failure_detector = FailureDetector(buffer_length(config.oscillation_filter_duration, controller_period))
+        self.failure_detector = FailureDetector(buffer_length(config.recovery.oscillation_filter_duration,
+                                                              controller_period))
         self._last_command = (0.0, 0.0)
         self._since_oscillation = math.inf
         self.preferred_rotdir = RotType.none
@@ -92,12 +93,12 @@ class TebLocalPlanner:
     # -- run-time changes -----------------------------------------------------------------------
     def reconfigure(self, config: TebConfig) -> None:
         """TEB's dynamic_reconfigure: every parameter its spec lets change while running is read from
-        ``self.cfg`` where it is used, so copying it over takes effect in the next cycle; the bands
-        are kept. The footprint model and the topics stay (restart-only)."""
+        ``self.cfg``'s sections where it is used, so copying it into them (in place) takes effect in the
+        next cycle; the bands are kept. The footprint model and the topics stay (restart-only)."""
         for name, spec in fields_of(TebConfig).items():
             if spec.dynamic:
-                setattr(self.cfg, name, getattr(config, name))
-        self.failure_detector.set_buffer_length(buffer_length(self.cfg.oscillation_filter_duration,
+                set_value(self.cfg, name, value_of(config, name))
+        self.failure_detector.set_buffer_length(buffer_length(self.cfg.recovery.oscillation_filter_duration,
                                                               self.controller_period))
 
     def set_controller_period(self, controller_period: float) -> None:
@@ -106,7 +107,7 @@ class TebLocalPlanner:
         if not controller_period > 0:
             raise ValueError(f"controller_period must be > 0, got {controller_period}")
         self.controller_period = float(controller_period)
-        self.failure_detector.set_buffer_length(buffer_length(self.cfg.oscillation_filter_duration,
+        self.failure_detector.set_buffer_length(buffer_length(self.cfg.recovery.oscillation_filter_duration,
                                                               self.controller_period))
 
     def set_costmap_footprint(self, costmap_footprint) -> None:
@@ -175,13 +176,13 @@ class TebLocalPlanner:
         if self.is_goal_reached(pose, vel):
             self.goal_reached = True
             return VelocityCommandResult(0.0, 0.0, True, "goal reached", goal_reached=True)
-        if cfg.oscillation_recovery:
+        if cfg.recovery.oscillation_recovery:
             self._oscillation_recovery(vel[1])
         elif self.preferred_rotdir != RotType.none:
             self._set_preferred_rotdir(RotType.none)
             self._notices.append(("info", "TEB: oscillation recovery disabled"))
         local_goal = transformed[-1].copy()
-        if cfg.global_plan_overwrite_orientation:
+        if cfg.trajectory.global_plan_overwrite_orientation:
             local_goal[2] = self._estimate_local_goal_orientation(local_goal, goal_idx)
         if len(transformed) == 1:
             transformed = np.vstack([pose, transformed])
@@ -189,17 +190,17 @@ class TebLocalPlanner:
         transformed[-1] = local_goal
         self.transformed_plan = transformed
         lethal = (costmap_point_obstacles(costmap, pose, math.inf)
-                  if cfg.include_costmap_obstacles else np.zeros((0, 2)))
-        self.obstacles = lethal[behind_robot_filter(lethal, pose, cfg.costmap_obstacles_behind_robot_dist)]
+                  if cfg.obstacles.include_costmap_obstacles else np.zeros((0, 2)))
+        self.obstacles = lethal[behind_robot_filter(lethal, pose, cfg.obstacles.costmap_obstacles_behind_robot_dist)]
         self.dynamic_obstacles = self._next_dynamic_obstacles
-        moving = planned_motion(self.dynamic_obstacles, cfg.include_dynamic_obstacles, self._next_dynamic_covariance,
-                                cfg.dynamic_obstacle_uncertainty_sigmas)
+        moving = planned_motion(self.dynamic_obstacles, cfg.obstacles.include_dynamic_obstacles,
+                                self._next_dynamic_covariance, cfg.moving_obstacles.dynamic_obstacle_uncertainty_sigmas)
         prediction = motion_prediction(cfg)
         bounds = (costmap.origin_x, costmap.origin_y,
                   costmap.origin_x + costmap.size_x * costmap.resolution,
                   costmap.origin_y + costmap.size_y * costmap.resolution)
-        planned = self.planner.plan(transformed, self.obstacles, self.via_points, vel, cfg.free_goal_vel, bounds,
-                                    class_obstacles=lethal, deadline=deadline, dynamic_obstacles=moving)
+        planned = self.planner.plan(transformed, self.obstacles, self.via_points, vel, cfg.goal_tolerance.free_goal_vel,
+                                    bounds, class_obstacles=lethal, deadline=deadline, dynamic_obstacles=moving)
         if self.planner.postponed and not self._budget_reported:
             self._budget_reported = True
             self._notices.append(("warn",
@@ -212,15 +213,16 @@ class TebLocalPlanner:
 
         def feasible(band):
             return is_trajectory_feasible(costmap, self.costmap_footprint, self.costmap_inscribed_radius,
-                                          band.poses, cfg.feasibility_check_no_poses,
-                                          cfg.feasibility_check_lookahead_distance,
-                                          cfg.min_resolution_collision_check_angular, band.time_stamps, moving,
-                                          self.collision_model, prediction)
+                                          band.poses, cfg.trajectory.feasibility_check_no_poses,
+                                          cfg.trajectory.feasibility_check_lookahead_distance,
+                                          cfg.trajectory.min_resolution_collision_check_angular,
+                                          band.time_stamps, moving, self.collision_model, prediction)
 
-        evading = cfg.include_dynamic_obstacles and cfg.dynamic_obstacle_evasion_horizon > 0 and len(moving) > 0
+        horizon = cfg.moving_obstacles.dynamic_obstacle_evasion_horizon
+        evading = cfg.obstacles.include_dynamic_obstacles and horizon > 0 and len(moving) > 0
         if not self.planner.remove_infeasible_best(feasible):
             evasion = self._evasion(pose, vel, local_goal, moving, costmap, prediction) if evading else None
-            if evasion is None or not (evasion.standstill_contact_time < cfg.dynamic_obstacle_evasion_horizon
+            if evasion is None or not (evasion.standstill_contact_time < horizon
                                        and evasion.contact_time > evasion.standstill_contact_time + MIN_GAIN_S):
                 return self._infeasible("trajectory is not feasible. Resetting planner...")
             self._drop_bands()
@@ -231,8 +233,7 @@ class TebLocalPlanner:
             return self._infeasible("velocity command invalid. Resetting planner...")
         if evading:
             band = self.planner.best_band()
-            met = band_contact_time(self.collision_model, band.poses, band.time_stamps, moving,
-                                    cfg.dynamic_obstacle_evasion_horizon, prediction)
+            met = band_contact_time(self.collision_model, band.poses, band.time_stamps, moving, horizon, prediction)
             if met < math.inf:
                 evasion = self._evasion(pose, vel, local_goal, moving, costmap, prediction)
                 if evasion.contact_time > met + MIN_GAIN_S:
@@ -246,10 +247,10 @@ class TebLocalPlanner:
         return VelocityCommandResult(v, omega, True, "")
 
     def _evasion(self, pose, vel, local_goal, moving, costmap, prediction):
-        cfg = self.cfg
+        robot = self.cfg.robot
+        limits = (robot.max_vel_x, robot.max_vel_x_backwards, robot.max_vel_theta, robot.acc_lim_x, robot.acc_lim_theta)
         return choose_evasion(pose, vel, local_goal, moving, costmap, self.costmap_footprint, self.collision_model,
-                              (cfg.max_vel_x, cfg.max_vel_x_backwards, cfg.max_vel_theta, cfg.acc_lim_x,
-                               cfg.acc_lim_theta), cfg.dynamic_obstacle_evasion_horizon, prediction)
+                              limits, self.cfg.moving_obstacles.dynamic_obstacle_evasion_horizon, prediction)
 
     def _infeasible(self, message: str) -> VelocityCommandResult:
         """No valid command this cycle."""
@@ -266,17 +267,17 @@ class TebLocalPlanner:
     def is_goal_reached(self, robot_pose, robot_velocity) -> bool:
         """Position and yaw within tolerance, no via-points left (complete_global_plan) and
         stopped by odometry unless free_goal_vel."""
-        cfg = self.cfg
+        tolerance = self.cfg.goal_tolerance
         if len(self.global_plan) == 0:
             return False
         goal = self.global_plan[-1]
         x, y, yaw = robot_pose
         v, omega = robot_velocity
-        stopped = abs(omega) <= cfg.theta_stopped_vel and abs(v) <= cfg.trans_stopped_vel
-        return (math.hypot(goal[0] - x, goal[1] - y) < cfg.xy_goal_tolerance
-                and abs(float(normalize_theta(goal[2] - yaw))) < cfg.yaw_goal_tolerance
-                and (not cfg.complete_global_plan or len(self.via_points) == 0)
-                and (stopped or cfg.free_goal_vel))
+        stopped = abs(omega) <= tolerance.theta_stopped_vel and abs(v) <= tolerance.trans_stopped_vel
+        return (math.hypot(goal[0] - x, goal[1] - y) < tolerance.xy_goal_tolerance
+                and abs(float(normalize_theta(goal[2] - yaw))) < tolerance.yaw_goal_tolerance
+                and (not tolerance.complete_global_plan or len(self.via_points) == 0)
+                and (stopped or tolerance.free_goal_vel))
 
     # -- accessors for visualisation ----------------------------------------------------------
     @property
@@ -301,7 +302,7 @@ class TebLocalPlanner:
     def _prune_global_plan(self, pose) -> None:
         """Erase the plan before the first pose within global_plan_prune_distance of the robot."""
         d2 = (self.global_plan[:, 0] - pose[0]) ** 2 + (self.global_plan[:, 1] - pose[1]) ** 2
-        near = np.nonzero(d2 < self.cfg.global_plan_prune_distance ** 2)[0]
+        near = np.nonzero(d2 < self.cfg.trajectory.global_plan_prune_distance ** 2)[0]
         if len(near) and near[0] > 0:
             self.global_plan = self.global_plan[near[0]:]
 
@@ -321,7 +322,7 @@ class TebLocalPlanner:
         # accumulated up to pose k (counting the segment into the first pose) is within the lookahead.
         idx = np.arange(start, len(plan))
         ok = d2[idx] <= threshold ** 2
-        max_len = self.cfg.max_global_plan_lookahead_dist
+        max_len = self.cfg.trajectory.max_global_plan_lookahead_dist
         if max_len > 0:
             seg = np.hypot(plan[idx, 0] - plan[idx - 1, 0], plan[idx, 1] - plan[idx - 1, 1])
             seg[idx == 0] = 0.0
@@ -336,9 +337,9 @@ class TebLocalPlanner:
         the robot (counted in plan poses), so a band that keeps running into an obstacle beyond a
         corner is replaced by a shorter one. Not when the local goal is the global goal, whose
         heading must not change under the band."""
-        cfg = self.cfg
-        if not (cfg.shrink_horizon_backup and goal_idx < len(self.global_plan) - 1
-                and (self._infeasible_in_a_row > 0 or self._since_infeasible < cfg.shrink_horizon_min_duration)):
+        recovery = self.cfg.recovery
+        if not (recovery.shrink_horizon_backup and goal_idx < len(self.global_plan) - 1
+                and (self._infeasible_in_a_row > 0 or self._since_infeasible < recovery.shrink_horizon_min_duration)):
             return transformed, goal_idx
         reduction = goal_idx // 2
         keep = len(transformed) - reduction
@@ -351,18 +352,18 @@ class TebLocalPlanner:
         oscillation_filter_duration oscillate, the optimiser prefers the direction the robot turns
         in now, so the band stops flipping between two ways round an obstacle; the preference is
         kept while the oscillation lasts and for oscillation_recovery_min_duration after it."""
-        cfg = self.cfg
+        robot, recovery = self.cfg.robot, self.cfg.recovery
         v, omega = self._last_command
-        oscillating = self.failure_detector.update(v, omega, cfg.max_vel_x, cfg.max_vel_x_backwards,
-                                                   cfg.max_vel_theta, cfg.oscillation_v_eps,
-                                                   cfg.oscillation_omega_eps)
-        recently = self._since_oscillation < cfg.oscillation_recovery_min_duration
+        oscillating = self.failure_detector.update(v, omega, robot.max_vel_x, robot.max_vel_x_backwards,
+                                                   robot.max_vel_theta, recovery.oscillation_v_eps,
+                                                   recovery.oscillation_omega_eps)
+        recently = self._since_oscillation < recovery.oscillation_recovery_min_duration
         if oscillating:
             if not recently:
                 rotdir = RotType.left if measured_omega > 0 else RotType.right
                 self._notices.append(("warn", "TEB: possible oscillation (of the robot or its local plan) detected; "
                                       f"preferring to turn {rotdir.name} for "
-                                      f"{cfg.oscillation_recovery_min_duration:g} s"))
+                                      f"{recovery.oscillation_recovery_min_duration:g} s"))
                 self._set_preferred_rotdir(rotdir)
             self._since_oscillation = 0.0
         elif not recently and self.preferred_rotdir != RotType.none:
@@ -374,7 +375,7 @@ class TebLocalPlanner:
         self.planner.set_preferred_turning_dir(rotdir)
 
     def _via_points(self, transformed) -> np.ndarray:
-        sep = self.cfg.global_plan_viapoint_sep
+        sep = self.cfg.trajectory.global_plan_viapoint_sep
         if sep <= 0:
             return np.zeros((0, 2))
         out, prev = [], transformed[0, :2]

@@ -96,18 +96,19 @@ class ReferenceEvaluation:
         """rotdir: preferred turning direction, +1 left, -1 right, 0 none."""
         self.cfg = cfg
         self.rotdir = rotdir
-        self.prefer_rotdir = rotdir != 0 and cfg.weight_prefer_rotdir > 0
+        self.prefer_rotdir = rotdir != 0 and cfg.optim.weight_prefer_rotdir > 0
         self.model = model
         self.start_velocity = (float(start_velocity[0]), float(start_velocity[1]))
         self.free_goal_vel = free_goal_vel
-        self.with_inflation = cfg.inflation_dist > cfg.min_obstacle_dist and cfg.weight_inflation > 0
+        robot, obstacles, optim = cfg.robot, cfg.obstacles, cfg.optim
+        self.with_inflation = obstacles.inflation_dist > obstacles.min_obstacle_dist and optim.weight_inflation > 0
         self.dynamic_inflation = with_dynamic_inflation(cfg)
         # (v, omega) column constants of the stacked velocity and acceleration families
-        self._vel_weight = np.sqrt([[cfg.weight_max_vel_x], [cfg.weight_max_vel_theta]])
-        self._vel_lower = np.array([[-cfg.max_vel_x_backwards], [-cfg.max_vel_theta]])
-        self._vel_upper = np.array([[cfg.max_vel_x], [cfg.max_vel_theta]])
-        self._acc_weight = np.sqrt([[cfg.weight_acc_lim_x], [cfg.weight_acc_lim_theta]])
-        self._acc_limit = np.array([[cfg.acc_lim_x], [cfg.acc_lim_theta]])
+        self._vel_weight = np.sqrt([[optim.weight_max_vel_x], [optim.weight_max_vel_theta]])
+        self._vel_lower = np.array([[-robot.max_vel_x_backwards], [-robot.max_vel_theta]])
+        self._vel_upper = np.array([[robot.max_vel_x], [robot.max_vel_theta]])
+        self._acc_weight = np.sqrt([[optim.weight_acc_lim_x], [optim.weight_acc_lim_theta]])
+        self._acc_limit = np.array([[robot.acc_lim_x], [robot.acc_lim_theta]])
 
     def layout(self, edges) -> Layout:
         return Layout(edges, self.free_goal_vel, self.with_inflation, self.prefer_rotdir, self.dynamic_inflation)
@@ -117,7 +118,7 @@ class ReferenceEvaluation:
         edge_kernels.FAMILIES; cost = sum of r.r. The local Jacobian columns are Layout.cols[name]; rows
         of the two stacked kinds of a family follow each other (all v rows, then all omega rows)."""
         cfg = self.cfg
-        eps = cfg.penalty_epsilon
+        eps = cfg.optim.penalty_epsilon
         n = len(dts)
         out = {}
         vw, jvw, dproj, (proj, dx, dy, c0, s0, c1, s1) = self._segments(poses, dts, with_jacobian)
@@ -157,7 +158,7 @@ class ReferenceEvaluation:
             out[name] = ((w * e).ravel(), jac)
 
         # non-holonomic kinematics and forward drive
-        w_nh, w_fd = math.sqrt(cfg.weight_kinematics_nh), math.sqrt(cfg.weight_kinematics_forward_drive)
+        w_nh, w_fd = math.sqrt(cfg.optim.weight_kinematics_nh), math.sqrt(cfg.optim.weight_kinematics_forward_drive)
         cs, ss = c0 + c1, s0 + s1
         e_fd, de_fd = bound_from_below(proj, 0.0, 0.0)
         jac = None
@@ -171,7 +172,7 @@ class ReferenceEvaluation:
         out["kin"] = (np.concatenate([w_nh * (cs * dy - ss * dx), w_fd * e_fd]), jac)
 
         # time optimal
-        w = math.sqrt(cfg.weight_optimaltime)
+        w = math.sqrt(cfg.optim.weight_optimaltime)
         out["time"] = (w * dts, np.full((n, 1), w) if with_jacobian else None)
 
         self._placement_families(out, poses, edges, n, with_jacobian)
@@ -218,26 +219,26 @@ class ReferenceEvaluation:
         """The families that depend on where the poses are: obstacles, via-points, the preferred turn,
         dynamic obstacles."""
         cfg = self.cfg
-        eps = cfg.penalty_epsilon
+        eps = cfg.optim.penalty_epsilon
         # obstacles (+ inflation), both from the same footprint-model distance; in a gap narrower than
         # the distances ask for, the limits fall to the centre line (associate_obstacles), so passing
         # through costs nothing more than the centring
         if len(edges.obst_pose):
             d, grad = self._distances(poses[edges.obst_pose], edges.obst_point, with_jacobian)
-            inflation = ((cfg.weight_inflation, np.minimum(cfg.inflation_dist, edges.obst_gap))
+            inflation = ((cfg.optim.weight_inflation, np.minimum(cfg.obstacles.inflation_dist, edges.obst_gap))
                          if self.with_inflation else None)
             out["obstacle"] = _distance_family(d, grad, edges.obstacle_weight,
-                                               np.minimum(cfg.min_obstacle_dist, edges.obst_gap - eps), eps,
-                                               cfg.obstacle_cost_exponent, inflation)
+                                               np.minimum(cfg.obstacles.min_obstacle_dist, edges.obst_gap - eps), eps,
+                                               cfg.optim.obstacle_cost_exponent, inflation)
 
         if len(edges.via_pose):
-            w = math.sqrt(self.cfg.weight_viapoint)
+            w = math.sqrt(self.cfg.optim.weight_viapoint)
             diff = poses[edges.via_pose, :2] - edges.via_point
             out["via"] = (w * diff.T.ravel(), np.full((2 * len(diff), 1), w) if with_jacobian else None)
 
         # preferred turning direction: the first rotations must not turn the other way
         if self.prefer_rotdir:
-            w = math.sqrt(cfg.weight_prefer_rotdir)
+            w = math.sqrt(cfg.optim.weight_prefer_rotdir)
             k = min(n, PREFER_ROTDIR_ROTATIONS)
             e, de = bound_from_below(self.rotdir * normalize_theta(np.diff(poses[:k + 1, 2])), 0.0, 0.0)
             jac = None
@@ -249,10 +250,10 @@ class ReferenceEvaluation:
         # dynamic obstacles at their predicted centres, less their radius
         if len(edges.dyn_pose):
             d, grad = self._distances(poses[edges.dyn_pose], edges.dyn_obstacle[:, :2], with_jacobian)
-            inflation = ((cfg.weight_dynamic_obstacle_inflation, cfg.dynamic_obstacle_inflation_dist)
+            inflation = ((cfg.optim.weight_dynamic_obstacle_inflation, cfg.obstacles.dynamic_obstacle_inflation_dist)
                          if self.dynamic_inflation else None)
             out["dynamic_obstacle"] = _distance_family(d - edges.dyn_obstacle[:, 2], grad, edges.dynamic_weight,
-                                                       cfg.min_obstacle_dist, eps, 1.0, inflation)
+                                                       cfg.obstacles.min_obstacle_dist, eps, 1.0, inflation)
 
     def _distances(self, poses: np.ndarray, points: np.ndarray, with_jacobian: bool):
         """Footprint-model distance of each pose to its point, and its pose gradient when asked."""

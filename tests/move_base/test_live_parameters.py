@@ -21,7 +21,7 @@ def test_an_accepted_change_is_taken_once_with_the_configurations_of_the_parts_i
     assert [name for name, _ in change.assignments] == ["TebLocalPlannerROS.max_vel_x",
                                                         "local_costmap.inflation_layer.inflation_radius",
                                                         "conservative_reset.reset_distance"]
-    assert change.configs.local_planner.max_vel_x == 0.2
+    assert change.configs.local_planner.robot.max_vel_x == 0.2
     inflation = next(p for p in change.configs.costmaps["local_costmap"].plugins if p.name == "inflation_layer")
     assert inflation.params["inflation_radius"] == 0.5
     assert change.configs.recoveries["conservative_reset"]["reset_distance"] == 2.0
@@ -37,7 +37,7 @@ def test_a_refused_change_changes_nothing(live):
     with pytest.raises(ParameterError, match=r"TebLocalPlannerROS.max_vel_theta: must be in \(0, 6\], got -1.0"):
         live.change([("TebLocalPlannerROS.max_vel_x", 0.2), ("TebLocalPlannerROS.max_vel_theta", -1.0)])
     assert live.take() is None
-    assert live.configs.local_planner.max_vel_x == 0.4 and "max_vel_x" not in live.tree["TebLocalPlannerROS"]
+    assert live.configs.local_planner.robot.max_vel_x == 0.4 and "max_vel_x" not in live.tree["TebLocalPlannerROS"]
 
 
 def test_a_value_another_parameter_overrides_is_refused_unless_that_one_changes_with_it(live):
@@ -50,7 +50,7 @@ def test_a_value_another_parameter_overrides_is_refused_unless_that_one_changes_
 
 def test_setting_the_value_a_parameter_has_is_accepted_and_changes_nothing(live):
     live.change([("TebLocalPlannerROS.max_vel_x", 0.4), ("GlobalPlanner.publish_potential", False)])
-    assert live.take().configs.local_planner.max_vel_x == 0.4
+    assert live.take().configs.local_planner.robot.max_vel_x == 0.4
 
 
 def test_values_are_normalized_to_what_the_parameter_holds(live):

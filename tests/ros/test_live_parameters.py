@@ -18,6 +18,7 @@ from rclpy.parameter import Parameter, parameter_value_to_python
 from simplebot_navigation.costmap.costmap_core import CostmapCore
 from simplebot_navigation.costmap.footprint import parse_footprint
 from simplebot_navigation.move_base.live_parameters import LiveParameters
+from simplebot_navigation.parameters import value_of
 from simplebot_navigation.parameters.overrides import lookup
 from simplebot_navigation.ros.params import NODE_LEVEL
 from simplebot_navigation.scenarios import NavigationSession
@@ -118,7 +119,7 @@ def test_a_bad_value_is_refused_naming_the_parameter_and_the_value_and_the_old_v
     assert MAX_VEL_X in result.reason and why in result.reason, result.reason
     session.run_for(0.1, wall_timeout_s=WALL_GUARD_S)
     assert session.params.get(MAX_VEL_X) == 0.4
-    assert session.move_base.controller.planner.cfg.max_vel_x == 0.4
+    assert session.move_base.controller.planner.cfg.robot.max_vel_x == 0.4
 
 
 @pytest.mark.parametrize("name, value, why", [
@@ -264,7 +265,7 @@ def _running_value(node, name: str):
     if not rest:
         return getattr(node.cfg, first)
     if first == "TebLocalPlannerROS":
-        return getattr(node.controller.planner.cfg, rest[0])
+        return value_of(node.controller.planner.cfg, rest[0])
     if first == "GlobalPlanner":
         return getattr(node.planner.planner.config, rest[0])
     if first == "obstacle_tracking":
@@ -303,7 +304,7 @@ def test_every_parameter_that_may_change_while_running_reaches_the_running_objec
     finally:
         assert node.set_parameters_atomically([Parameter(name, value=current[name]) for name in changes]).successful
     session.run_for(0.1, wall_timeout_s=WALL_GUARD_S)
-    assert node.controller.planner.cfg.max_vel_x == 0.4 and node.period == 0.05
+    assert node.controller.planner.cfg.robot.max_vel_x == 0.4 and node.period == 0.05
 
 
 # -- the costmap takes a change (unit level) -----------------------------------------------------------------

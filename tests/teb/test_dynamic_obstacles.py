@@ -20,8 +20,8 @@ from .scenes import LAB_PADDED_FOOTPRINT, LAB_TWO_CIRCLES, lab_planner, rolling_
 
 def straight_band(cfg, length=3.0):
     band = TimedElasticBand()
-    band.init_from_path(straight_plan(0.0, length)[::6], cfg.max_vel_x, cfg.max_vel_theta, True, cfg.min_samples,
-                        False)
+    band.init_from_path(straight_plan(0.0, length)[::6], cfg.robot.max_vel_x, cfg.robot.max_vel_theta, True,
+                        cfg.trajectory.min_samples, False)
     return band
 
 
@@ -78,7 +78,7 @@ def test_the_band_gives_way_to_the_obstacle_where_it_will_be_not_where_it_is():
     TebOptimizer(cfg, model).optimize(band, np.zeros((0, 2)), None, (0.5, 0.0), False, dynamic_obstacles=head_on)
     centres = head_on[0, :2] + band.time_stamps[:, None] * head_on[0, 2:4]
     clearance = np.hypot(*(band.poses[:, :2] - centres).T) - 0.25 - 0.4
-    assert clearance[1:-1].min() > cfg.min_obstacle_dist - 0.1
+    assert clearance[1:-1].min() > cfg.obstacles.min_obstacle_dist - 0.1
     assert band.poses[:, 1].min() < -0.6                         # it swerved right
     assert np.hypot(*np.diff(band.poses[:, :2], axis=0).T).max() < 0.3
 

@@ -96,7 +96,7 @@ def test_compiled_evaluation_and_normal_equations_match_the_reference(model, fre
         np.testing.assert_allclose(per_family, expected, rtol=1e-9, atol=1e-9)
         # the random headings turn both ways in the first rotations, so a preference costs something
         turns_away = rotdir * normalize_theta(np.diff(poses[:4, 2])) < 0
-        if rotdir != RotType.none and cfg.weight_prefer_rotdir > 0 and turns_away[:n].any():
+        if rotdir != RotType.none and cfg.optim.weight_prefer_rotdir > 0 and turns_away[:n].any():
             assert per_family[edge_kernels.F_PREFER_ROTDIR] > 0
 
 

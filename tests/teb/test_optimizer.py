@@ -12,7 +12,7 @@ from .scenes import LAB_TWO_CIRCLES, straight_plan
 
 def band_from(plan, cfg):
     band = TimedElasticBand()
-    band.init_from_path(plan, cfg.max_vel_x, cfg.max_vel_theta, True, cfg.min_samples, False)
+    band.init_from_path(plan, cfg.robot.max_vel_x, cfg.robot.max_vel_theta, True, cfg.trajectory.min_samples, False)
     return band
 
 
@@ -31,15 +31,15 @@ def test_free_straight_band_with_stiff_limits_cruises_at_max_velocity_within_acc
     for _ in range(2):
         opt.optimize(band, np.zeros((0, 2)), None, (0.0, 0.0), free_goal_vel=False)
     v, a = profile(band)
-    eps = cfg.penalty_epsilon
+    eps = cfg.optim.penalty_epsilon
     cruise = v[len(v) // 2]
-    assert cfg.max_vel_x - eps <= cruise <= cfg.max_vel_x
-    assert v.max() <= cfg.max_vel_x
-    assert np.abs(a).max() <= cfg.acc_lim_x + 0.01
+    assert cfg.robot.max_vel_x - eps <= cruise <= cfg.robot.max_vel_x
+    assert v.max() <= cfg.robot.max_vel_x
+    assert np.abs(a).max() <= cfg.robot.acc_lim_x + 0.01
     # the band stays on the straight line, heading along it
     np.testing.assert_allclose(band.poses[:, 1:], 0.0, atol=1e-6)
     # accelerating from rest and braking to the goal both take about max_vel_x / acc_lim_x
-    assert band.sum_of_time_diffs == pytest.approx(4.0 / cruise + cruise / cfg.acc_lim_x, rel=0.05)
+    assert band.sum_of_time_diffs == pytest.approx(4.0 / cruise + cruise / cfg.robot.acc_lim_x, rel=0.05)
 
 
 def test_default_weights_are_soft_the_band_overshoots_and_commands_get_saturated():
@@ -48,8 +48,8 @@ def test_default_weights_are_soft_the_band_overshoots_and_commands_get_saturated
     TebOptimizer(cfg, FootprintModel.point()).optimize(band, np.zeros((0, 2)), None, (0.0, 0.0), False)
     v, a = profile(band)
     # teb's weights (max_vel_x 2, acc 1, optimaltime 1) trade a little overshoot for time
-    assert cfg.max_vel_x <= v.max() <= cfg.max_vel_x * 1.15
-    assert np.abs(a).max() <= cfg.acc_lim_x * 1.3
+    assert cfg.robot.max_vel_x <= v.max() <= cfg.robot.max_vel_x * 1.15
+    assert np.abs(a).max() <= cfg.robot.acc_lim_x * 1.3
 
 
 def test_start_velocity_from_odometry_enters_the_start_acceleration():
@@ -73,11 +73,11 @@ def test_band_bends_around_an_obstacle_keeping_min_obstacle_dist(obstacle_y, sid
     for _ in range(2):
         opt.optimize(band, obstacle, None, (0.0, 0.0), False)
     d = model.distances(band.poses, obstacle)[:, 0]
-    assert d.min() >= cfg.min_obstacle_dist
+    assert d.min() >= cfg.obstacles.min_obstacle_dist
     # it passes on the far side of the obstacle, by at least the model's reach + min_obstacle_dist
     passing = band.poses[np.argmin(np.abs(band.poses[:, 0] - 1.5)), 1]
     assert np.sign(passing) == side
-    assert abs(passing - obstacle_y) >= 0.2 + cfg.min_obstacle_dist
+    assert abs(passing - obstacle_y) >= 0.2 + cfg.obstacles.min_obstacle_dist
 
 
 def test_via_points_pull_the_band():

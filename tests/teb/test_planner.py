@@ -36,8 +36,8 @@ def test_closed_loop_reaches_a_goal_3m_away_past_an_obstacle():
     obstacle = box_cells(1.6, 0.25, 0.15, 0.15)           # a 0.3 m box just left of the plan
     poses, commands, results = drive(planner, 3.0, obstacle, seconds=30.0)
     assert results[-1].goal_reached, results[-1].message
-    assert math.hypot(poses[-1][0] - 3.0, poses[-1][1]) < planner.cfg.xy_goal_tolerance
-    assert abs(poses[-1][2]) < planner.cfg.yaw_goal_tolerance
+    assert math.hypot(poses[-1][0] - 3.0, poses[-1][1]) < planner.cfg.goal_tolerance.xy_goal_tolerance
+    assert abs(poses[-1][2]) < planner.cfg.goal_tolerance.yaw_goal_tolerance
     assert not any(footprint_hits(p, LAB_FOOTPRINT, obstacle) for p in poses)
     assert all(r.ok for r in results)
     # it went around: on the right of the box, the lab robot's half width plus a margin away
@@ -51,11 +51,11 @@ def test_commands_never_exceed_the_velocity_limits():
     planner.set_plan(np.column_stack([np.linspace(0, 3, 61), np.linspace(0, 1.5, 61), np.zeros(61)]))
     _, commands, _ = drive(planner, 3.0, box_cells(1.2, 0.9, 0.1, 0.1), seconds=6.0)
     for v, omega, (v_cur, omega_cur) in commands:
-        assert -cfg.max_vel_x_backwards - 1e-12 <= v <= cfg.max_vel_x + 1e-12
-        assert abs(omega) <= cfg.max_vel_theta + 1e-12
-        assert abs(v - v_cur) <= cfg.acc_lim_x * PERIOD + 1e-12
-        assert abs(omega - omega_cur) <= cfg.acc_lim_theta * PERIOD + 1e-12
-    assert max(c[0] for c in commands) == pytest.approx(cfg.max_vel_x)
+        assert -cfg.robot.max_vel_x_backwards - 1e-12 <= v <= cfg.robot.max_vel_x + 1e-12
+        assert abs(omega) <= cfg.robot.max_vel_theta + 1e-12
+        assert abs(v - v_cur) <= cfg.robot.acc_lim_x * PERIOD + 1e-12
+        assert abs(omega - omega_cur) <= cfg.robot.acc_lim_theta * PERIOD + 1e-12
+    assert max(c[0] for c in commands) == pytest.approx(cfg.robot.max_vel_x)
 
 
 def test_velocity_limits_win_over_the_acceleration_window():
@@ -63,15 +63,25 @@ def test_velocity_limits_win_over_the_acceleration_window():
     planner.set_plan(straight_plan(0.0, 3.0))
     result = planner.compute_velocity_commands((0.0, 0.0, 0.0), (0.9, 0.8), rolling_costmap(0, 0, np.zeros((0, 2))))
     assert result.ok
-    assert result.v == pytest.approx(planner.cfg.max_vel_x)
-    assert result.omega == pytest.approx(planner.cfg.max_vel_theta)
+    assert result.v == pytest.approx(planner.cfg.robot.max_vel_x)
+    assert result.omega == pytest.approx(planner.cfg.robot.max_vel_theta)
+
+
+def test_a_live_change_reaches_its_section_and_restart_only_parameters_stay():
+    planner = lab_planner(enable_homotopy_class_planning=False)
+    planner.set_plan(straight_plan(0.0, 3.0))
+    planner.reconfigure(TebConfig.from_params({**LAB_PARAMS, "enable_homotopy_class_planning": False,
+                                               "max_vel_x": 0.25, "max_vel_theta": 0.2, "odom_topic": "/elsewhere"}))
+    result = planner.compute_velocity_commands((0.0, 0.0, 0.0), (0.9, 0.8), rolling_costmap(0, 0, np.zeros((0, 2))))
+    assert (result.v, result.omega) == (pytest.approx(0.25), pytest.approx(0.2))
+    assert planner.cfg.odom_topic == "/odom"
 
 
 def test_first_command_from_rest_is_limited_by_acceleration_over_one_period():
     planner = lab_planner(enable_homotopy_class_planning=False)
     planner.set_plan(straight_plan(0.0, 3.0))
     result = planner.compute_velocity_commands((0.0, 0.0, 0.0), (0.0, 0.0), rolling_costmap(0, 0, np.zeros((0, 2))))
-    assert result.v == pytest.approx(planner.cfg.acc_lim_x * PERIOD)
+    assert result.v == pytest.approx(planner.cfg.robot.acc_lim_x * PERIOD)
     assert result.omega == pytest.approx(0.0, abs=1e-6)
 
 

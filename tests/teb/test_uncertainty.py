@@ -80,12 +80,12 @@ def test_the_edges_keep_out_of_the_grown_circle_which_stops_growing_at_the_horiz
                                  "dynamic_obstacle_max_uncertainty": 0.3})
     band = straight_band(cfg, length=4.0)
     tracked = np.array([[2.0, -1.0, 0.0, 0.3, 0.25]])
-    rows = planned_motion(tracked, True, covariance(1), cfg.dynamic_obstacle_uncertainty_sigmas)
+    rows = planned_motion(tracked, True, covariance(1), cfg.moving_obstacles.dynamic_obstacle_uncertainty_sigmas)
     edges = TebOptimizer(cfg, FootprintModel.point()).build_edges(band, None, None, 50.0, rows, 50.0)
     times = band.time_stamps[edges.dyn_pose]
     assert times.max() > 3.5                                          # poses beyond the horizon have edges
     np.testing.assert_allclose(edges.dyn_obstacle[:, 1], -1.0 + 0.3 * times)    # it walks on beyond it
-    spread = cfg.dynamic_obstacle_uncertainty_sigmas * np.hypot(0.03, 0.2 * np.minimum(times, 3.0))
+    spread = cfg.moving_obstacles.dynamic_obstacle_uncertainty_sigmas * np.hypot(0.03, 0.2 * np.minimum(times, 3.0))
     np.testing.assert_allclose(edges.dyn_obstacle[:, 2], 0.25 + np.minimum(spread, 0.3))
     assert edges.dyn_obstacle[:, 2].max() > 0.25 + 0.29
 
@@ -99,7 +99,7 @@ def test_a_band_that_passes_close_to_an_uncertain_obstacle_is_infeasible():
     cfg = TebConfig.from_params({"include_dynamic_obstacles": True})
 
     def feasible(cov):
-        rows = planned_motion(standing, True, cov, cfg.dynamic_obstacle_uncertainty_sigmas)
+        rows = planned_motion(standing, True, cov, cfg.moving_obstacles.dynamic_obstacle_uncertainty_sigmas)
         return is_trajectory_feasible(costmap, LAB_PADDED_FOOTPRINT, inscribed, poses, 10, -1.0, math.pi, stamps,
                                       rows, collision_model(LAB_PADDED_FOOTPRINT, inscribed), motion_prediction(cfg))
 
@@ -125,8 +125,8 @@ def test_without_uncertainty_the_closed_loop_is_bit_identical_to_no_covariance(p
 
 def test_the_prediction_follows_the_configuration():
     cfg = TebConfig.from_params({"include_dynamic_obstacles": True, "dynamic_obstacle_prediction_horizon": 2.0})
-    assert motion_prediction(cfg) == MotionPrediction(2.0, cfg.dynamic_obstacle_max_uncertainty,
-                                                      cfg.dynamic_obstacle_radius_growth)
+    assert motion_prediction(cfg) == MotionPrediction(2.0, cfg.moving_obstacles.dynamic_obstacle_max_uncertainty,
+                                                      cfg.moving_obstacles.dynamic_obstacle_radius_growth)
     assert motion_prediction(TebConfig.from_params({"include_dynamic_obstacles": False})) == MotionPrediction()
     assert motion_prediction(TebConfig.from_params({"include_dynamic_obstacles": True,
                                                     "dynamic_obstacle_prediction_horizon": 0.0})).horizon == math.inf

@@ -9,7 +9,6 @@ and costs nothing while no one subscribes.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
@@ -24,7 +23,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from simplebot_navigation.geometry import transform_points
 from simplebot_navigation.move_base.plugins import plugin_namespace
 from simplebot_navigation.move_base.plugins import ControlResult
-from simplebot_navigation.parameters import fields_of
+from simplebot_navigation.parameters import fields_of, values_of
 from simplebot_navigation.ros.conversions import path_msg, pose_array_msg, transform_to_xyyaw
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
 from simplebot_navigation.ros.publishers import create_publisher
@@ -53,8 +52,7 @@ class TebLocalPlannerROS:
         warm_up()  # compiled kernels loaded now, not in the first control cycle of the first goal
         for warning in self.planner.warnings:
             self.logger.warn(warning)
-        declare_defaults(node, {f.name: getattr(self.config, f.name) for f in dataclasses.fields(self.config)
-                                if f.name != "warnings"}, self.name, specs=fields_of(TebConfig))
+        declare_defaults(node, values_of(self.config), self.name, specs=fields_of(TebConfig))
         self.frame = costmap_ros.global_frame
         base = f"~/{self.name}"
         self.local_plan_pub = create_publisher(node, Path, f"{base}/local_plan", 1)
