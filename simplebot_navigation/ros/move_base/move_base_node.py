@@ -30,7 +30,7 @@ from simplebot_navigation.ros.conversions import pose_to_xyyaw, xyyaw_to_pose
 from simplebot_navigation.ros.costmap.costmap_ros import Costmap2DROS
 from simplebot_navigation.ros.move_base.move_base_goal import MoveBaseGoal
 from simplebot_navigation.ros.poses import in_frame, validate_pose
-from simplebot_navigation.ros.move_base.move_base_parameters import MoveBaseLiveParameters
+from simplebot_navigation.ros.move_base.move_base_parameters import MoveBaseLiveParameters, declare_behavior_server
 from simplebot_navigation.ros.move_base.move_base_recoveries import MoveBaseRecoveryContext
 from simplebot_navigation.ros.move_base.move_base_services import serve_move_base_services
 from simplebot_navigation.ros.move_base.move_base_stats import OUTCOMES, MoveBaseReports
@@ -62,6 +62,7 @@ class MoveBaseNode(Node):
         for warning in self.cfg.warnings:
             self.get_logger().warn(warning)
         self._declare_own_defaults()
+        self.behavior_server = declare_behavior_server(self)
         self.tf = Buffer(node=self)
         self.tf_listener = TransformListener(self.tf, self)
         # One obstacle feed for both costmaps and the local planner: the tracker, fed the local costmap's scans,

@@ -5,7 +5,8 @@ A collaborator of MoveBaseNode (``MoveBaseLiveParameters(node)``). The checks an
 move_base/live_parameters.py (no rclpy); this shell converts ROS 2 parameters, answers the set request at once,
 and applies an accepted change at the start of the next control cycle (``apply_pending``), on the executor's
 thread: TEB, the costmaps and their layers, the global planner and the recoveries take their new
-configurations, and the control, update and publish timers their new periods.
+configurations, Nav2's behaviours requested from then on their new limits, and the control, update and publish
+timers their new periods. ``declare_behavior_server`` gives the node those limits at start-up.
 """
 
 from __future__ import annotations
@@ -17,11 +18,12 @@ from typing import Protocol
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.parameter import Parameter
 
+from simplebot_navigation.move_base.behaviors import BehaviorServerParams
 from simplebot_navigation.move_base.live_parameters import (GLOBAL_PLANNER, LOCAL_PLANNER, MOVE_BASE,
                                                             LiveParameters, update_move_base_config)
-from simplebot_navigation.move_base.parameter_tree import OBSTACLE_TRACKING
-from simplebot_navigation.parameters import ParameterError
-from simplebot_navigation.ros.params import (NODE_LEVEL, describe_declared, given_parameter_tree,
+from simplebot_navigation.move_base.parameter_tree import BEHAVIOR_SERVER, OBSTACLE_TRACKING
+from simplebot_navigation.parameters import ParameterError, fields_of
+from simplebot_navigation.ros.params import (NODE_LEVEL, declare_defaults, describe_declared, given_parameter_tree,
                                              refuse_unknown_parameters)
 
 
@@ -38,6 +40,17 @@ def _changes(params: list[Parameter]) -> list[tuple]:
     return [(param.name, ros1_value(param.value)) for param in params if _ours(param.name)]
 
 
+def declare_behavior_server(node) -> BehaviorServerParams:
+    """The limits of Nav2's behaviours (``behavior_server.*``) the node starts with, declared as they are used."""
+    params = BehaviorServerParams.from_params(given_parameter_tree(node, BEHAVIOR_SERVER),
+                                              f"move_base/{BEHAVIOR_SERVER}")
+    for warning in params.warnings:
+        node.get_logger().warn(warning)
+    specs = fields_of(BehaviorServerParams)
+    declare_defaults(node, {name: getattr(params, name) for name in specs}, prefix=BEHAVIOR_SERVER, specs=specs)
+    return params
+
+
 class LiveParameterHost(Protocol):
     """What MoveBaseLiveParameters changes: a rclpy Node (its parameters and logger) with these parts."""
     cfg: object                 # MoveBaseConfig
@@ -48,6 +61,7 @@ class LiveParameterHost(Protocol):
     recovery_instances: dict    # behaviour name -> Recovery
     obstacle_tracking: object   # ObstacleTracking (ros/move_base/obstacle_tracking.py)
     external_obstacles: object  # ExternalObstacles (ros/move_base/external_obstacles.py)
+    behavior_server: object     # BehaviorServerParams: what Nav2's behaviours requested from now on run with
 
     def set_controller_frequency(self, hz: float) -> None:
         """The control timer and its statistics follow the new rate (the controller is told here)."""
@@ -151,6 +165,8 @@ class MoveBaseLiveParameters:
         if OBSTACLE_TRACKING in parts:
             node.obstacle_tracking.reconfigure(configs.obstacle_tracking)
             node.external_obstacles.timeout = configs.obstacle_tracking.external_timeout
+        if BEHAVIOR_SERVER in parts:
+            node.behavior_server = configs.behavior_server
         for name, recovery in node.recovery_instances.items():
             if name in parts:
                 for warning in recovery.configure(configs.recoveries[name]):

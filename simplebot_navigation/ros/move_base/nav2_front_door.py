@@ -288,7 +288,8 @@ class Nav2FrontDoor:
         reason = check_spin(request.target_yaw, allowance)
         if reason is not None:
             return self._refuse(handle, Spin.Result(), "spin", reason, Spin.Result.UNKNOWN)
-        behavior = SpinBehavior(request.target_yaw, allowance, self.node.recovery_context.footprint_clear)
+        behavior = SpinBehavior(request.target_yaw, allowance, self.node.recovery_context.footprint_clear,
+                                self.node.behavior_server)
         return await self._behave(handle, Spin, behavior,
                                   lambda b: Spin.Feedback(angular_distance_traveled=float(b.progress)))
 
@@ -301,7 +302,7 @@ class Nav2FrontDoor:
             return self._refuse(handle, action.Result(), name, reason, action.Result.INVALID_INPUT)
         speed = -abs(request.speed) if backup else request.speed
         behavior = DriveOnHeadingBehavior(target.x, speed, allowance, self.node.recovery_context.footprint_clear,
-                                          self.node.period)
+                                          self.node.period, self.node.behavior_server)
         return await self._behave(handle, action, behavior,
                                   lambda b: action.Feedback(distance_traveled=float(b.progress)))
 
