@@ -80,9 +80,9 @@ def check_spin(target_yaw: float, time_allowance: float) -> str | None:
 def check_drive(x: float, y: float, z: float, speed: float, time_allowance: float, backup: bool) -> str | None:
     """A BackUp (``backup``: distance target.x >= 0, reversing at |speed|) or a DriveOnHeading (target.x and speed
     of one sign) request."""
-    for field, value in (("target.x", x), ("target.y", y), ("target.z", z), ("speed", speed)):
+    for name, value in (("target.x", x), ("target.y", y), ("target.z", z), ("speed", speed)):
         if not math.isfinite(value):
-            return f"{field} must be finite, got {value:g}"
+            return f"{name} must be finite, got {value:g}"
     if y != 0.0 or z != 0.0:
         return f"target.y and target.z must be 0 (the robot drives along its heading), got {y:g}, {z:g}"
     if backup and x < 0.0:

@@ -27,8 +27,8 @@ class RotateParams:
 
 
 def sweep_from_here(pose, direction: float, angle: float, step: float) -> np.ndarray:
-    """The poses ROS 1's RotateRecovery checks before a step: the turn left from where the robot stands, its
-    start and end included, at most ``step`` apart."""
+    """The poses RotateRecovery checks before a step: the turn left from where the robot stands (as ROS 1 checks),
+    its start and end included, evenly spaced at ``step`` or a little more."""
     yaws = pose[2] + direction * np.linspace(0.0, angle, max(1, int(angle / step)) + 1)
     return np.column_stack([np.full_like(yaws, pose[0]), np.full_like(yaws, pose[1]), yaws])
 
