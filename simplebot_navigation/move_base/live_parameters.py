@@ -7,7 +7,8 @@ and nothing changes. An accepted change (``prepare``, then ``commit`` once the R
 updates the tree and builds every configuration again from it; the node takes them at its next control
 cycle (``take``), and each running object copies what may change from its own: MoveBaseConfig
 (update_move_base_config), CostmapCore.reconfigure, TebLocalPlanner.reconfigure, a new GlobalPlanner, the
-recoveries' configure, ObstacleTracker.reconfigure, and the node's timers.
+recoveries' configure, ObstacleTracker.reconfigure, the limits of Nav2's behaviours requested from then on, and
+the node's timers.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ import numpy as np
 from simplebot_navigation.parameters import ParameterError, fields_of
 from simplebot_navigation.parameters.overrides import ParameterTable, lookup, set_in_tree
 from simplebot_navigation.move_base.config import MoveBaseConfig
-from simplebot_navigation.move_base.parameter_tree import (COSTMAPS, OBSTACLE_TRACKING, NodeConfigs,
+from simplebot_navigation.move_base.parameter_tree import (BEHAVIOR_SERVER, COSTMAPS, OBSTACLE_TRACKING, NodeConfigs,
                                                            apply_move_base_overrides, build_configs,
                                                            live_parameter_table)
 from simplebot_navigation.move_base.plugins import plugin_namespace
@@ -131,7 +132,7 @@ class LiveParameters:
 
     def _part(self, name: str) -> str:
         first = name.split(".")[0]
-        if first in COSTMAPS or first in self.configs.recoveries or first == OBSTACLE_TRACKING:
+        if first in COSTMAPS or first in self.configs.recoveries or first in (OBSTACLE_TRACKING, BEHAVIOR_SERVER):
             return first
         cfg = self.configs.move_base
         if first == plugin_namespace(cfg.base_global_planner):

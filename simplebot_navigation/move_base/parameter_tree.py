@@ -17,12 +17,15 @@ from simplebot_navigation.parameters import PLUGIN_TYPE_KEY, Param, build, field
 from simplebot_navigation.parameters.overrides import ParameterTable, apply_overrides
 from simplebot_navigation.perception import TrackerParams
 from simplebot_navigation.teb.footprint import FootprintModelParams
+from simplebot_navigation.move_base.behaviors import BehaviorServerParams
 from simplebot_navigation.move_base.config import MoveBaseConfig
 from simplebot_navigation.move_base.plugins import GLOBAL_PLANNERS, LOCAL_PLANNERS, RECOVERY_BEHAVIORS, plugin_namespace
 
 COSTMAPS = ("global_costmap", "local_costmap")
 #: move_base's namespace of the moving-obstacle tracker (docs/reference.md §6)
 OBSTACLE_TRACKING = "obstacle_tracking"
+#: move_base's namespace of Nav2 behavior_server's parameters, the limits of Nav2's behaviours (docs/reference.md §9.3)
+BEHAVIOR_SERVER = "behavior_server"
 
 
 def _prefixed(prefix: str, cls) -> ParameterTable:
@@ -31,7 +34,9 @@ def _prefixed(prefix: str, cls) -> ParameterTable:
 
 def parameter_table(tree: dict) -> ParameterTable:
     """Every parameter the move_base node with this ROS 1 tree reads, by ROS 2 name."""
-    table = {**fields_of(MoveBaseConfig), **fields_of(SearchedParams), **_prefixed(f"{OBSTACLE_TRACKING}.", TrackerParams)}
+    table = {**fields_of(MoveBaseConfig), **fields_of(SearchedParams),
+             **_prefixed(f"{OBSTACLE_TRACKING}.", TrackerParams),
+             **_prefixed(f"{BEHAVIOR_SERVER}.", BehaviorServerParams)}
     cfg = MoveBaseConfig.from_params(tree)
     for registry, plugin_type in ((GLOBAL_PLANNERS, cfg.base_global_planner), (LOCAL_PLANNERS, cfg.base_local_planner)):
         params = registry.spec(plugin_type).params
@@ -76,6 +81,7 @@ class NodeConfigs:
     recoveries: dict[str, dict] = field(default_factory=dict)   # behaviour name -> its (checked) namespace
     warnings: list[str] = field(default_factory=list)
     obstacle_tracking: TrackerParams = field(default_factory=TrackerParams)
+    behavior_server: BehaviorServerParams = field(default_factory=BehaviorServerParams)
 
 
 def build_configs(tree: dict) -> NodeConfigs:
@@ -101,7 +107,9 @@ def build_configs(tree: dict) -> NodeConfigs:
             warnings += build(params, given, f"move_base/{behavior['name']}", also_known=[PLUGIN_TYPE_KEY])[1]
         recoveries[behavior["name"]] = dict(given) if isinstance(given, dict) else {}
     tracking = TrackerParams.from_params(tree.get(OBSTACLE_TRACKING, {}), f"move_base/{OBSTACLE_TRACKING}")
-    return NodeConfigs(cfg, costmaps, *planners, recoveries, warnings + tracking.warnings, tracking)
+    behavior_server = BehaviorServerParams.from_params(tree.get(BEHAVIOR_SERVER, {}), f"move_base/{BEHAVIOR_SERVER}")
+    return NodeConfigs(cfg, costmaps, *planners, recoveries, warnings + tracking.warnings + behavior_server.warnings,
+                       tracking, behavior_server)
 
 
 def check_tree(tree: dict) -> list[str]:

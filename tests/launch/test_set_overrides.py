@@ -30,11 +30,19 @@ def test_set_values_reach_move_base_and_print_params_shows_them():
     assert "global_costmap.inflation_layer.inflation_radius: 1.5" in lines      # the other costmap keeps its own
 
 
+def test_the_limits_of_nav2s_behaviours_are_move_base_parameters():
+    done = print_params("behavior_server.max_rotational_vel=0.5", "behavior_server.simulate_ahead_time=1")
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert "behavior_server.max_rotational_vel: 0.5" in lines and "behavior_server.simulate_ahead_time: 1.0" in lines
+
+
 @pytest.mark.parametrize("assignment, message", [
     ("TebLocalPlannerROS.max_vel_x=.nan", "TebLocalPlannerROS.max_vel_x"),
     ("TebLocalPlannerROS.max_vel_x=fast", "expected a number, got 'fast'"),
     ("TebLocalPlannerROS.max_vel=1", "did you mean 'TebLocalPlannerROS.max_vel_y'"),
     ("local_costmap.inflation_layer.inflation_radius=-1", "local_costmap.inflation_layer.inflation_radius"),
+    ("behavior_server.max_rotational_vel=9", "behavior_server.max_rotational_vel: must be in (0, 6], got 9.0"),
     ("max_vel_x", "expected NAME=VALUE"),
 ])
 def test_a_bad_set_is_one_line_naming_it(assignment, message):

@@ -76,3 +76,20 @@ def test_obstacle_tracking_parameters_change_live_with_their_relations_checked(l
 def test_a_change_whose_parts_need_each_other_is_accepted_together(live):
     live.change([("obstacle_tracking.static_speed", 0.3), ("obstacle_tracking.moving_speed", 0.4)])
     assert live.take().configs.obstacle_tracking.static_speed == 0.3
+
+
+def test_behavior_server_parameters_are_listed_and_change_live_within_their_ranges(live):
+    assert {"behavior_server.simulate_ahead_time", "behavior_server.max_rotational_vel",
+            "behavior_server.min_rotational_vel", "behavior_server.rotational_acc_lim"} <= set(live.table)
+    assert live.table["behavior_server.max_rotational_vel"].describe() == "fastest turn of a Spin [rad/s] (in (0, 6])"
+    assert live.configs.behavior_server.max_rotational_vel == 1.0
+    live.change([("behavior_server.max_rotational_vel", 0.5), ("behavior_server.simulate_ahead_time", 1)])
+    change = live.take()
+    assert change.parts == {"behavior_server"}
+    assert change.configs.behavior_server.max_rotational_vel == 0.5
+    assert change.configs.behavior_server.simulate_ahead_time == 1.0
+    with pytest.raises(ParameterError, match=r"behavior_server.rotational_acc_lim: must be in \(0, 50\], got -1.0"):
+        live.change([("behavior_server.rotational_acc_lim", -1.0)])
+    with pytest.raises(ParameterError, match=r"min_rotational_vel: must be at most max_rotational_vel \(0.5\)"):
+        live.change([("behavior_server.min_rotational_vel", 0.6)])
+    assert live.take() is None and live.configs.behavior_server.min_rotational_vel == 0.4

@@ -5,6 +5,7 @@ from simplebot_navigation.costmap.inflation_layer import InflationLayerParams
 from simplebot_navigation.costmap.obstacle_layer import ObservationSourceParams, ObstacleLayerParams
 from simplebot_navigation.costmap.params import CostmapConfig, SearchedParams, resolve_costmap_params
 from simplebot_navigation.costmap.static_layer import StaticLayerParams
+from simplebot_navigation.move_base.behaviors import BehaviorServerParams
 from simplebot_navigation.move_base.config import MoveBaseConfig
 from simplebot_navigation.move_base.recovery.clear_costmap import ClearCostmapParams, ClearCostmapRecovery
 from simplebot_navigation.move_base.recovery.rotate import RotateParams, RotateRecovery
@@ -35,6 +36,7 @@ LOADERS = {
     GlobalPlannerConfig: lambda given: list(GlobalPlannerConfig.from_params(given).warnings),
     NavfnParams: lambda given: list(GlobalPlannerConfig.from_navfn_params(given).warnings),
     MoveBaseConfig: lambda given: MoveBaseConfig.from_params(given).warnings,
+    BehaviorServerParams: lambda given: BehaviorServerParams.from_params(given).warnings,
     ClearCostmapParams: lambda given: ClearCostmapRecovery("reset", given, {}, lambda *a: [], 1.0).warnings,
     RotateParams: lambda given: RotateRecovery("rotate", given, lambda poses: True).warnings,
     CostmapConfig: _costmap,

@@ -10,8 +10,11 @@ import math
 
 import numpy as np
 import pytest
+from action_msgs.msg import GoalStatus
 from geometry_msgs.msg import Twist
+from nav2_msgs.action import Spin
 from rcl_interfaces.srv import DescribeParameters, GetParameters, SetParameters
+from rclpy.action import ActionClient
 from rclpy.node import Node
 from rclpy.parameter import Parameter, parameter_value_to_python
 
@@ -41,12 +44,30 @@ class ParameterClient(Node):
         self.set_service = self.create_client(SetParameters, "/move_base/set_parameters")
         self.get_service = self.create_client(GetParameters, "/move_base/get_parameters")
         self.describe_service = self.create_client(DescribeParameters, "/move_base/describe_parameters")
+        self.spin_action = ActionClient(self, Spin, "/spin")
         self.commands: list[tuple[float, float]] = []          # (sim time, linear.x)
-        self.create_subscription(Twist, "/simplebot_controller/cmd_vel",
-                                 lambda msg: self.commands.append((session.time, msg.linear.x)), 50)
+        self.turns: list[tuple[float, float]] = []             # (sim time, angular.z)
+        self.create_subscription(Twist, "/simplebot_controller/cmd_vel", self._on_cmd_vel, 50)
+
+    def _on_cmd_vel(self, msg: Twist) -> None:
+        self.commands.append((self.session.time, msg.linear.x))
+        self.turns.append((self.session.time, msg.angular.z))
 
     def ready(self) -> bool:
-        return all(c.service_is_ready() for c in (self.set_service, self.get_service, self.describe_service))
+        return all(c.service_is_ready() for c in (self.set_service, self.get_service, self.describe_service)) \
+            and self.spin_action.server_is_ready()
+
+    def spin(self, target_yaw: float) -> int:
+        """A Spin goal, as Nav2's BasicNavigator.spin sends it, run to its end: its status."""
+        goal = Spin.Goal(target_yaw=target_yaw)
+        goal.time_allowance.sec = 20
+        handle = self._wait(self.spin_action.send_goal_async(goal))
+        return self._wait(handle.get_result_async(), 30.0).status
+
+    def _wait(self, future, sim_s: float = 5.0):
+        self.session.run_until(self.session.time + sim_s, future.done, wall_timeout_s=WALL_GUARD_S)
+        assert future.done(), f"no answer within {sim_s} s of simulated time"
+        return future.result()
 
     def _call(self, service, request):
         future = service.call_async(request)
@@ -107,6 +128,25 @@ def test_max_vel_x_set_while_driving_limits_cmd_vel_within_half_a_second(session
         assert min(v for t, v in after if t >= t0 + 1.0) > 0.15        # still driving, at the new limit
     finally:
         assert params.set(MAX_VEL_X, 0.4).successful
+
+
+def test_a_spin_requested_after_max_rotational_vel_is_lowered_turns_no_faster(session):
+    params = session.params
+    try:
+        result = params.set("behavior_server.max_rotational_vel", 0.5)
+        assert result.successful, result.reason
+        session.run_for(0.1, wall_timeout_s=WALL_GUARD_S)                  # the next control cycle takes it
+        t0, yaw = session.time, session.pose().yaw
+        assert params.spin(math.pi / 2) == GoalStatus.STATUS_SUCCEEDED
+        turns = [abs(w) for t, w in params.turns if t >= t0]
+        assert 0.45 < max(turns) <= 0.5 + 1e-9, turns
+        assert math.remainder(session.pose().yaw - yaw - math.pi / 2, math.tau) == pytest.approx(0.0, abs=0.1)
+    finally:
+        assert params.set("behavior_server.max_rotational_vel", 1.0).successful
+    result = params.set("behavior_server.max_rotational_vel", 7.0)
+    assert not result.successful and "behavior_server.max_rotational_vel out of range Min: 0.0, Max: 6.0" in \
+        result.reason, result.reason
+    assert params.get("behavior_server.max_rotational_vel") == 1.0
 
 
 @pytest.mark.parametrize("value, why", [
@@ -270,6 +310,8 @@ def _running_value(node, name: str):
         return getattr(node.planner.planner.config, rest[0])
     if first == "obstacle_tracking":
         return getattr(node.obstacle_tracking.tracker.params, rest[0])
+    if first == "behavior_server":
+        return getattr(node.behavior_server, rest[0])
     if first in node.recovery_instances:
         return getattr(node.recovery_instances[first], {"invert_area_to_clear": "invert_area"}.get(rest[0], rest[0]))
     costmap = getattr(node, first)

@@ -7,7 +7,8 @@ simulation in lockstep.
 Besides ROS 1's ClearCostmapRecovery and RotateRecovery, two behaviours modelled on Nav2's BackUp
 and Spin get a robot out of places where it cannot turn a full circle (a box body nosed into a
 gap): BackUpRecovery reverses along the path the robot came by (PoseTrail), which is known to be
-free, and SpinRecovery turns as far as it can towards the side with more free space.
+free, and SpinRecovery turns as far as it can towards the side with more free space. Their turns and
+drives are move_base/motion.py's, which Nav2's behaviours (behaviors.py) are made of too.
 
 A behaviour is a module of this package with a class that satisfies ``Recovery`` and a ``create(context,
 name, params)`` factory; move_base/plugins.py registers it under its type name with its parameter class
@@ -77,33 +78,6 @@ class RecoveryContext(Protocol):
 
     def planner_parameters(self, namespace: str) -> dict:
         """The parameters move_base was given under another namespace (ROS 1 form), e.g. a planner's."""
-
-
-def turn_rate(left: float, max_vel: float, min_vel: float, acc_lim: float) -> float:
-    """Turn rate (rad/s, >= 0) with ``left`` rad still to turn: as fast as allowed, slowing so that the
-    acceleration limit stops the turn at its end, never below the minimum rate."""
-    return min(max_vel, max(min_vel, math.sqrt(2.0 * acc_lim * max(left, 0.0))))
-
-
-def turn_poses(pose, direction: float, angle: float, step: float) -> np.ndarray:
-    """Poses of a turn in place from ``pose`` by ``angle`` (rad, >= 0) in ``direction`` (+1 left, -1 right),
-    one every ``step`` rad, the start excluded and the end included."""
-    sweep = np.arange(1, int(angle / step) + 1) * step
-    if not len(sweep) or sweep[-1] < angle:
-        sweep = np.append(sweep, angle)
-    return np.column_stack([np.full_like(sweep, pose[0]), np.full_like(sweep, pose[1]), pose[2] + direction * sweep])
-
-
-def unicycle_poses(pose, v: float, omega: float, duration: float, step: float) -> np.ndarray:
-    """Poses of a diff-drive robot holding (v, omega) from ``pose``, one per ``step`` seconds, the start excluded."""
-    t = np.arange(1, max(1, int(math.ceil(duration / step))) + 1) * step
-    yaw = pose[2] + omega * t
-    if abs(omega) < 1e-9:
-        x, y = pose[0] + v * t * math.cos(pose[2]), pose[1] + v * t * math.sin(pose[2])
-    else:
-        x = pose[0] + v / omega * (np.sin(yaw) - math.sin(pose[2]))
-        y = pose[1] - v / omega * (np.cos(yaw) - math.cos(pose[2]))
-    return np.column_stack([x, y, yaw])
 
 
 #: what move_base/plugins.py registers for a behaviour type: (context, name, params) -> Recovery

@@ -10,8 +10,8 @@ import numpy as np
 
 from simplebot_navigation.geometry import normalize_theta
 from simplebot_navigation.parameters import param
-from simplebot_navigation.move_base.recovery import (ParameterisedRecovery, PoseTrail, RecoveryContext, RecoveryStep,
-                                                      unicycle_poses)
+from simplebot_navigation.move_base.motion import SUCCEEDED, TIMEOUT, Drive
+from simplebot_navigation.move_base.recovery import ParameterisedRecovery, PoseTrail, RecoveryContext, RecoveryStep
 
 @dataclass
 class BackUpParams:
@@ -35,18 +35,15 @@ class BackUpRecovery(ParameterisedRecovery):
     PARAMS = BackUpParams
 
     LOOKAHEAD_M = 0.15   # carrot distance along the trail: short, because the trail is what is known free
-    CHECK_STEP_M = 0.01
     STOP_MARGIN_S = 0.25  # a few control periods of reversing
+    DISTANCE_TOLERANCE_M = 0.01
 
     def __init__(self, name: str, params: dict, footprint_clear: Callable[[np.ndarray], np.ndarray],
                  trail: PoseTrail):
         self.name = name
-        self._clear = footprint_clear
         self._trail = trail
         self._route = np.empty((0, 2))
-        self._start = 0.0
-        self._driven = 0.0
-        self._last = (0.0, 0.0)
+        self._drive = Drive(footprint_clear, self.DISTANCE_TOLERANCE_M, along_path=True)
         self.warnings = self.configure(params)
 
     def start(self, now: float, pose) -> None:
@@ -54,25 +51,20 @@ class BackUpRecovery(ParameterisedRecovery):
         self._route = self._trail.back_from(x, y, self.backup_dist + self.LOOKAHEAD_M)
         if not len(self._route):
             self._route = np.array([[x - math.cos(yaw) * self.backup_dist, y - math.sin(yaw) * self.backup_dist]])
-        self._start, self._driven, self._last = now, 0.0, (x, y)
+        self._drive.start(now, pose, self.backup_dist, self.time_allowance)
 
     def tick(self, now: float, pose) -> RecoveryStep:
-        x, y, yaw = pose
-        self._driven += math.hypot(x - self._last[0], y - self._last[1])
-        self._last = (x, y)
-        left = self.backup_dist - self._driven
-        if left <= 0.01:
-            return RecoveryStep((0.0, 0.0), True, f"{self.name}: backed up {self._driven:.2f} m")
-        if now - self._start > self.time_allowance:
-            return RecoveryStep((0.0, 0.0), True, f"{self.name}: gave up after {self.time_allowance:g} s, "
-                                                  f"backed up {self._driven:.2f} m")
-        omega = self._steer(x, y, yaw)
-        step = self.CHECK_STEP_M / self.backup_speed
-        duration = min(self.simulate_ahead_time, left / self.backup_speed)
-        blocked = np.nonzero(~np.asarray(self._clear(unicycle_poses(pose, -self.backup_speed, omega, duration,
-                                                                      step)), dtype=bool))[0]
-        if len(blocked) and (blocked[0] + 1) * step < self.STOP_MARGIN_S:
-            return RecoveryStep((0.0, 0.0), True, f"{self.name}: stopped after {self._driven:.2f} m, "
+        outcome = self._drive.advance(now, pose)
+        driven = self._drive.travelled
+        if outcome == SUCCEEDED:
+            return RecoveryStep((0.0, 0.0), True, f"{self.name}: backed up {driven:.2f} m")
+        if outcome == TIMEOUT:
+            return RecoveryStep((0.0, 0.0), True, f"{self.name}: gave up after {self._drive.time_allowance:g} s, "
+                                                  f"backed up {driven:.2f} m")
+        omega = self._steer(*pose)
+        ahead = self._drive.time_to_collision(pose, -self.backup_speed, omega, self.simulate_ahead_time)
+        if ahead < self.STOP_MARGIN_S:
+            return RecoveryStep((0.0, 0.0), True, f"{self.name}: stopped after {driven:.2f} m, "
                                                   "a collision lies behind the robot")
         return RecoveryStep((-self.backup_speed, omega), False)
 

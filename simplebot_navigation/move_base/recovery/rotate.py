@@ -8,9 +8,9 @@ from typing import Callable
 
 import numpy as np
 
-from simplebot_navigation.geometry import normalize_theta
 from simplebot_navigation.parameters import param
-from simplebot_navigation.move_base.recovery import ParameterisedRecovery, RecoveryContext, RecoveryStep, turn_rate
+from simplebot_navigation.move_base.motion import COLLISION_AHEAD, SUCCEEDED, TurnInPlace
+from simplebot_navigation.move_base.recovery import ParameterisedRecovery, RecoveryContext, RecoveryStep
 
 #: read from the (ROS 1 default) local planner's namespace when the behaviour's own has none
 BORROWED = ("acc_lim_theta", "max_vel_theta", "min_in_place_vel_theta", "yaw_goal_tolerance")
@@ -26,6 +26,13 @@ class RotateParams:
     yaw_goal_tolerance: float = param(0.10, "rad", "turn left over when the circle counts as done", ge=0)
 
 
+def sweep_from_here(pose, direction: float, angle: float, step: float) -> np.ndarray:
+    """The poses RotateRecovery checks before a step: the turn left from where the robot stands (as ROS 1 checks),
+    its start and end included, evenly spaced at ``step`` or a little more."""
+    yaws = pose[2] + direction * np.linspace(0.0, angle, max(1, int(angle / step)) + 1)
+    return np.column_stack([np.full_like(yaws, pose[0]), np.full_like(yaws, pose[1]), yaws])
+
+
 class RotateRecovery(ParameterisedRecovery):
     """Turn a full circle in place (counter-clockwise) to let the sensors see everything around.
 
@@ -37,29 +44,20 @@ class RotateRecovery(ParameterisedRecovery):
 
     def __init__(self, name: str, params: dict, footprint_clear: Callable[[np.ndarray], np.ndarray]):
         self.name = name
-        self._clear = footprint_clear
-        self._start_yaw = 0.0
-        self._turned = 0.0
-        self._last_yaw = 0.0
+        self._turn = TurnInPlace(footprint_clear, sweep_from_here)
         self.warnings = self.configure(params)
 
     def start(self, now: float, pose) -> None:
-        self._start_yaw = self._last_yaw = pose[2]
-        self._turned = 0.0
+        self._turn.start(now, pose, 2.0 * math.pi, self.yaw_goal_tolerance, self.sim_granularity)
 
     def tick(self, now: float, pose) -> RecoveryStep:
-        x, y, yaw = pose
-        self._turned += float(normalize_theta(yaw - self._last_yaw))
-        self._last_yaw = yaw
-        dist_left = 2.0 * math.pi - self._turned
-        if dist_left < self.yaw_goal_tolerance:
-            return RecoveryStep((0.0, 0.0), True, f"{self.name}: turned a full circle")
-        yaws = yaw + np.linspace(0.0, dist_left, max(1, int(dist_left / self.sim_granularity)) + 1)
-        if not np.all(self._clear(np.column_stack([np.full_like(yaws, x), np.full_like(yaws, y), yaws]))):
-            return RecoveryStep((0.0, 0.0), True,
+        step = self._turn.step(now, pose, self.max_vel_theta, self.min_in_place_vel_theta, self.acc_lim_theta)
+        if step.outcome == SUCCEEDED:
+            return RecoveryStep(step.cmd, True, f"{self.name}: turned a full circle")
+        if step.outcome == COLLISION_AHEAD:
+            return RecoveryStep(step.cmd, True,
                                 f"{self.name}: can't rotate in place because there is a potential collision")
-        speed = turn_rate(dist_left, self.max_vel_theta, self.min_in_place_vel_theta, self.acc_lim_theta)
-        return RecoveryStep((0.0, speed), False)
+        return RecoveryStep(step.cmd, False)
 
 
 def create(context: RecoveryContext, name: str, params: dict) -> RotateRecovery:

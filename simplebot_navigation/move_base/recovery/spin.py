@@ -9,13 +9,14 @@ from typing import Callable
 import numpy as np
 
 from simplebot_navigation.costmap.cost_values import INSCRIBED_INFLATED_OBSTACLE
-from simplebot_navigation.geometry import normalize_theta
 from simplebot_navigation.parameters import param
-from simplebot_navigation.move_base.recovery import (ParameterisedRecovery, RecoveryContext, RecoveryStep, turn_poses,
-                                                      turn_rate)
+from simplebot_navigation.move_base.motion import COLLISION_AHEAD, SUCCEEDED, TIMEOUT, TurnInPlace, turn_poses
+from simplebot_navigation.move_base.recovery import ParameterisedRecovery, RecoveryContext, RecoveryStep
 
 #: the free area is weighed within this many circumscribed radii on either side
 FREE_SPACE_RADII = 2.0
+#: a turn this close to its end is done (rad)
+YAW_TOLERANCE = 0.03
 
 @dataclass
 class SpinParams:
@@ -58,10 +59,7 @@ class SpinRecovery(ParameterisedRecovery):
         self.name = name
         self._clear = footprint_clear
         self._free_space = free_space
-        self._target = 0.0      # signed turn to make
-        self._turned = 0.0
-        self._last_yaw = 0.0
-        self._start = 0.0
+        self._turn = TurnInPlace(footprint_clear)
         self._refused = ""
         self.warnings = self.configure(params)
 
@@ -79,28 +77,25 @@ class SpinRecovery(ParameterisedRecovery):
         reach = {d: self._reachable(pose, d) for d in (preferred, -preferred)}
         # the freer side, unless the footprint turns clearly further the other way
         direction = preferred if reach[preferred] >= 0.5 * reach[-preferred] else -preferred
-        self._target = direction * reach[direction]
         self._refused = "" if reach[direction] > self.sim_granularity else \
             f"{self.name}: can't turn in place either way because there is a potential collision"
-        self._turned, self._last_yaw, self._start = 0.0, pose[2], now
+        self._turn.start(now, pose, direction * reach[direction], YAW_TOLERANCE, self.sim_granularity,
+                         self.time_allowance)
 
     def tick(self, now: float, pose) -> RecoveryStep:
         if self._refused:
             return RecoveryStep((0.0, 0.0), True, self._refused)
-        self._turned += float(normalize_theta(pose[2] - self._last_yaw))
-        self._last_yaw = pose[2]
-        left = abs(self._target) - math.copysign(1.0, self._target) * self._turned
-        side = "left" if self._target > 0 else "right"
-        if left < 0.03:
-            return RecoveryStep((0.0, 0.0), True, f"{self.name}: turned {abs(self._turned):.2f} rad to the {side}")
-        if now - self._start > self.time_allowance:
-            return RecoveryStep((0.0, 0.0), True, f"{self.name}: gave up after {self.time_allowance:g} s")
-        direction = math.copysign(1.0, self._target)
-        if not np.all(self._clear(turn_poses(pose, direction, left, self.sim_granularity))):
-            return RecoveryStep((0.0, 0.0), True, f"{self.name}: stopped after {abs(self._turned):.2f} rad "
-                                                  f"to the {side}, a collision lies further")
-        speed = turn_rate(left, self.max_rotational_vel, self.min_rotational_vel, self.rotational_acc_lim)
-        return RecoveryStep((0.0, direction * speed), False)
+        step = self._turn.step(now, pose, self.max_rotational_vel, self.min_rotational_vel, self.rotational_acc_lim)
+        turned = abs(self._turn.turned)
+        side = "left" if self._turn.target > 0 else "right"
+        if step.outcome == SUCCEEDED:
+            return RecoveryStep(step.cmd, True, f"{self.name}: turned {turned:.2f} rad to the {side}")
+        if step.outcome == COLLISION_AHEAD:
+            return RecoveryStep(step.cmd, True, f"{self.name}: stopped after {turned:.2f} rad to the {side}, "
+                                                "a collision lies further")
+        if step.outcome == TIMEOUT:
+            return RecoveryStep(step.cmd, True, f"{self.name}: gave up after {self._turn.time_allowance:g} s")
+        return RecoveryStep(step.cmd, False)
 
 
 def create(context: RecoveryContext, name: str, params: dict) -> SpinRecovery:

@@ -22,9 +22,11 @@ from rclpy.task import Future
 from std_srvs.srv import Empty
 
 from move_base_msgs.action import MoveBase
+from simplebot_navigation.move_base.behaviors import BehaviorServerParams
 from simplebot_navigation.move_base.config import MoveBaseConfig
 from simplebot_navigation.move_base.cycle_stats import ControlLoopStats
 from simplebot_navigation.move_base.events import MoveBaseEvents
+from simplebot_navigation.move_base.parameter_tree import BEHAVIOR_SERVER
 from simplebot_navigation.move_base.plugins import GLOBAL_PLANNERS, LOCAL_PLANNERS, RECOVERY_BEHAVIORS, plugin_namespace
 from simplebot_navigation.move_base.recovery import PoseTrail
 from simplebot_navigation.move_base.state_machine import MoveBaseCore
@@ -74,6 +76,7 @@ class MoveBaseNode(Node):
         for warning in self.cfg.warnings:
             log.warn(warning)
         self._declare_own_defaults()
+        self.behavior_server = self._declare_behavior_server()
         self.tf = Buffer(node=self)
         self.tf_listener = TransformListener(self.tf, self)
         # One obstacle feed for both costmaps and the local planner: the tracker, fed the local costmap's scans,
@@ -118,7 +121,7 @@ class MoveBaseNode(Node):
         a goal to the arbiter."""
         self.nav2 = Nav2FrontDoor(self.arbiter, self.check_goal, self.core, self.planner, self.cfg.base_global_planner,
                                   self.global_costmap, self.get_clock(), log, self.recovery_context.footprint_clear,
-                                  lambda: self.period)
+                                  lambda: self.period, lambda: self.behavior_server)
         self.action_servers = serve_actions(self, ((MoveBase, "move_base", self._execute),) + self.nav2.actions)
         self.create_subscription(PoseStamped, "move_base_simple/goal", self._on_simple_goal, 1)
         self.create_subscription(GoalID, "~/cancel", lambda msg: self.arbiter.cancel(msg.id), 1)
@@ -152,7 +155,7 @@ class MoveBaseNode(Node):
             given_parameter_tree(self), log, cfg=self.cfg, global_costmap=self.global_costmap,
             local_costmap=self.local_costmap, planner=self.planner, controller=self.controller,
             recoveries=self.recovery_instances, tracking=self.obstacle_tracking, external=self.external_obstacles,
-            set_controller_frequency=self.set_controller_frequency)
+            set_controller_frequency=self.set_controller_frequency, set_behavior_server=self._set_behavior_server)
         describe_declared(self, self.live_parameters.table)
         refuse_unknown_parameters(self)
         self.add_pre_set_parameters_callback(self.live_parameters.normalize)
@@ -186,6 +189,20 @@ class MoveBaseNode(Node):
     def _declare_own_defaults(self) -> None:
         own = {k: v for k, v in vars(self.cfg).items() if k not in ("warnings", "recovery_behaviors")}
         declare_defaults(self, own, specs=fields_of(MoveBaseConfig))
+
+    def _declare_behavior_server(self) -> BehaviorServerParams:
+        """The limits of Nav2's behaviours (``behavior_server.*``) the node starts with, declared as they are used."""
+        params = BehaviorServerParams.from_params(given_parameter_tree(self, BEHAVIOR_SERVER),
+                                                  f"move_base/{BEHAVIOR_SERVER}")
+        for warning in params.warnings:
+            self.get_logger().warn(warning)
+        specs = fields_of(BehaviorServerParams)
+        declare_defaults(self, {name: getattr(params, name) for name in specs}, prefix=BEHAVIOR_SERVER, specs=specs)
+        return params
+
+    def _set_behavior_server(self, params: BehaviorServerParams) -> None:
+        """New limits for Nav2's behaviours requested from now on (a running one keeps its own)."""
+        self.behavior_server = params
 
     def _build_recoveries(self) -> list:
         """One instance per behaviour name (a name listed twice runs the same instance twice), its parameters

@@ -5,7 +5,8 @@ A part of MoveBaseNode, given the parts a change reaches, never the node. The ch
 move_base/live_parameters.py (no rclpy); this shell converts ROS 2 parameters, answers the set request at once,
 and applies an accepted change at the start of the next control cycle (``apply_pending``), on the executor's
 thread: TEB, the costmaps and their layers, the global planner and the recoveries take their new
-configurations, and the control, update and publish timers their new periods.
+configurations, Nav2's behaviours requested from then on their new limits, and the control, update and publish
+timers their new periods.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from rclpy.parameter import Parameter
 
 from simplebot_navigation.move_base.live_parameters import (GLOBAL_PLANNER, LOCAL_PLANNER, MOVE_BASE,
                                                             LiveParameters, update_move_base_config)
-from simplebot_navigation.move_base.parameter_tree import OBSTACLE_TRACKING
+from simplebot_navigation.move_base.parameter_tree import BEHAVIOR_SERVER, OBSTACLE_TRACKING
 from simplebot_navigation.parameters import ParameterError
 from simplebot_navigation.ros.params import NODE_LEVEL
 
@@ -40,16 +41,17 @@ class MoveBaseLiveParameters:
     """Run-time parameter changes of a move_base node (dynamic_reconfigure semantics). Built after every part
     has declared its parameters, from the tree the launcher gave (``given``) and the parts a change reaches: the
     configuration ``cfg``, both costmaps, the global ``planner`` and the ``controller`` plugins, the recovery
-    instances by name, obstacle ``tracking`` and ``external`` obstacles, and ``set_controller_frequency(hz)`` for the
-    node's timers. The node hands its parameter callbacks to ``normalize``, ``check`` and ``stored``."""
+    instances by name, obstacle ``tracking`` and ``external`` obstacles, ``set_controller_frequency(hz)`` for the
+    node's timers and ``set_behavior_server(params)`` for Nav2's behaviours. The node hands its parameter callbacks to ``normalize``, ``check`` and ``stored``."""
 
     def __init__(self, given: dict, logger, *, cfg, global_costmap, local_costmap, planner, controller,
-                 recoveries: dict, tracking, external, set_controller_frequency):
+                 recoveries: dict, tracking, external, set_controller_frequency, set_behavior_server):
         self._log = logger
         self.cfg, self.costmaps = cfg, (global_costmap, local_costmap)
         self.local_costmap, self.planner, self.controller = local_costmap, planner, controller
         self.recoveries, self.tracking, self.external = recoveries, tracking, external
         self._set_controller_frequency = set_controller_frequency
+        self._set_behavior_server = set_behavior_server
         self._live = LiveParameters(given)
         self._live_lock = threading.Lock()   # a set request may come from another thread than the cycle
         self._prepared = None
@@ -136,6 +138,8 @@ class MoveBaseLiveParameters:
         if OBSTACLE_TRACKING in parts:
             self.tracking.reconfigure(configs.obstacle_tracking)
             self.external.timeout = configs.obstacle_tracking.external_timeout
+        if BEHAVIOR_SERVER in parts:
+            self._set_behavior_server(configs.behavior_server)
         for name, recovery in self.recoveries.items():
             if name in parts:
                 for warning in recovery.configure(configs.recoveries[name]):

@@ -86,14 +86,15 @@ class Nav2FrontDoor:
     hands a goal to the GoalArbiter. It gets: the arbiter; ``check``, the GoalCheck; the state machine ``core``
     (feedback); the global ``planner`` and its type name (ComputePathToPose); the global costmap (its frame and the
     robot's pose for a path from the robot); the node's clock and logger; ``footprint_clear``, the recovery
-    context's check the behaviours use; and ``period()``, the control period now."""
+    context's check the behaviours use; ``period()``, the control period now; and ``behavior_server()``, the
+    behaviours' limits now (BehaviorServerParams)."""
 
     def __init__(self, arbiter, check, core, planner, planner_type: str, global_costmap, clock, logger,
-                 footprint_clear, period):
+                 footprint_clear, period, behavior_server):
         self.arbiter, self.check, self.core = arbiter, check, core
         self.planner, self.planner_type, self.global_costmap = planner, planner_type, global_costmap
         self._clock, self._logger = clock, logger
-        self.footprint_clear, self.period = footprint_clear, period
+        self.footprint_clear, self.period, self.behavior_server = footprint_clear, period, behavior_server
         self._warned_behavior_tree = False
         self.actions = (
             (NavigateToPose, "navigate_to_pose", self._navigate_to_pose),
@@ -299,7 +300,7 @@ class Nav2FrontDoor:
         reason = check_spin(request.target_yaw, allowance)
         if reason is not None:
             return self._refuse(handle, Spin.Result(), "spin", reason, Spin.Result.UNKNOWN)
-        behavior = SpinBehavior(request.target_yaw, allowance, self.footprint_clear)
+        behavior = SpinBehavior(request.target_yaw, allowance, self.footprint_clear, self.behavior_server())
         return await self._behave(handle, Spin, behavior,
                                   lambda b: Spin.Feedback(angular_distance_traveled=float(b.progress)))
 
@@ -311,7 +312,8 @@ class Nav2FrontDoor:
         if reason is not None:
             return self._refuse(handle, action.Result(), name, reason, action.Result.INVALID_INPUT)
         speed = -abs(request.speed) if backup else request.speed
-        behavior = DriveOnHeadingBehavior(target.x, speed, allowance, self.footprint_clear, self.period())
+        behavior = DriveOnHeadingBehavior(target.x, speed, allowance, self.footprint_clear, self.period(),
+                                          self.behavior_server())
         return await self._behave(handle, action, behavior,
                                   lambda b: action.Feedback(distance_traveled=float(b.progress)))
 
