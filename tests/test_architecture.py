@@ -227,8 +227,9 @@ def test_imports_are_absolute(path):
 
 #: the parts move_base's node is assembled from that own no ROS interface: they get what they use, never the node
 #: (the costmaps, the planner plugins and obstacle tracking own subscriptions and publishers, so they get it)
-MOVE_BASE_HELPERS = ("goal_arbiter", "cycle_poses", "move_base_goal", "move_base_supervision", "move_base_parameters",
-                     "move_base_stats", "move_base_services", "move_base_recoveries", "nav2_front_door")
+MOVE_BASE_HELPERS = ("goal_arbiter", "cycle_poses", "move_base_goal", "move_base_front_door", "move_base_supervision",
+                     "move_base_parameters", "move_base_stats", "move_base_services", "move_base_recoveries",
+                     "nav2_front_door")
 
 
 @pytest.mark.parametrize("helper", MOVE_BASE_HELPERS)

@@ -18,7 +18,6 @@ from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
-from rclpy.task import Future
 from std_srvs.srv import Empty
 
 from move_base_msgs.action import MoveBase
@@ -31,12 +30,12 @@ from simplebot_navigation.move_base.plugins import GLOBAL_PLANNERS, LOCAL_PLANNE
 from simplebot_navigation.move_base.recovery import PoseTrail
 from simplebot_navigation.move_base.state_machine import MoveBaseCore
 from simplebot_navigation.parameters import fields_of
-from simplebot_navigation.ros.conversions import xyyaw_to_pose
 from simplebot_navigation.ros.costmap.costmap_ros import Costmap2DROS
 from simplebot_navigation.ros.costmap.costmap_services import CostmapServices
 from simplebot_navigation.ros.lifecycle_state import serve_lifecycle_state
 from simplebot_navigation.ros.move_base.cycle_poses import CyclePoses
 from simplebot_navigation.ros.move_base.goal_arbiter import GoalArbiter
+from simplebot_navigation.ros.move_base.move_base_front_door import MoveBaseFrontDoor
 from simplebot_navigation.ros.move_base.move_base_goal import GoalCheck, MoveBaseGoal
 from simplebot_navigation.ros.move_base.move_base_parameters import MoveBaseLiveParameters
 from simplebot_navigation.ros.move_base.move_base_recoveries import MoveBaseRecoveryContext
@@ -122,8 +121,9 @@ class MoveBaseNode(Node):
         self.nav2 = Nav2FrontDoor(self.arbiter, self.check_goal, self.core, self.planner, self.cfg.base_global_planner,
                                   self.global_costmap, self.get_clock(), log, self.recovery_context.footprint_clear,
                                   lambda: self.period, lambda: self.behavior_server)
-        self.action_servers = serve_actions(self, ((MoveBase, "move_base", self._execute),) + self.nav2.actions)
-        self.create_subscription(PoseStamped, "move_base_simple/goal", self._on_simple_goal, 1)
+        own = MoveBaseFrontDoor(self.arbiter, self.check_goal)
+        self.action_servers = serve_actions(self, ((MoveBase, "move_base", own.execute),) + self.nav2.actions)
+        self.create_subscription(PoseStamped, "move_base_simple/goal", own.on_simple_goal, 1)
         self.create_subscription(GoalID, "~/cancel", lambda msg: self.arbiter.cancel(msg.id), 1)
         services = MoveBaseServices(self.arbiter, self.planner, self.global_costmap, self.local_costmap,
                                     self.get_clock(), log)
@@ -232,40 +232,6 @@ class MoveBaseNode(Node):
         """The state machine's planner: from this cycle's robot pose (``start``) to the goal."""
         result = self.planner.make_plan(start, goal_xyyaw)
         return result.poses if result.ok else result.message
-
-    # -- the simple goal and move_base's action ---------------------------------------------------------
-    def _submit(self, goal: MoveBaseGoal) -> None:
-        """A goal of move_base's own interfaces: checked once; one that fails the check still preempts the
-        active goal and ends aborted, as ROS 1's move_base."""
-        target, reason, cause = self.check_goal(goal.pose)
-        if reason is None:
-            self.arbiter.submit(goal, target)
-        else:
-            self.arbiter.reject(goal, reason, cause)
-
-    def _on_simple_goal(self, msg: PoseStamped) -> None:
-        self._submit(MoveBaseGoal(msg))
-
-    async def _execute(self, handle):
-        goal = MoveBaseGoal(handle.request.target_pose, handle,
-                            feedback=lambda pose: handle.publish_feedback(self._move_base_feedback(pose)))
-        goal.done = Future()
-        self._submit(goal)
-        status = await goal.done
-        if status == ActionlibStatus.SUCCEEDED:
-            handle.succeed()
-        elif status == ActionlibStatus.PREEMPTED and handle.is_cancel_requested:
-            handle.canceled()
-        else:
-            handle.abort()
-        return MoveBase.Result()
-
-    def _move_base_feedback(self, pose) -> MoveBase.Feedback:
-        feedback = MoveBase.Feedback()
-        feedback.base_position.header.frame_id = self.global_costmap.global_frame
-        feedback.base_position.header.stamp = pose.stamp.to_msg()
-        feedback.base_position.pose = xyyaw_to_pose(*pose[:3])
-        return feedback
 
     # -- the control cycle --------------------------------------------------------------------------
     def now_s(self) -> float:
