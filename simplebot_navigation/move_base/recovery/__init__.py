@@ -9,9 +9,9 @@ and Spin get a robot out of places where it cannot turn a full circle (a box bod
 gap): BackUpRecovery reverses along the path the robot came by (PoseTrail), which is known to be
 free, and SpinRecovery turns as far as it can towards the side with more free space.
 
-A behaviour is a module of this package with a class that satisfies ``Recovery`` and a ``create(context,
-name, params)`` factory; move_base/plugins.py registers it under its type name with its parameter class
-(docs/plugins.md).
+A behaviour is a module of this package with a class that satisfies ``Recovery``, a ``create(context,
+name, params)`` factory and its registration, ``SPEC``: a PluginSpec of its type name, the factory and its
+parameter class, named by a ``simplebot_navigation.recovery_behaviors`` entry point (docs/plugins.md).
 """
 
 from __future__ import annotations
@@ -106,7 +106,7 @@ def unicycle_poses(pose, v: float, omega: float, duration: float, step: float) -
     return np.column_stack([x, y, yaw])
 
 
-#: what move_base/plugins.py registers for a behaviour type: (context, name, params) -> Recovery
+#: the implementation a behaviour's PluginSpec gives: (context, name, params) -> Recovery
 RecoveryFactory = Callable[[RecoveryContext, str, dict], Recovery]
 
 
