@@ -41,7 +41,7 @@ def test_every_entry_point_gives_a_spec_its_registry_lists():
         for value in points.values():
             spec = EntryPoint("", value, group).load()
             assert isinstance(spec, registry.spec_type), value
-            assert registry._specs[registry.key(spec)] is spec, value
+            assert registry.spec(registry.key(spec)) is spec, value
 
 
 @pytest.mark.parametrize("registry", PLUGIN_REGISTRIES, ids=lambda r: r.parameter)
@@ -95,7 +95,7 @@ def test_reading_every_registration_imports_no_ros():
     code = ("import sys\n"
             "from simplebot_navigation.costmap.plugins import LAYERS\n"
             "from simplebot_navigation.move_base.plugins import GLOBAL_PLANNERS, LOCAL_PLANNERS, RECOVERY_BEHAVIORS\n"
-            "assert all(r._specs for r in (LAYERS, GLOBAL_PLANNERS, LOCAL_PLANNERS, RECOVERY_BEHAVIORS))\n"
+            "assert LAYERS.specs and all(r.types for r in (GLOBAL_PLANNERS, LOCAL_PLANNERS, RECOVERY_BEHAVIORS))\n"
             "print(sorted(m for m in sys.modules if m.split('.')[0] == 'rclpy'))\n")
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
                             cwd=Path(__file__).resolve().parents[2])
