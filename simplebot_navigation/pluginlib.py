@@ -48,10 +48,14 @@ class Registry(Generic[Spec]):
         with self._lock:
             if self._loaded or self._loading:      # loaded by another thread, or registering what was loaded
                 return
+            points = sorted(entry_points(group=self.group), key=lambda point: point.name)
+            if not points:
+                raise EntryPointError(f"no entry points in group {self.group}: the package that declares them is "
+                                      "not installed (pip install -e . in a checkout)")
             self._loading = True
             before = dict(self._registered)
             try:
-                for point in sorted(entry_points(group=self.group), key=lambda point: point.name):
+                for point in points:
                     spec = self._spec_of(point)
                     try:
                         self.register(spec)

@@ -82,6 +82,13 @@ def test_a_broken_entry_point_is_refused_naming_it_and_its_group(monkeypatch, va
         assert error.__cause__ is None and (error.__context__ is None or error.__suppress_context__)
 
 
+def test_a_group_without_entry_points_says_the_package_is_not_installed(monkeypatch):
+    monkeypatch.setattr(pluginlib, "entry_points", lambda group: [])
+    with pytest.raises(pluginlib.EntryPointError, match="no entry points in group "
+                       "simplebot_navigation.example_planners: the package that declares them is not installed"):
+        PluginRegistry("base_local_planner", "simplebot_navigation.example_planners").types
+
+
 def test_the_registries_core_imports_no_plugin():
     plugin_modules = tuple(f"simplebot_navigation.{m}" for m in (
         "teb", "planning", "move_base.recovery", "costmap.static_layer", "costmap.obstacle_layer",
