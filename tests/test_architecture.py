@@ -1,7 +1,8 @@
 """The package's layering, read from the source with ast: who may import whom, no cycles, small files.
 
 Layers, lowest first; a module may import its own layer and the layers below, never one above:
-  geometry, paths, parameters, web_host             shared math, file locations, the parameter layer, Host checks
+  geometry, paths, parameters, pluginlib, web_host  shared math, file locations, the parameter layer, the plugin
+                                                    registries' base, Host checks
   costmap, planning, teb, sim, move_base, safety,   the navigation core: plain Python, no ROS
   perception, maps, localization
   ros                                               the nodes and their ROS shells
@@ -24,8 +25,8 @@ import pytest
 PACKAGE = "simplebot_navigation"
 ROOT = Path(__file__).resolve().parents[1] / PACKAGE
 LAYERS = [
-    {"geometry", "geometry_kernels", "paths", "parameters", "kernel_cache", "web_host", "laser_scan", "log_throttle",
-     ""},
+    {"geometry", "geometry_kernels", "paths", "parameters", "pluginlib", "kernel_cache", "web_host", "laser_scan",
+     "log_throttle", ""},
     {"costmap", "planning", "teb", "sim", "move_base", "safety", "perception", "maps", "localization"},
     {"ros"},
     {"launch", "scenarios", "viewer", "testing"},

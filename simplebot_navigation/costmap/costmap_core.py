@@ -22,10 +22,10 @@ import numpy as np
 
 from simplebot_navigation.parameters import fields_of
 from simplebot_navigation.costmap.footprint import pad_footprint, transform_footprint
-from simplebot_navigation.costmap.layer import CostmapLayer, MapLayer, SensorLayer
+from simplebot_navigation.costmap.layer import CostmapLayer, MapLayer, MovingObstacleClearing, SensorLayer
 from simplebot_navigation.costmap.layered_costmap import LayeredCostmap
-from simplebot_navigation.costmap.obstacle_layer import (Observation, ObservationBuffer, ObservationSource, ObstacleLayer,
-                                                         laser_scan_to_observation, point_cloud_to_observation)
+from simplebot_navigation.costmap.observation import (Observation, ObservationBuffer, ObservationSource,
+                                                      laser_scan_to_observation, point_cloud_to_observation)
 from simplebot_navigation.costmap.params import CostmapConfig, live_layer_params, resolve_costmap_params
 from simplebot_navigation.costmap.plugins import LAYERS
 
@@ -51,12 +51,12 @@ class CostmapCore(LayeredCostmap):
     # -- observations -------------------------------------------------------------
     def observation_sources(self) -> list[tuple[str, ObservationSource]]:
         """(layer name, source) for every observation source, in configuration order."""
-        return [(layer.name, buffer.source) for layer in self._obstacle_layers() for buffer in layer.buffers.values()]
+        return [(layer.name, buffer.source) for layer in self._sensor_layers() for buffer in layer.buffers.values()]
 
     def _find_source(self, source: str) -> tuple[SensorLayer, ObservationSource]:
-        """A source by name, or by '<layer>/<source>' when several obstacle layers share a name."""
+        """A source by name, or by '<layer>/<source>' when several sensor layers share a name."""
         layer_name, _, source_name = source.rpartition("/")
-        matches = [(layer, buffer.source) for layer in self._obstacle_layers()
+        matches = [(layer, buffer.source) for layer in self._sensor_layers()
                    for name, buffer in layer.buffers.items()
                    if name == source_name and layer_name in ("", layer.name)]
         if len(matches) != 1:
@@ -72,7 +72,7 @@ class CostmapCore(LayeredCostmap):
 
     def restart_staleness_clocks(self, now: float) -> None:
         """Every source counts as just heard from: waiting for TF or the clock is not its fault."""
-        for layer in self._obstacle_layers():
+        for layer in self._sensor_layers():
             for buffer in layer.buffers.values():
                 buffer.reset_last_updated(now)
 
@@ -80,7 +80,7 @@ class CostmapCore(LayeredCostmap):
         """The layers that read a map topic, for the shell to subscribe."""
         return [layer for layer in self.plugins if isinstance(layer, MapLayer)]
 
-    def _obstacle_layers(self) -> list[SensorLayer]:
+    def _sensor_layers(self) -> list[SensorLayer]:
         return [layer for layer in self.plugins if isinstance(layer, SensorLayer)]
 
     def add_observation(self, source: str, observation: Observation) -> None:
@@ -113,10 +113,11 @@ class CostmapCore(LayeredCostmap):
                                                                    src.obstacle_range, src.raytrace_range))
 
     def set_clearing_circles(self, circles) -> None:
-        """Where moving obstacles are and just were ((K, 3) x, y, radius in the global frame): every obstacle
-        layer clears its marks there from the next update on, until the next call (docs/reference.md §6.3)."""
+        """Where moving obstacles are and just were ((K, 3) x, y, radius in the global frame): every layer
+        that satisfies MovingObstacleClearing (an obstacle layer) clears its marks there from the next update
+        on, until the next call (docs/reference.md §6.3)."""
         for layer in self.plugins:
-            if isinstance(layer, ObstacleLayer):
+            if isinstance(layer, MovingObstacleClearing):
                 layer.set_clearing_circles(circles)
 
     # -- updates ------------------------------------------------------------------
@@ -124,19 +125,16 @@ class CostmapCore(LayeredCostmap):
         """After time jumped back: reset every layer and drop every buffered observation, whose stamps
         belong to a timeline that no longer exists."""
         self.reset_layers()
-        for layer in self._obstacle_layers():
+        for layer in self._sensor_layers():
             layer.clear_observations()
 
     def clear_layers_outside(self, robot_x: float, robot_y: float, reset_distance: float,
                              layer_names=None, invert_area: bool = False) -> list[str]:
-        """clear_costmap_recovery on this costmap: in each named layer (default: every obstacle layer),
+        """clear_costmap_recovery on this costmap: in each named layer (default: every sensor layer with a grid),
         forget everything outside the reset_distance square around the robot (inside with
         invert_area), and schedule the whole layer for the next update. Returns the layers cleared."""
-        if layer_names is None:
-            layers = self._obstacle_layers()
-        else:
-            layers = [layer for layer in self.plugins
-                      if layer.name in layer_names and isinstance(layer, CostmapLayer)]
+        layers = [layer for layer in self.plugins if isinstance(layer, CostmapLayer)
+                  and (isinstance(layer, SensorLayer) if layer_names is None else layer.name in layer_names)]
         for layer in layers:
             start_x, start_y = layer.world_to_map_no_bounds(robot_x - reset_distance / 2,
                                                             robot_y - reset_distance / 2)
@@ -169,7 +167,8 @@ class CostmapCore(LayeredCostmap):
         for plugin, running in zip(new.plugins, c.plugins):
             live = live_layer_params(plugin)
             self.layer(plugin.name).reconfigure(**live)
-            running.params.update({key: value for key, value in live.items() if key != "sources"})
+            own = fields_of(LAYERS.spec(plugin.kind).params)     # the rest (sources) the layer keeps itself
+            running.params.update({key: value for key, value in live.items() if key in own})
         return changed
 
     # -- footprint ----------------------------------------------------------------

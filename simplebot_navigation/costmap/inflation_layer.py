@@ -15,9 +15,10 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from simplebot_navigation.parameters import param
+from simplebot_navigation.parameters import ParameterError, param
 from simplebot_navigation.costmap.cost_values import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION
 from simplebot_navigation.costmap.layer import Bounds, Layer
+from simplebot_navigation.costmap.plugins import LayerContext, LayerSpec
 
 
 def inflation_cost(distance_cells: float, resolution: float, inscribed_radius: float, weight: float) -> int:
@@ -228,3 +229,20 @@ class InflationLayer(Layer):
         """costmap_2d re-initialises the layer, which drops a pending full reinflation."""
         self.need_reinflation = False
         self.match_size()
+
+
+@dataclass(frozen=True)
+class InflationLayerSpec(LayerSpec):
+    def resolve(self, tree: dict, path: str, context: LayerContext) -> tuple[dict, list[str]]:
+        """Inflation reaches at most across the whole map: a larger radius only costs memory and time (its kernel
+        grows with the square of it), which can stall the costmap's thread for seconds."""
+        params, warnings = super().resolve(tree, path, context)
+        radius, cfg = params["inflation_radius"], context.costmap
+        diagonal = math.hypot(cfg.width, cfg.height)
+        if radius > diagonal:
+            raise ParameterError(f"{path}/inflation_radius: {radius:g} m is more than the costmap's diagonal "
+                                 f"({diagonal:.3g} m for {cfg.width:g} x {cfg.height:g} m)")
+        return params, warnings
+
+
+SPEC = InflationLayerSpec.builtin(InflationLayer, InflationLayerParams, ("cost_scaling_factor", "inflation_radius"))

@@ -42,8 +42,8 @@ class Bounds:
 class Layer:
     """One plugin of a LayeredCostmap (costmap_2d's Layer). Subclasses override the hooks they need.
 
-    Built as ``cls(name, **params)``, params being the fields of its registered parameter class
-    (costmap/plugins.py); ``reconfigure(**params)`` gets the fields that may change while running."""
+    Built as ``cls(name, **params)``, params as its registration (a LayerSpec, costmap/plugins.py) resolves
+    them from its namespace: the fields of its parameter class."""
 
     def __init__(self, name: str):
         self.name = name
@@ -68,6 +68,16 @@ class Layer:
 
     def reset(self) -> None:
         """Forget everything learned (clear_costmaps, a jump back in time)."""
+
+    def reconfigure(self, **params) -> None:
+        """Live parameter changes. ``params`` are all the layer's parameters that may change while running
+        (its registration's ``live_params``: the fields not restart-only, already checked), changed or not.
+        Called by CostmapCore.reconfigure on every layer of a costmap whose parameters changed, on the thread
+        that applies the change (move_base's executor, at the start of a control cycle) with the costmap's lock
+        held, so between two updates. Base: each value becomes the attribute of its name; a layer with state
+        derived from them overrides this."""
+        for key, value in params.items():
+            setattr(self, key, value)
 
     def is_current(self) -> bool:
         """Its inputs are fresh: move_base refuses to drive on a costmap with a stale layer."""
@@ -101,14 +111,28 @@ class MapLayer(Protocol):
 
 @runtime_checkable
 class SensorLayer(Protocol):
-    """A layer fed by observation sources; the costmap routes each source's observations to its layer."""
-    buffers: dict                  # source name -> ObservationBuffer (obstacle_layer.py)
+    """A layer fed by observation sources (costmap/observation.py); its registration is a SensorLayerSpec,
+    whose hooks resolve, declare and pass on the sources' parameters. The ROS shell subscribes each source's
+    topic and hands every message, as an Observation in the costmap's frame, to the costmap, which routes it
+    here by source name; staleness is read from the buffers. Called with the costmap's lock held, from the
+    sensor callbacks and the costmap's update."""
+    buffers: dict                  # source name -> ObservationBuffer: its source, observations, last message
+    stale_sources: list            # the sources that made the last update not current (is_current False)
 
     def add_observation(self, source_name: str, observation) -> None:
-        """One sensor message as an Observation in the costmap's frame."""
+        """One sensor message of a source as an Observation in the costmap's frame."""
 
     def clear_observations(self) -> None:
         """Drop every buffered observation (time jumped back)."""
+
+
+@runtime_checkable
+class MovingObstacleClearing(Protocol):
+    """A layer whose marks of moving obstacles are cleared after them (docs/reference.md §6.3)."""
+
+    def set_clearing_circles(self, circles) -> None:
+        """Where moving obstacles are and just were ((K, 3) x, y, radius in the costmap's frame): clear the marks
+        within them from the next update on, until the next call."""
 
 
 class CostmapLayer(Layer, Costmap2D):

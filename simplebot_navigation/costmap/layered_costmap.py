@@ -11,7 +11,7 @@ import numpy as np
 from simplebot_navigation.costmap.cost_values import FREE_SPACE, NO_INFORMATION
 from simplebot_navigation.costmap.costmap_2d import Costmap2D
 from simplebot_navigation.costmap.footprint import footprint_radii
-from simplebot_navigation.costmap.layer import Bounds, Layer
+from simplebot_navigation.costmap.layer import Bounds, Layer, SensorLayer
 
 _log = logging.getLogger(__name__)
 
@@ -92,11 +92,8 @@ class LayeredCostmap:
 
     def stale_sources(self) -> list[str]:
         """'<layer>/<source>' for every observation source that made the costmap not current."""
-        names = []
-        for layer in self.plugins:
-            if layer.enabled:
-                names.extend(f"{layer.name}/{source}" for source in getattr(layer, "stale_sources", ()))
-        return names
+        return [f"{layer.name}/{source}" for layer in self.plugins
+                if layer.enabled and isinstance(layer, SensorLayer) for source in layer.stale_sources]
 
     def set_footprint(self, footprint) -> None:
         """Set the padded footprint; layers that depend on its radii (inflation) recompute."""

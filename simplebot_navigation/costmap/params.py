@@ -10,27 +10,20 @@ Nothing is logged here: warnings come back as strings for the ROS shell to log.
 from __future__ import annotations
 
 import copy
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from simplebot_navigation.parameters import PLUGIN_TYPE_KEY, Param, ParameterError, fields_of, load, namespace, param
+from simplebot_navigation.parameters import Param, ParameterError, fields_of, load, namespace, param
 from simplebot_navigation.costmap.footprint import footprint_from_radius, parse_footprint
-from simplebot_navigation.costmap.obstacle_layer import (SUPPORTED_DATA_TYPES, ObservationSource,
-                                                         ObservationSourceParams, ObstacleLayerParams)
-from simplebot_navigation.costmap.plugins import LAYERS
-
-_MISSING = object()
-
-_PRE_HYDRO_KEYS = ("static_map", "map_type", "observation_sources")
+from simplebot_navigation.costmap.plugins import LAYERS, LayerContext
 
 
 @dataclass
 class PluginConfig:
     name: str
     type: str
-    kind: str                   # ObstacleLayer / InflationLayer / StaticLayer
+    kind: str                   # the registered layer kind (StaticLayer, ObstacleLayer, ...)
     params: dict                # keyword arguments of the layer class
 
 
@@ -45,8 +38,12 @@ class SearchedParams:
                                            restart=True)
 
 
-#: keys the costmap reads from enclosing namespaces too (see SearchedParams, ObservationSourceParams)
-SEARCHED_KEYS = tuple(fields_of(SearchedParams)) + ("obstacle_range", "raytrace_range")
+def searched_keys() -> tuple[str, ...]:
+    """Keys the costmap reads from enclosing namespaces too: SearchedParams and those its layers search
+    upwards (an obstacle layer's sources: their ranges)."""
+    layers = (key for spec in LAYERS.specs for key in spec.searched_keys)
+    return tuple(fields_of(SearchedParams)) + tuple(dict.fromkeys(layers))
+
 
 PLUGIN_LIST = Param(list, [], "", "layers in order, as a list of {name, type}", dynamic=False, name="plugins")
 
@@ -89,18 +86,10 @@ class CostmapConfig:
         return int(self.height / self.resolution)
 
 
-
-
 def live_layer_params(plugin: PluginConfig) -> dict:
-    """The parameters of a layer that may change while it runs (not restart-only in their spec), as the
-    layer's ``reconfigure`` takes them; an obstacle layer's sources come as {source name: {field: value}}."""
-    specs = fields_of(LAYERS.spec(plugin.kind).params)
-    live = {key: value for key, value in plugin.params.items() if key in specs and specs[key].dynamic}
-    if plugin.kind == "ObstacleLayer":
-        source_specs = fields_of(ObservationSourceParams)
-        live["sources"] = {source.name: {key: getattr(source, key) for key, spec in source_specs.items()
-                                         if spec.dynamic} for source in plugin.params["sources"]}
-    return live
+    """The parameters of a layer that may change while it runs, as the layer's ``reconfigure`` takes them
+    (its registration's ``live_params``)."""
+    return LAYERS.spec(plugin.kind).live_params(plugin.params)
 
 
 def parameter_specs(cfg: CostmapConfig) -> dict[str, Param]:
@@ -108,27 +97,11 @@ def parameter_specs(cfg: CostmapConfig) -> dict[str, Param]:
     specs = {**fields_of(CostmapConfig), **fields_of(SearchedParams), "plugins": PLUGIN_LIST}
     for plugin in cfg.plugins:
         layer = LAYERS.spec(plugin.kind)
-        own = {**fields_of(ObservationSourceParams), **fields_of(layer.params)}
+        own = layer.keys()
         for key in layer.parent_keys:           # set at the costmap level, copied into the layer
             specs.setdefault(key, own[key])
-        specs.update({f"{plugin.name}.{key}": spec for key, spec in fields_of(layer.params).items()})
-        for source in plugin.params.get("sources", ()):
-            specs.update({f"{plugin.name}.{source.name}.{key}": spec
-                          for key, spec in fields_of(ObservationSourceParams).items()})
+        specs.update({f"{plugin.name}.{key}": spec for key, spec in layer.parameter_specs(plugin.params).items()})
     return specs
-
-
-def _search(chain: list[tuple[dict, str]], key: str):
-    """searchParam: the value of `key` in the nearest namespace of the chain that has it."""
-    for values, path in chain:
-        if key in values:
-            return values[key], f"{path}/{key}"
-    return _MISSING, key
-
-
-def _searched(chain, specs: dict[str, Param], key: str):
-    value, path = _search(chain, key)
-    return specs[key].default if value is _MISSING else specs[key].check(value, path)
 
 
 def resolve_costmap_params(params: dict, name: str = "costmap", parents=()) -> CostmapConfig:
@@ -145,22 +118,24 @@ def resolve_costmap_params(params: dict, name: str = "costmap", parents=()) -> C
         namespaces = ["static_layer", "obstacle_layer", "inflation_layer"] + source_names
     parent_keys = {key for spec in LAYERS.specs for key in spec.parent_keys}
     values, warnings = load({**fields_of(CostmapConfig), "plugins": PLUGIN_LIST}, tree, name,
-                            also_known=list(SEARCHED_KEYS) + sorted(parent_keys) + namespaces)
+                            also_known=list(searched_keys()) + sorted(parent_keys) + namespaces)
     values.pop("plugins", None)
     cfg = CostmapConfig(name=name, **values)
     cfg.global_frame = cfg.global_frame.lstrip("/")          # tf2 frame ids have no leading '/'
     cfg.robot_base_frame = cfg.robot_base_frame.lstrip("/")
 
+    context = LayerContext(cfg, chain)
     searched = fields_of(SearchedParams)
-    footprint = _searched(chain, searched, "footprint")
-    cfg.footprint = parse_footprint(footprint, _search(chain, "footprint")[1])
+    footprint = context.searched("footprint", searched["footprint"])
+    cfg.footprint = parse_footprint(footprint, context.search("footprint")[1])
     if len(cfg.footprint):
         cfg.robot_radius = searched["robot_radius"].default
     else:
-        cfg.robot_radius = _searched(chain, searched, "robot_radius")
+        cfg.robot_radius = context.searched("robot_radius", searched["robot_radius"])
         cfg.footprint = footprint_from_radius(cfg.robot_radius)
-    cfg.footprint_topic = _searched(chain, searched, "footprint_topic")
-    cfg.published_footprint_topic = _searched(chain, searched, "published_footprint_topic")
+    cfg.footprint_topic = context.searched("footprint_topic", searched["footprint_topic"])
+    cfg.published_footprint_topic = context.searched("published_footprint_topic",
+                                                     searched["published_footprint_topic"])
 
     if plugins_given:
         for old in ("static_map", "map_type"):
@@ -181,22 +156,11 @@ def resolve_costmap_params(params: dict, name: str = "costmap", parents=()) -> C
     for plugin_name, plugin_type, kind in plugin_list:
         path = f"{name}/{plugin_name}"
         layer_tree = namespace(tree.get(plugin_name, {}), path)
-        if kind == "ObstacleLayer":
-            params_ = _obstacle_params(layer_tree, path, cfg, chain, warnings)
-        else:
-            layer_params = LAYERS.spec(kind).params
-            layer, layer_warnings = load(fields_of(layer_params), layer_tree, path, also_known=[PLUGIN_TYPE_KEY])
-            warnings += layer_warnings
-            params_ = {**_defaults(layer_params), **layer}
-        if kind == "InflationLayer":
-            _check_inflation_radius(params_["inflation_radius"], cfg, path)
-        cfg.plugins.append(PluginConfig(plugin_name, plugin_type, kind, params_))
+        layer_params, layer_warnings = LAYERS.spec(kind).resolve(layer_tree, path, context)
+        warnings += layer_warnings
+        cfg.plugins.append(PluginConfig(plugin_name, plugin_type, kind, layer_params))
     cfg.warnings = warnings
     return cfg
-
-
-def _defaults(cls) -> dict:
-    return {key: spec.default for key, spec in fields_of(cls).items()}
 
 
 def _plugin_list(value, path: str):
@@ -239,44 +203,3 @@ def _convert_pre_hydro(tree: dict, cfg: CostmapConfig):
         move("inflation_layer", key)
     plugins.append(("inflation_layer", "costmap_2d::InflationLayer", "InflationLayer"))
     return plugins
-
-
-def _check_inflation_radius(radius: float, cfg: CostmapConfig, path: str) -> None:
-    """Inflation reaches at most across the whole map: a larger radius only costs memory and time (its kernel
-    grows with the square of it), which can stall the costmap's thread for seconds."""
-    diagonal = math.hypot(cfg.width, cfg.height)
-    if radius > diagonal:
-        raise ParameterError(f"{path}/inflation_radius: {radius:g} m is more than the costmap's diagonal "
-                             f"({diagonal:.3g} m for {cfg.width:g} x {cfg.height:g} m)")
-
-
-def _obstacle_params(layer_tree: dict, path: str, cfg: CostmapConfig, chain, warnings: list) -> dict:
-    names = layer_tree.get("observation_sources", "")
-    names = names.split() if isinstance(names, str) else []
-    layer, layer_warnings = load(fields_of(ObstacleLayerParams), layer_tree, path,
-                                 also_known=[PLUGIN_TYPE_KEY, "obstacle_range", "raytrace_range"] + names)
-    warnings += layer_warnings
-    params = {**_defaults(ObstacleLayerParams), "track_unknown_space": cfg.track_unknown_space, **layer}
-    source_specs = fields_of(ObservationSourceParams)
-    sources = []
-    for source_name in params.pop("observation_sources").split():
-        src_path = f"{path}/{source_name}"
-        src_tree = namespace(layer_tree.get(source_name, {}), src_path)
-        given, source_warnings = load(source_specs, src_tree, src_path)
-        warnings += source_warnings
-        src = {**_defaults(ObservationSourceParams), **given}
-        if src["data_type"] not in SUPPORTED_DATA_TYPES:
-            hint = " (the default when data_type is not set)" if "data_type" not in src_tree else ""
-            raise ParameterError(f"{src_path}/data_type: {src['data_type']!r}{hint} is not supported; "
-                                 f"use one of {', '.join(SUPPORTED_DATA_TYPES)}")
-        for key in ("obstacle_range", "raytrace_range"):
-            src[key] = _searched([(src_tree, src_path), (layer_tree, path)] + chain, source_specs, key)
-        src["sensor_frame"] = src["sensor_frame"].lstrip("/")
-        source = ObservationSource(name=source_name, **src)
-        if source.inf_is_valid:
-            warnings.append(f"{src_path}: inf_is_valid: +inf ranges clear up to range_max but never mark "
-                            f"(ROS 1 marks them at range_max - 1e-4 when obstacle_range reaches that far)")
-        sources.append(source)
-    if not sources:
-        warnings.append(f"{path}: no observation_sources, so this layer will never see an obstacle")
-    return {**params, "sources": sources}

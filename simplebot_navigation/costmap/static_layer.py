@@ -16,6 +16,7 @@ import numpy as np
 from simplebot_navigation.parameters import param
 from simplebot_navigation.costmap.cost_values import FREE_SPACE, LETHAL_OBSTACLE, NO_INFORMATION
 from simplebot_navigation.costmap.layer import Bounds, CostmapLayer
+from simplebot_navigation.costmap.plugins import LayerSpec
 
 _log = logging.getLogger(__name__)
 
@@ -161,3 +162,7 @@ class StaticLayer(CostmapLayer):
         self.has_updated_data = True
         if not self.first_map_only:
             self._window = (0, 0, self.size_x, self.size_y)
+
+
+SPEC = LayerSpec.builtin(StaticLayer, StaticLayerParams, ("map_topic", "unknown_cost_value", "lethal_cost_threshold",
+                                                          "track_unknown_space"))

@@ -6,10 +6,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from simplebot_navigation.costmap.params import SEARCHED_KEYS
+from simplebot_navigation.costmap.params import searched_keys
 from simplebot_navigation.parameters import ParameterError, build, param
-from simplebot_navigation.move_base.plugins import (CLEAR_COSTMAP_RECOVERY, NAVFN, RECOVERY_BEHAVIORS, ROTATE_RECOVERY,
-                                                    TEB_LOCAL_PLANNER)
+from simplebot_navigation.move_base.plugins import RECOVERY_BEHAVIORS
+from simplebot_navigation.move_base.recovery.clear_costmap import CLEAR_COSTMAP_RECOVERY
+from simplebot_navigation.move_base.recovery.rotate import ROTATE_RECOVERY
+from simplebot_navigation.planning.config import NAVFN
+from simplebot_navigation.teb.plugin import TEB_LOCAL_PLANNER
 
 DEFAULT_RECOVERY_BEHAVIORS = (
     {"name": "conservative_reset", "type": CLEAR_COSTMAP_RECOVERY},
@@ -61,7 +64,7 @@ class MoveBaseConfig:
         warning, as move_base does. Sub-namespaces (costmaps, planners, recoveries) are read by their
         owners, so they are not reported as unknown here."""
         params = params or {}
-        known = [key for key, value in params.items() if isinstance(value, dict)] + list(SEARCHED_KEYS)
+        known = [key for key, value in params.items() if isinstance(value, dict)] + list(searched_keys())
         scalars = {key: value for key, value in params.items() if key != "recovery_behaviors"}
         cfg, cfg.warnings = build(cls, scalars, "move_base", also_known=known + ["recovery_behaviors"])
         for key in ("base_global_planner", "base_local_planner"):

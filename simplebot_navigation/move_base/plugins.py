@@ -1,38 +1,24 @@
-"""move_base's plugins: each type (a ROS 1 pluginlib name) registered once, with its parameter class.
+"""move_base's plugins: the registries of its three kinds and the interfaces their implementations satisfy.
 
-A registration names the implementation as ``"module:attribute"`` text, as pluginlib's XML names a class:
-the ROS node loads it when a configuration selects the type, and everything below the ROS layer (the
-parameter tree, ``--print-params``, live parameters, the "unknown type" message) reads the rest of the
-registration without importing it. The interfaces an implementation must satisfy are documented where
-they are used: ``GlobalPlannerPlugin`` and ``LocalPlannerPlugin`` below for the ROS wrappers, ``Recovery``
-and ``RecoveryContext`` in move_base/recovery/, ``Layer`` in costmap/layer.py; docs/plugins.md shows how to
-add one.
+Each plugin's own module declares it with a ``PluginSpec`` (simplebot_navigation/pluginlib.py), and one line
+of pyproject.toml's entry points names that spec: ``simplebot_navigation.global_planners``,
+``simplebot_navigation.local_planners`` or ``simplebot_navigation.recovery_behaviors``. Everything below the
+ROS layer (the parameter tree, ``--print-params``, live parameters, the "unknown type" message) reads the
+registrations; the ROS node loads the implementation of the types a configuration selects. The interfaces are
+documented where they are used: ``GlobalPlannerPlugin`` and ``LocalPlannerPlugin`` below for the ROS wrappers,
+``Recovery`` and ``RecoveryContext`` in move_base/recovery/, ``Layer`` in costmap/layer.py; docs/plugins.md
+shows how to add one.
 """
 
 from __future__ import annotations
 
-import importlib
 from dataclasses import dataclass
-from typing import Any, Callable, Protocol
+from typing import Protocol
 
 import numpy as np
 
 from simplebot_navigation.parameters import ParameterError
-from simplebot_navigation.parameters.registry import Registry
-from simplebot_navigation.planning.config import GLOBAL_PLANNER, NAVFN, GlobalPlannerConfig, NavfnParams
-from simplebot_navigation.teb.config import TebConfig
-from simplebot_navigation.teb.footprint import FootprintModel
-from simplebot_navigation.move_base.recovery.backup import BackUpParams
-from simplebot_navigation.move_base.recovery.clear_costmap import ClearCostmapParams
-from simplebot_navigation.move_base.recovery.rotate import RotateParams
-from simplebot_navigation.move_base.recovery.spin import SpinParams
-
-TEB_LOCAL_PLANNER = "teb_local_planner/TebLocalPlannerROS"
-CLEAR_COSTMAP_RECOVERY = "clear_costmap_recovery/ClearCostmapRecovery"
-ROTATE_RECOVERY = "rotate_recovery/RotateRecovery"
-# Nav2's BackUp and Spin behaviours as move_base recovery behaviours (move_base/recovery/).
-BACKUP_RECOVERY = "backup_recovery/BackUpRecovery"
-SPIN_RECOVERY = "spin_recovery/SpinRecovery"
+from simplebot_navigation.pluginlib import PluginSpec, Registry
 
 
 def plugin_namespace(plugin_type: str) -> str:
@@ -40,30 +26,14 @@ def plugin_namespace(plugin_type: str) -> str:
     return plugin_type.rpartition("/")[2]
 
 
-@dataclass(frozen=True)
-class PluginSpec:
-    """One plugin type: where its implementation is and what its parameter namespace holds."""
-    type: str
-    implementation: str                 # "package.module:attribute", loaded by the ROS node
-    params: type | None = None          # the parameter dataclass of its namespace (None: it has none)
-    #: builds its configuration from its namespace (ROS 1 form, None when absent): (config, warnings);
-    #: planners only, the ROS wrapper builds its own from the same namespace
-    config: Callable[[dict | None], tuple[Any, list[str]]] | None = None
-
-    def load(self) -> Any:
-        module, _, attribute = self.implementation.partition(":")
-        found = importlib.import_module(module)
-        for part in attribute.split("."):
-            found = getattr(found, part)
-        return found
-
-
 class PluginRegistry(Registry[PluginSpec]):
     """The types one move_base parameter (base_global_planner, ...) may name."""
 
-    def __init__(self, parameter: str, specs=()):
+    spec_type = PluginSpec
+
+    def __init__(self, parameter: str, group: str):
         self.parameter = parameter
-        super().__init__(specs)
+        super().__init__(group)
 
     def key(self, spec: PluginSpec) -> str:
         return spec.type
@@ -81,39 +51,12 @@ class PluginRegistry(Registry[PluginSpec]):
             return self._specs[plugin_type]
         except (KeyError, TypeError):
             raise ParameterError(f"{self.parameter}: unknown type {plugin_type!r}; "
-                             f"known types: {', '.join(self._specs)}") from None
+                                 f"known types: {', '.join(self._specs)}") from None
 
 
-def _global_planner(given):
-    config = GlobalPlannerConfig.from_params(given)
-    return config, config.warnings
-
-
-def _navfn(given):
-    config = GlobalPlannerConfig.from_navfn_params(given)
-    return config, config.warnings
-
-
-def _teb(given):
-    config = TebConfig.from_params(given)
-    return config, config.warnings + FootprintModel.from_params(config.footprint_model).warnings
-
-
-_ROS = "simplebot_navigation.ros.move_base"
-GLOBAL_PLANNERS = PluginRegistry("base_global_planner", [
-    PluginSpec(GLOBAL_PLANNER, f"{_ROS}.global_planner_ros:GlobalPlannerROS", GlobalPlannerConfig, _global_planner),
-    PluginSpec(NAVFN, f"{_ROS}.global_planner_ros:GlobalPlannerROS", NavfnParams, _navfn),
-])
-LOCAL_PLANNERS = PluginRegistry("base_local_planner", [
-    PluginSpec(TEB_LOCAL_PLANNER, f"{_ROS}.teb_local_planner_ros:TebLocalPlannerROS", TebConfig, _teb),
-])
-_RECOVERY = "simplebot_navigation.move_base.recovery"
-RECOVERY_BEHAVIORS = PluginRegistry("recovery_behaviors", [
-    PluginSpec(CLEAR_COSTMAP_RECOVERY, f"{_RECOVERY}.clear_costmap:create", ClearCostmapParams),
-    PluginSpec(ROTATE_RECOVERY, f"{_RECOVERY}.rotate:create", RotateParams),
-    PluginSpec(BACKUP_RECOVERY, f"{_RECOVERY}.backup:create", BackUpParams),
-    PluginSpec(SPIN_RECOVERY, f"{_RECOVERY}.spin:create", SpinParams),
-])
+GLOBAL_PLANNERS = PluginRegistry("base_global_planner", "simplebot_navigation.global_planners")
+LOCAL_PLANNERS = PluginRegistry("base_local_planner", "simplebot_navigation.local_planners")
+RECOVERY_BEHAVIORS = PluginRegistry("recovery_behaviors", "simplebot_navigation.recovery_behaviors")
 
 
 class GlobalPlannerPlugin(Protocol):

@@ -22,7 +22,8 @@ from rclpy.executors import SingleThreadedExecutor
 from simplebot_description import robot_description
 from simplebot_navigation.launch.loader import LaunchConfig, load_launch
 from simplebot_navigation.launch.overrides import apply_set, speed_assignments
-from simplebot_navigation.move_base.plugins import TEB_LOCAL_PLANNER, plugin_namespace
+from simplebot_navigation.move_base.plugins import plugin_namespace
+from simplebot_navigation.teb.plugin import TEB_LOCAL_PLANNER
 from simplebot_navigation.sim.world import Pose2D
 from simplebot_navigation.sim.world_loader import load_world
 from simplebot_navigation.scenarios.session import ScenarioClient, _Session, launch_args

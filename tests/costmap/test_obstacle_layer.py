@@ -9,8 +9,9 @@ import pytest
 from simplebot_navigation.costmap.cost_values import FREE_SPACE, LETHAL_OBSTACLE, NO_INFORMATION
 from simplebot_navigation.costmap.costmap_core import CostmapCore
 from simplebot_navigation.costmap.layered_costmap import LayeredCostmap
-from simplebot_navigation.costmap.obstacle_layer import (ObservationSource, ObstacleLayer,
-                                                         laser_scan_to_observation, point_cloud_to_observation)
+from simplebot_navigation.costmap.observation import (ObservationSource, laser_scan_to_observation,
+                                                      point_cloud_to_observation)
+from simplebot_navigation.costmap.obstacle_layer import ObstacleLayer
 
 from simplebot_navigation.testing import costmap_scene as scenario
 from simplebot_navigation.testing.costmap_reference import ReferenceCostmap

@@ -1,24 +1,19 @@
-"""move_base without base_local_planner in its parameters starts the local planner this package has, and every
-registered plugin type names an implementation that exists."""
+"""move_base without base_local_planner in its parameters starts the local planner this package has, and a type
+is registered once (tests/plugins/test_entry_points.py checks that every registered implementation exists)."""
 
 import dataclasses
 
 import pytest
 
 from simplebot_navigation.move_base.config import MoveBaseConfig
-from simplebot_navigation.move_base.plugins import GLOBAL_PLANNERS, LOCAL_PLANNERS, RECOVERY_BEHAVIORS, TEB_LOCAL_PLANNER
+from simplebot_navigation.move_base.plugins import LOCAL_PLANNERS
+from simplebot_navigation.teb.plugin import TEB_LOCAL_PLANNER
 
 
 def test_the_default_local_planner_is_one_move_base_can_build():
     cfg = MoveBaseConfig.from_params({})
     assert cfg.base_local_planner == TEB_LOCAL_PLANNER
     assert callable(LOCAL_PLANNERS.spec(cfg.base_local_planner).load())
-
-
-@pytest.mark.parametrize("registry", [GLOBAL_PLANNERS, LOCAL_PLANNERS, RECOVERY_BEHAVIORS], ids=lambda r: r.parameter)
-def test_every_registered_type_loads(registry):
-    for plugin_type in registry.types:
-        assert callable(registry.spec(plugin_type).load()), plugin_type
 
 
 def test_a_type_is_registered_once_and_a_test_registration_ends_with_its_block():

@@ -2,7 +2,8 @@
 warnings the ROS shell would log."""
 
 from simplebot_navigation.costmap.inflation_layer import InflationLayerParams
-from simplebot_navigation.costmap.obstacle_layer import ObservationSourceParams, ObstacleLayerParams
+from simplebot_navigation.costmap.observation import ObservationSourceParams
+from simplebot_navigation.costmap.obstacle_layer import ObstacleLayerParams
 from simplebot_navigation.costmap.params import CostmapConfig, SearchedParams, resolve_costmap_params
 from simplebot_navigation.costmap.static_layer import StaticLayerParams
 from simplebot_navigation.move_base.behaviors import BehaviorServerParams

@@ -1,7 +1,7 @@
 """An example costmap layer: a rectangle the robot must not enter, whatever the sensors see.
 
-One module and one registration: ``LAYERS.register(LayerSpec("KeepOutLayer", ("example::KeepOutLayer",),
-KeepOutLayer, KeepOutParams))``.
+One module, and its registration ``SPEC``, which a test or an application registers with
+``LAYERS.register(SPEC)`` before the costmap starts.
 """
 
 from __future__ import annotations
@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 from simplebot_navigation.costmap.cost_values import LETHAL_OBSTACLE
 from simplebot_navigation.costmap.layer import Bounds, Layer
+from simplebot_navigation.costmap.plugins import LayerSpec
 from simplebot_navigation.parameters import param
 
 
@@ -40,3 +41,6 @@ class KeepOutLayer(Layer):
         cols = slice(max(x0, lo_x), min(xn, hi_x + 1))
         rows = slice(max(y0, lo_y), min(yn, hi_y + 1))
         master.costmap[rows, cols] = LETHAL_OBSTACLE
+
+
+SPEC = LayerSpec("KeepOutLayer", ("example::KeepOutLayer",), KeepOutLayer, KeepOutParams)

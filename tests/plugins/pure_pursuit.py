@@ -1,7 +1,9 @@
 """An example local planner: pure pursuit of the global plan at a fixed speed (it ignores obstacles).
 
-One module and one registration: ``LOCAL_PLANNERS.register(PluginSpec("example/PurePursuit",
-"tests.plugins.pure_pursuit:PurePursuit", PurePursuitParams, pure_pursuit_config))``.
+One module, and its registration ``SPEC``, which a test or an application registers with
+``LOCAL_PLANNERS.register(SPEC)`` before move_base starts. The module is its own ROS wrapper, so the
+registration names the class itself; a registration that must import without rclpy names its wrapper as
+"module:attribute" text instead (teb/plugin.py).
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ import numpy as np
 from simplebot_navigation.geometry import normalize_theta
 from simplebot_navigation.move_base.plugins import ControlResult, plugin_namespace
 from simplebot_navigation.parameters import build, fields_of, param
+from simplebot_navigation.pluginlib import PluginSpec
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
 
 
@@ -79,3 +82,6 @@ class PurePursuit:
 
     def set_costmap_footprint(self, footprint) -> None:
         pass                      # it does not look at obstacles
+
+
+SPEC = PluginSpec("example/PurePursuit", PurePursuit, PurePursuitParams, pure_pursuit_config)

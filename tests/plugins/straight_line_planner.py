@@ -1,8 +1,8 @@
 """An example global planner: a straight line from start to goal, refused when it crosses a lethal cell.
 
-Its ROS wrapper is the whole plugin (a planner this small needs no pure core of its own). One module and one
-registration: ``GLOBAL_PLANNERS.register(PluginSpec("example/StraightLinePlanner",
-"tests.plugins.straight_line_planner:StraightLinePlanner", StraightLineParams, straight_line_config))``.
+Its ROS wrapper is the whole plugin (a planner this small needs no pure core of its own). One module, and its
+registration ``SPEC``, which a test or an application registers with ``GLOBAL_PLANNERS.register(SPEC)`` before
+move_base starts.
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ import numpy as np
 from simplebot_navigation.costmap.cost_values import LETHAL_OBSTACLE
 from simplebot_navigation.move_base.plugins import plugin_namespace
 from simplebot_navigation.parameters import build, fields_of, param
+from simplebot_navigation.pluginlib import PluginSpec
 from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
 
 
@@ -65,3 +66,6 @@ class StraightLinePlanner:
                 cell = master.world_to_map(x, y)
                 blocked[i] = cell is not None and master.get_cost(*cell) == LETHAL_OBSTACLE
         return blocked
+
+
+SPEC = PluginSpec("example/StraightLinePlanner", StraightLinePlanner, StraightLineParams, straight_line_config)

@@ -1,7 +1,7 @@
 """An example recovery behaviour: stand still for a while (Nav2's Wait), so that a passing obstacle can clear.
 
-One module and one registration: ``RECOVERY_BEHAVIORS.register(PluginSpec("example/WaitRecovery",
-"tests.plugins.wait_recovery:create", WaitParams))``.
+One module, and its registration ``SPEC``, which a test or an application registers with
+``RECOVERY_BEHAVIORS.register(SPEC)`` before move_base starts.
 """
 
 from __future__ import annotations
@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 from simplebot_navigation.move_base.recovery import ParameterisedRecovery, RecoveryContext, RecoveryStep
 from simplebot_navigation.parameters import param
+from simplebot_navigation.pluginlib import PluginSpec
 
 
 @dataclass
@@ -36,3 +37,6 @@ class WaitRecovery(ParameterisedRecovery):
 
 def create(context: RecoveryContext, name: str, params: dict) -> WaitRecovery:
     return WaitRecovery(name, params)
+
+
+SPEC = PluginSpec("example/WaitRecovery", create, WaitParams)

@@ -8,13 +8,14 @@ import pytest
 
 from simplebot_navigation.costmap.cost_values import FREE_SPACE, LETHAL_OBSTACLE
 from simplebot_navigation.costmap.layered_costmap import LayeredCostmap
-from simplebot_navigation.costmap.obstacle_layer import (ObservationSource, ObstacleLayer, laser_scan_to_observation,
-                                                         point_cloud_to_observation)
+from simplebot_navigation.costmap.observation import (ObservationSource, laser_scan_to_observation,
+                                                      point_cloud_to_observation)
+from simplebot_navigation.costmap.obstacle_layer import ObstacleLayer
 
 SENSOR = (2.5, 2.5, 0.0, 0.0)      # mid-map, looking along +x
 GOOD = dict(ranges=[1.0, 1.0, 1.0], angle_min=-0.01, angle_increment=0.01, range_min=0.2, range_max=5.6,
             sensor_pose=SENSOR)
-LOGGER = "simplebot_navigation.costmap.obstacle_layer"
+LOGGER = "simplebot_navigation.costmap.observation"
 
 
 def make_costmap():

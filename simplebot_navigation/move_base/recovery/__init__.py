@@ -10,9 +10,9 @@ gap): BackUpRecovery reverses along the path the robot came by (PoseTrail), whic
 free, and SpinRecovery turns as far as it can towards the side with more free space. Their turns and
 drives are move_base/motion.py's, which Nav2's behaviours (behaviors.py) are made of too.
 
-A behaviour is a module of this package with a class that satisfies ``Recovery`` and a ``create(context,
-name, params)`` factory; move_base/plugins.py registers it under its type name with its parameter class
-(docs/plugins.md).
+A behaviour is a module of this package with a class that satisfies ``Recovery``, a ``create(context,
+name, params)`` factory and its registration, ``SPEC``: a PluginSpec of its type name, the factory and its
+parameter class, named by a ``simplebot_navigation.recovery_behaviors`` entry point (docs/plugins.md).
 """
 
 from __future__ import annotations
@@ -80,7 +80,7 @@ class RecoveryContext(Protocol):
         """The parameters move_base was given under another namespace (ROS 1 form), e.g. a planner's."""
 
 
-#: what move_base/plugins.py registers for a behaviour type: (context, name, params) -> Recovery
+#: the implementation a behaviour's PluginSpec gives: (context, name, params) -> Recovery
 RecoveryFactory = Callable[[RecoveryContext, str, dict], Recovery]
 
 

@@ -9,9 +9,12 @@ from typing import Callable
 import numpy as np
 
 from simplebot_navigation.geometry import normalize_theta
+from simplebot_navigation.pluginlib import PluginSpec
 from simplebot_navigation.parameters import param
 from simplebot_navigation.move_base.motion import SUCCEEDED, TIMEOUT, Drive
 from simplebot_navigation.move_base.recovery import ParameterisedRecovery, PoseTrail, RecoveryContext, RecoveryStep
+
+BACKUP_RECOVERY = "backup_recovery/BackUpRecovery"
 
 @dataclass
 class BackUpParams:
@@ -83,3 +86,6 @@ class BackUpRecovery(ParameterisedRecovery):
 
 def create(context: RecoveryContext, name: str, params: dict) -> BackUpRecovery:
     return BackUpRecovery(name, params, context.footprint_clear, context.trail)
+
+
+SPEC = PluginSpec(BACKUP_RECOVERY, create, BackUpParams)

@@ -5,8 +5,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
+from simplebot_navigation.pluginlib import PluginSpec
 from simplebot_navigation.parameters import PLUGIN_TYPE_KEY, ParameterError, build, param
 from simplebot_navigation.move_base.recovery import RecoveryContext, RecoveryStep
+
+CLEAR_COSTMAP_RECOVERY = "clear_costmap_recovery/ClearCostmapRecovery"
 
 @dataclass
 class ClearCostmapParams:
@@ -76,3 +79,6 @@ def create(context: RecoveryContext, name: str, params: dict) -> ClearCostmapRec
     default_distance = (context.conservative_reset_dist if name == "conservative_reset"
                         else 4.0 * context.circumscribed_radius)
     return ClearCostmapRecovery(name, params, context.costmaps, context.clear_costmap, default_distance)
+
+
+SPEC = PluginSpec(CLEAR_COSTMAP_RECOVERY, create, ClearCostmapParams)

@@ -8,9 +8,12 @@ from typing import Callable
 
 import numpy as np
 
+from simplebot_navigation.pluginlib import PluginSpec
 from simplebot_navigation.parameters import param
 from simplebot_navigation.move_base.motion import COLLISION_AHEAD, SUCCEEDED, TurnInPlace
 from simplebot_navigation.move_base.recovery import ParameterisedRecovery, RecoveryContext, RecoveryStep
+
+ROTATE_RECOVERY = "rotate_recovery/RotateRecovery"
 
 #: read from the (ROS 1 default) local planner's namespace when the behaviour's own has none
 BORROWED = ("acc_lim_theta", "max_vel_theta", "min_in_place_vel_theta", "yaw_goal_tolerance")
@@ -64,3 +67,6 @@ def create(context: RecoveryContext, name: str, params: dict) -> RotateRecovery:
     borrowed = context.planner_parameters("TrajectoryPlannerROS")
     return RotateRecovery(name, {**{k: borrowed[k] for k in BORROWED if k in borrowed}, **params},
                           context.footprint_clear)
+
+
+SPEC = PluginSpec(ROTATE_RECOVERY, create, RotateParams)

@@ -9,9 +9,12 @@ from typing import Callable
 import numpy as np
 
 from simplebot_navigation.costmap.cost_values import INSCRIBED_INFLATED_OBSTACLE
+from simplebot_navigation.pluginlib import PluginSpec
 from simplebot_navigation.parameters import param
 from simplebot_navigation.move_base.motion import COLLISION_AHEAD, SUCCEEDED, TIMEOUT, TurnInPlace, turn_poses
 from simplebot_navigation.move_base.recovery import ParameterisedRecovery, RecoveryContext, RecoveryStep
+
+SPIN_RECOVERY = "spin_recovery/SpinRecovery"
 
 #: the free area is weighed within this many circumscribed radii on either side
 FREE_SPACE_RADII = 2.0
@@ -101,3 +104,6 @@ class SpinRecovery(ParameterisedRecovery):
 def create(context: RecoveryContext, name: str, params: dict) -> SpinRecovery:
     radius = FREE_SPACE_RADII * context.circumscribed_radius
     return SpinRecovery(name, params, context.footprint_clear, lambda pose: context.free_space(pose, radius))
+
+
+SPEC = PluginSpec(SPIN_RECOVERY, create, SpinParams)

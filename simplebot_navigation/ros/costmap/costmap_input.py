@@ -21,7 +21,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from rclpy.time import Time
 from sensor_msgs.msg import LaserScan, PointCloud2, PointField
 
-from simplebot_navigation.costmap.obstacle_layer import ObservationSource
+from simplebot_navigation.costmap.observation import ObservationSource
 from simplebot_navigation.costmap.static_layer import StaticLayer
 from simplebot_navigation.geometry import quaternion_to_rotation_matrix
 from simplebot_navigation.ros.conversions import stamp_seconds, yaw_of
@@ -144,7 +144,7 @@ class CostmapInput:
 
     # -- subscribing ----------------------------------------------------------------------------
     def subscribe(self) -> None:
-        """Every observation source and every StaticLayer map (ObstacleLayer/StaticLayer::activate)."""
+        """Every observation source and every StaticLayer map (their layers' activate)."""
         node, group = self.owner.node, self.owner.callback_group
         for inp in self._sources:
             msg_type = LaserScan if inp.source.data_type == "LaserScan" else PointCloud2

@@ -11,7 +11,6 @@ from __future__ import annotations
 import math
 import threading
 import time
-from dataclasses import fields
 from typing import NamedTuple
 
 import numpy as np
@@ -23,6 +22,7 @@ from rclpy.time import Time
 from simplebot_navigation.costmap.costmap_core import CostmapCore
 from simplebot_navigation.costmap.costmap_2d import Costmap2D
 from simplebot_navigation.costmap.params import parameter_specs
+from simplebot_navigation.costmap.plugins import LAYERS
 from simplebot_navigation.ros.conversions import stamp_seconds, yaw_of
 from simplebot_navigation.ros.costmap.costmap_input import CostmapInput
 from simplebot_navigation.log_throttle import Throttle
@@ -114,13 +114,7 @@ class Costmap2DROS:
             tree["robot_radius"] = c.robot_radius
         tree["plugins"] = [{"name": p.name, "type": p.type} for p in c.plugins]
         for plugin in c.plugins:
-            params = dict(plugin.params)
-            if plugin.kind == "ObstacleLayer":
-                sources = params.pop("sources")
-                params["observation_sources"] = " ".join(s.name for s in sources)
-                for s in sources:
-                    params[s.name] = {f.name: getattr(s, f.name) for f in fields(s) if f.name != "name"}
-            tree[plugin.name] = params
+            tree[plugin.name] = LAYERS.spec(plugin.kind).parameter_tree(plugin.params)
         return tree
 
     def reconfigure(self, config) -> list[str]:
@@ -179,7 +173,7 @@ class Costmap2DROS:
             self.tf_ready = True
 
     def _activate(self) -> None:
-        """Subscribe every source (ObstacleLayer::activate, which also restarts their staleness clocks)."""
+        """Subscribe every source (a sensor layer's activate, which also restarts their staleness clocks)."""
         if self._active:
             return
         self.input.subscribe()
