@@ -32,6 +32,7 @@ sys.path.insert(0, str(ROOT))
 from simplebot_navigation.planning.space_time import MovingDiscs, SpaceTimeSearch  # noqa: E402
 from simplebot_navigation.scenarios.campaign.spec import expand_worlds, world_family  # noqa: E402
 from simplebot_navigation.scenarios.session import WARM_UP_S  # noqa: E402
+from simplebot_navigation.sim.crowd import LEVELS  # noqa: E402
 from simplebot_navigation.sim.cspace import static_free  # noqa: E402
 from simplebot_navigation.sim.moving import MovingTracks  # noqa: E402
 from simplebot_navigation.sim.world_loader import load_world  # noqa: E402
@@ -79,7 +80,8 @@ def campaign_runs(paths: list[str], speed: float) -> dict[str, dict]:
 
 
 def table(results: list[dict], runs: dict[str, dict]) -> list[str]:
-    families = sorted({r["family"] for r in results}, key=lambda f: (f.startswith("people"), f))
+    order = [f"crowd {level}" for level in LEVELS]
+    families = sorted({r["family"] for r in results}, key=lambda f: (order.index(f) if f in order else len(order), f))
     head = "| worlds | n | oracle: solvable | oracle: arrival p50 (straight line) |"
     if runs:
         head += " runs | success | success of solvable | run time / oracle p50 |"
