@@ -1,0 +1,85 @@
+"""Passive safety: the command of a cycle is sent only if the robot can still stop after it without touching a wall,
+and without meeting a moving obstacle while it moves (docs/reference.md §4.10).
+
+Every candidate is judged by its manoeuvre: its first control period, then braking at the deceleration limits
+(ax_min, az_max) to rest, and standing until the horizon. A manoeuvre is **free** when nothing meets it within the
+horizon, **passive** when nothing meets it while the robot still moves (a moving obstacle may walk into it at rest).
+In order, the cycle takes: the optimised sequence if its manoeuvre is free; braking now if that is free; the
+cheapest sample whose manoeuvre is free (an escape from an obstacle that would strike the braking robot); the
+optimised sequence if its manoeuvre is passive; else braking now. Since every command sent leaves a passive
+manoeuvre, and the next cycle's braking is that manoeuvre's continuation, a contact the prediction foresaw finds
+the robot at rest.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from simplebot_navigation.mppi.optimizer import MppiOptimizer, Rollouts, Scene
+
+#: samples whose manoeuvres are checked for an escape, cheapest first
+ESCAPE_CANDIDATES = 24
+#: a velocity below this (m/s, rad/s) is at rest
+AT_REST = 1e-6
+
+
+@dataclass(frozen=True)
+class Decision:
+    """What a cycle does: ``kind`` plan, brake, escape or brake (no safe way); the trajectory it starts (controls
+    (T, 2) and poses (T, 3): the optimised sequence's, or the manoeuvre's); the sequence kept for the next cycle."""
+    kind: str
+    controls: np.ndarray
+    poses: np.ndarray
+    sequence: np.ndarray
+
+    @property
+    def command(self) -> tuple[float, float]:
+        return float(self.controls[0, 0]), float(self.controls[0, 1])
+
+
+def manoeuvres(heads: np.ndarray, steps: int) -> np.ndarray:
+    """(N, steps, 2) sequences: each head (N, H, 2), then commands of zero (braking at the limits, then rest)."""
+    out = np.zeros((len(heads), steps, 2))
+    out[:, :heads.shape[1]] = heads
+    return out
+
+
+def judge(scored: Rollouts) -> tuple[np.ndarray, np.ndarray]:
+    """(free, passive) per manoeuvre."""
+    steps = scored.controls.shape[1]
+    index = np.minimum(scored.moving_first, steps - 1)
+    at_contact = scored.controls[np.arange(len(index)), index]
+    moving = (np.abs(at_contact) > AT_REST).any(axis=1)
+    clear_of_walls = scored.static_first == steps
+    met = scored.moving_first < steps
+    return clear_of_walls & ~met, clear_of_walls & ~(met & moving)
+
+
+def decide(optimizer: MppiOptimizer, scene: Scene, samples: Rollouts, hold: int) -> Decision:
+    """The passive-safety choice among the optimised sequence, braking and the samples (module doc); ``hold``
+    steps make one control period."""
+    steps = optimizer.sequence.shape[0]
+    hold = min(max(hold, 1), steps)
+    ranked = np.argsort(samples.costs, kind="stable")[:ESCAPE_CANDIDATES]
+    heads = np.concatenate([optimizer.sequence[None, :hold], np.zeros((1, hold, 2)), samples.controls[ranked, :hold]])
+    controls, poses = optimizer.rollout(scene.state, manoeuvres(heads, steps))
+    free, passive = judge(optimizer.evaluate(scene, controls, poses))
+
+    def taken(kind: str, row: int, sequence: np.ndarray) -> Decision:
+        return Decision(kind, controls[row], poses[row], sequence)
+
+    plan_controls, plan_poses = optimizer.rollout(scene.state, optimizer.sequence[None])
+    plan = Decision("plan", plan_controls[0], plan_poses[0], plan_controls[0])
+    if free[0]:
+        return plan
+    if free[1]:
+        return taken("brake", 1, controls[1])
+    escapes = np.nonzero(free[2:])[0]
+    if len(escapes):
+        sample = ranked[escapes[0]]
+        return taken("escape", 2 + escapes[0], samples.controls[sample])
+    if passive[0]:
+        return plan
+    return taken("brake (no safe way)", 1, controls[1])
