@@ -89,8 +89,8 @@ def costmap_terms(poses, grid, origin_x, origin_y, resolution, outline):
             x, y, th = poses[b, t, 0], poses[b, t, 1], poses[b, t, 2]
             cost = cell_cost(grid, origin_x, origin_y, resolution, x, y)
             hit = cost == INSCRIBED or cost == LETHAL
-            if not hit and cost > 0 and cost != UNKNOWN:
-                total += cost / 252.0
+            near = not hit and cost > 0 and cost != UNKNOWN
+            if near:
                 c, s = math.cos(th), math.sin(th)
                 for p in range(outline.shape[0]):
                     px = x + c * outline[p, 0] - s * outline[p, 1]
@@ -101,6 +101,8 @@ def costmap_terms(poses, grid, origin_x, origin_y, resolution, outline):
             if hit:
                 first[b] = t
                 break
+            if near:
+                total += cost / 252.0
         mean[b] = total / n_steps
     return first, mean
 
