@@ -108,6 +108,10 @@ class MovingObstacles:
     dynamic_obstacle_prediction_horizon: float = param(4.0, "s", "Here: the keep-out circle grows up to this far "
                                                        "ahead and stays as large after it (0: no horizon)", ge=0,
                                                        le=30.0)
+    unknown_obstacle_speed: float = param(0.5, "m/s", "Here: the passive safety keeps the braking robot as far from "
+                                          "the costmap's lethal cells as an obstacle the tracker has not picked up "
+                                          "could walk towards it at this speed until the robot is at rest (0: off)",
+                                          ge=0, le=MAX_DRIVE_SPEED)
     passive_safety: bool = param(True, "", "Here: verify every command's trajectory and its braking against the "
                                  "predicted obstacles and the costmap, else brake or escape")
 

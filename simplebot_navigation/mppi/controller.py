@@ -13,13 +13,14 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import distance_transform_edt
 
 from simplebot_navigation.geometry import normalize_theta
 from simplebot_navigation.mppi import kernels
 from simplebot_navigation.mppi.body import body_circles, outline_points
 from simplebot_navigation.mppi.config import MppiConfig
 from simplebot_navigation.mppi.optimizer import MppiOptimizer, Scene
-from simplebot_navigation.mppi.safety import Decision, decide, judge, manoeuvres
+from simplebot_navigation.mppi.safety import Decision, decide, judge, manoeuvres, unseen
 from simplebot_navigation.parameters import fields_of, set_value, value_of
 from simplebot_navigation.perception.prediction import MotionPrediction, checked_dynamic_obstacles, prediction_rows
 
@@ -29,6 +30,9 @@ PATH_SPACING_M = 0.1
 GOAL_LATCH_SHARE = 0.5
 #: the closest plan point is looked for this far (m) along the plan beyond the last one, at least
 PLAN_SEARCH_M = 2.0
+#: a track lost within this clearance (m) of the body is kept, moving on at its velocity, for KEEP_LOST_S (s):
+#: an obstacle that touches the robot lies inside the lidars' minimum range and drops out of the tracker
+KEEP_LOST_M, KEEP_LOST_S = 0.3, 1.0
 
 
 @dataclass
@@ -54,8 +58,11 @@ class MppiController:
         self._index = 0
         self._latched = False
         self._rows = np.zeros((0, 5))
-        self._covariance: np.ndarray | None = None
+        self._covariance = np.zeros((0, 4, 4))
         self._started = False
+        #: tracks lost near the body: rows (K, 5), covariances (K, 4, 4), seconds since they were last seen
+        self._lost = (np.zeros((0, 5)), np.zeros((0, 4, 4)), np.zeros(0))
+        self._near = (np.zeros((0, 5)), np.zeros((0, 4, 4)))
         #: the trajectory the last command starts (T, 3), for the local_plan topic; the last decision's kind
         self.trajectory = np.zeros((0, 3))
         self.last_kind = ""
@@ -107,11 +114,13 @@ class MppiController:
         if dropped and not self._dropped_reported:
             self._dropped_reported = True
             self._notices.append(("warn", f"MPPI: dropped {dropped}. Reported once."))
-        self._rows, self._covariance = rows, cov
+        self._rows, self._covariance = rows, (cov if cov is not None else np.zeros((len(rows), 4, 4)))
 
     def reset(self) -> None:
-        """The goal ended: forget the plan and the sequence."""
+        """The goal ended: forget the plan, the sequence and the lost tracks."""
         self.plan = np.zeros((0, 3))
+        self._lost = (np.zeros((0, 5)), np.zeros((0, 4, 4)), np.zeros(0))
+        self._near = (np.zeros((0, 5)), np.zeros((0, 4, 4)))
         self._started = False
         self._latched = False
         self.trajectory = np.zeros((0, 3))
@@ -177,19 +186,43 @@ class MppiController:
         steps = self.optimizer.sequence.shape[0]
         heads = np.array([[(0.0, turn)] * hold, [(0.0, 0.0)] * hold])
         controls, poses = self.optimizer.rollout(scene.state, manoeuvres(heads, steps))
-        _, passive = judge(self.optimizer.evaluate(scene, controls, poses))
+        scored = self.optimizer.evaluate(scene, controls, poses)
+        _, passive = judge(scored, unseen(self.optimizer, scene, controls, poses), self.cfg.sampling.model_dt)
         row = 0 if passive[0] else 1
         return Decision("rotate" if row == 0 else "brake", controls[row], poses[row], controls[row])
+
+    def _with_lost_tracks(self, state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """This cycle's obstacles, plus those that were near the body last cycle and are gone now (KEEP_LOST_M)."""
+        period = self.controller_period
+        rows, cov, age = self._lost
+        near_rows, near_cov = self._near
+        kept = np.ones(len(near_rows), dtype=bool)
+        for i, row in enumerate(near_rows):       # still tracked if a row is where it should be now
+            ahead = row[:2] + period * row[2:4]
+            kept[i] = not (np.hypot(*(self._rows[:, :2] - ahead).T) < KEEP_LOST_M + row[4]).any()
+        moved = np.array(near_rows[kept])
+        moved[:, :2] += period * moved[:, 2:4]
+        rows = rows.copy()
+        rows[:, :2] += period * rows[:, 2:4]
+        rows, cov = np.concatenate([rows, moved]), np.concatenate([cov, near_cov[kept]])
+        age = np.concatenate([age + period, np.full(kept.sum(), period)])
+        young = age <= KEEP_LOST_S
+        self._lost = (rows[young], cov[young], age[young])
+        clearance = np.hypot(*(self._rows[:, :2] - state[:2]).T) - self._rows[:, 4] - self.circles[:, 2].max() \
+            - np.hypot(*self.circles[:, :2].T).max()
+        self._near = (self._rows[clearance < KEEP_LOST_M], self._covariance[clearance < KEEP_LOST_M])
+        return np.concatenate([self._rows, rows[young]]), np.concatenate([self._covariance, cov[young]])
 
     def _scene(self, state: np.ndarray, costmap) -> Scene:
         cfg = self.cfg
         path, target, remaining = self._path_ahead(state)
         moving = cfg.moving_obstacles
-        rows = prediction_rows(self._rows, self._covariance, moving.dynamic_obstacle_uncertainty_sigmas)
+        rows, covariance = self._with_lost_tracks(state)
+        rows = prediction_rows(rows, covariance, moving.dynamic_obstacle_uncertainty_sigmas)
         prediction = MotionPrediction(moving.dynamic_obstacle_prediction_horizon or math.inf,
                                       moving.dynamic_obstacle_max_uncertainty, moving.dynamic_obstacle_radius_growth)
         return Scene(state, path, target, self.plan[-1].copy(), remaining <= cfg.critics.threshold_to_consider,
-                     costmap.costmap, (costmap.origin_x, costmap.origin_y, costmap.resolution),
+                     costmap.costmap, lethal_distance(costmap), (costmap.origin_x, costmap.origin_y, costmap.resolution),
                      self._outline(costmap.resolution), self.circles, np.ascontiguousarray(rows), prediction)
 
     def _path_ahead(self, state: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
@@ -210,6 +243,14 @@ class MppiController:
         reach = min(end, here + self.cfg.limits.vx_max * sampling.time_steps * sampling.model_dt)
         target = np.array([np.interp(reach, arc, xy[:, 0]), np.interp(reach, arc, xy[:, 1])])
         return path, target, float(arc[-1] - here)
+
+
+def lethal_distance(costmap) -> np.ndarray:
+    """Each cell's distance (m) to the nearest lethal cell of the costmap (inf without any)."""
+    free = costmap.costmap != kernels.LETHAL
+    if free.all():
+        return np.full(free.shape, np.inf)
+    return distance_transform_edt(free) * costmap.resolution
 
 
 def warm_up() -> None:

@@ -209,3 +209,32 @@ def path_terms(poses, controls, velocity, dt, path, target, goal):
         out[b, REVERSE] = reverse
         out[b, SMOOTH] = smooth / n_steps
     return out
+
+
+@njit(cache=True, nogil=True)
+def unseen_first(poses, controls, dt, distance, origin_x, origin_y, resolution, circles, speed, closing):
+    """Per manoeuvre (B, T): the index of the first pose, while the robot still moves, at which a lethal cell could
+    reach the body if it were an obstacle the tracker has not seen, walking towards it at ``speed`` from time 0
+    (T: none). ``distance`` holds each cell's distance to the nearest lethal cell; a body that starts closer than
+    that allows only has to keep ``closing`` short of its clearance at time 0."""
+    n_batch, n_steps = poses.shape[0], poses.shape[1]
+    first = np.full(n_batch, n_steps, dtype=np.int64)
+    for b in range(n_batch):
+        start = np.inf
+        for t in range(n_steps):
+            if abs(controls[b, t, 0]) <= 1e-6 and abs(controls[b, t, 1]) <= 1e-6:
+                break
+            c, s = math.cos(poses[b, t, 2]), math.sin(poses[b, t, 2])
+            clear = np.inf
+            for i in range(circles.shape[0]):
+                x = poses[b, t, 0] + c * circles[i, 0] - s * circles[i, 1]
+                y = poses[b, t, 1] + s * circles[i, 0] + c * circles[i, 1]
+                fx, fy = (x - origin_x) / resolution, (y - origin_y) / resolution
+                if 0.0 <= fx < distance.shape[1] and 0.0 <= fy < distance.shape[0]:
+                    clear = min(clear, distance[int(fy), int(fx)] - circles[i, 2])
+            if t == 0:
+                start = clear
+            if clear < min(speed * (t + 1) * dt, start - closing):
+                first[b] = t
+                break
+    return first

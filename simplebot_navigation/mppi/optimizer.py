@@ -50,6 +50,7 @@ class Scene:
     goal: np.ndarray            # (3,) the plan's last pose
     near_goal: bool             # within threshold_to_consider: the goal critic replaces the path critics
     grid: np.ndarray            # the local costmap's cells (uint8, [my, mx])
+    distance: np.ndarray        # each cell's distance (m) to the nearest lethal cell
     origin: tuple[float, float, float]   # origin_x, origin_y, resolution
     outline: np.ndarray         # (P, 2) body outline points (none for a round body)
     circles: np.ndarray         # (C, 3) covering circles of the body

@@ -4,9 +4,11 @@ and without meeting a moving obstacle while it moves (docs/reference.md §4.10).
 Every candidate is judged by its manoeuvre: its first control period, then braking at the deceleration limits
 (ax_min, az_max) to rest, and standing until the horizon. A manoeuvre is **free** when nothing meets it within the
 horizon, **passive** when nothing meets it while the robot still moves (a moving obstacle may walk into it at rest).
+Lethal cells of the costmap count as walls, and also as obstacles the tracker may not have picked up: while it
+moves, the robot keeps as far from them as one could walk towards it since the cycle began (unknown_obstacle_speed).
 In order, the cycle takes: the optimised sequence if its manoeuvre is free; braking now if that is free; the
-cheapest sample whose manoeuvre is free (an escape from an obstacle that would strike the braking robot); the
-optimised sequence if its manoeuvre is passive; else braking now. Since every command sent leaves a passive
+cheapest sample whose manoeuvre is free (an escape from an obstacle that would strike the braking robot); of the
+passive manoeuvres the one met latest (braking on a tie); else braking now. Since every command sent leaves a passive
 manoeuvre, and the next cycle's braking is that manoeuvre's continuation, a contact the prediction foresaw finds
 the robot at rest.
 """
@@ -17,12 +19,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simplebot_navigation.mppi.optimizer import MppiOptimizer, Rollouts, Scene
+from simplebot_navigation.mppi import kernels
+from simplebot_navigation.mppi.optimizer import CLOSING_M, MppiOptimizer, Rollouts, Scene
 
 #: samples whose manoeuvres are checked for an escape, cheapest first
 ESCAPE_CANDIDATES = 24
 #: a velocity below this (m/s, rad/s) is at rest
 AT_REST = 1e-6
+#: a passive manoeuvre is at rest this long (s) before a moving obstacle meets it: the drive follows a command a
+#: control period late, and odometry reports it later still
+REST_MARGIN_S = 0.25
 
 
 @dataclass(frozen=True)
@@ -46,15 +52,24 @@ def manoeuvres(heads: np.ndarray, steps: int) -> np.ndarray:
     return out
 
 
-def judge(scored: Rollouts) -> tuple[np.ndarray, np.ndarray]:
-    """(free, passive) per manoeuvre."""
+def judge(scored: Rollouts, unseen: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """(free, passive) per manoeuvre; ``unseen``: unseen_first's index per manoeuvre, counted as a wall. Passive
+    needs the robot at rest REST_MARGIN_S before a moving obstacle meets it."""
     steps = scored.controls.shape[1]
-    index = np.minimum(scored.moving_first, steps - 1)
-    at_contact = scored.controls[np.arange(len(index)), index]
-    moving = (np.abs(at_contact) > AT_REST).any(axis=1)
-    clear_of_walls = scored.static_first == steps
+    before = np.maximum(np.minimum(scored.moving_first, steps - 1) - round(REST_MARGIN_S / dt), 0)
+    still_moving = (np.abs(scored.controls[np.arange(len(before)), before]) > AT_REST).any(axis=1)
+    clear_of_walls = (scored.static_first == steps) & (unseen == steps)
     met = scored.moving_first < steps
-    return clear_of_walls & ~met, clear_of_walls & ~(met & moving)
+    return clear_of_walls & ~met, clear_of_walls & ~(met & still_moving)
+
+
+def unseen(optimizer: MppiOptimizer, scene: Scene, controls: np.ndarray, poses: np.ndarray) -> np.ndarray:
+    """kernels.unseen_first for manoeuvres of this scene (none with unknown_obstacle_speed 0)."""
+    speed = optimizer.cfg.moving_obstacles.unknown_obstacle_speed
+    if speed <= 0:
+        return np.full(len(controls), controls.shape[1])
+    return kernels.unseen_first(poses, controls, optimizer.cfg.sampling.model_dt, scene.distance, *scene.origin,
+                                scene.circles, speed, CLOSING_M)
 
 
 def decide(optimizer: MppiOptimizer, scene: Scene, samples: Rollouts, hold: int) -> Decision:
@@ -65,7 +80,8 @@ def decide(optimizer: MppiOptimizer, scene: Scene, samples: Rollouts, hold: int)
     ranked = np.argsort(samples.costs, kind="stable")[:ESCAPE_CANDIDATES]
     heads = np.concatenate([optimizer.sequence[None, :hold], np.zeros((1, hold, 2)), samples.controls[ranked, :hold]])
     controls, poses = optimizer.rollout(scene.state, manoeuvres(heads, steps))
-    free, passive = judge(optimizer.evaluate(scene, controls, poses))
+    scored = optimizer.evaluate(scene, controls, poses)
+    free, passive = judge(scored, unseen(optimizer, scene, controls, poses), optimizer.cfg.sampling.model_dt)
 
     def taken(kind: str, row: int, sequence: np.ndarray) -> Decision:
         return Decision(kind, controls[row], poses[row], sequence)
@@ -80,6 +96,13 @@ def decide(optimizer: MppiOptimizer, scene: Scene, samples: Rollouts, hold: int)
     if len(escapes):
         sample = ranked[escapes[0]]
         return taken("escape", 2 + escapes[0], samples.controls[sample])
-    if passive[0]:
+    if not passive.any():
+        return taken("brake (no safe way)", 1, controls[1])
+    # nothing is free: the passive manoeuvre met latest, braking on a tie
+    latest = np.where(passive, scored.moving_first, -1)
+    row = 1 if latest[1] == latest.max() else int(np.argmax(latest))
+    if row == 0:
         return plan
-    return taken("brake (no safe way)", 1, controls[1])
+    if row == 1:
+        return taken("brake", 1, controls[1])
+    return taken("escape", row, samples.controls[ranked[row - 2]])
