@@ -30,9 +30,10 @@ PATH_SPACING_M = 0.1
 GOAL_LATCH_SHARE = 0.5
 #: the closest plan point is looked for this far (m) along the plan beyond the last one, at least
 PLAN_SEARCH_M = 2.0
-#: a track lost within this clearance (m) of the body is kept, moving on at its velocity, for KEEP_LOST_S (s):
-#: an obstacle that touches the robot lies inside the lidars' minimum range and drops out of the tracker
-KEEP_LOST_M, KEEP_LOST_S = 0.3, 1.0
+#: a track lost within this clearance (m) of the body is kept, moving on at its velocity, for KEEP_LOST_S (s, the
+#: tracker's max_coast_time): an obstacle that touches the robot lies inside the lidars' minimum range and drops
+#: out of the tracker
+KEEP_LOST_M, KEEP_LOST_S = 0.3, 2.5
 
 
 @dataclass

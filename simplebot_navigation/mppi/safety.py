@@ -6,9 +6,9 @@ Every candidate is judged by its manoeuvre: its first control period, then braki
 horizon, **passive** when nothing meets it while the robot still moves (a moving obstacle may walk into it at rest).
 Lethal cells of the costmap count as walls, and also as obstacles the tracker may not have picked up: while it
 moves, the robot keeps as far from them as one could walk towards it since the cycle began (unknown_obstacle_speed).
-In order, the cycle takes: the optimised sequence if its manoeuvre is free; braking now if that is free; the
-cheapest sample whose manoeuvre is free (an escape from an obstacle that would strike the braking robot); of the
-passive manoeuvres the one met latest (braking on a tie); else braking now. Since every command sent leaves a passive
+In order, the cycle takes: the optimised sequence if its manoeuvre is free; the cheapest sample whose manoeuvre
+is free (an escape: the samples' costs weigh progress, so one of them usually beats standing); braking now if that
+is free; of the passive manoeuvres the one met latest (braking on a tie); else braking now. Since every command sent leaves a passive
 manoeuvre, and the next cycle's braking is that manoeuvre's continuation, a contact the prediction foresaw finds
 the robot at rest.
 """
@@ -26,9 +26,10 @@ from simplebot_navigation.mppi.optimizer import CLOSING_M, MppiOptimizer, Rollou
 ESCAPE_CANDIDATES = 24
 #: a velocity below this (m/s, rad/s) is at rest
 AT_REST = 1e-6
-#: a passive manoeuvre is at rest this long (s) before a moving obstacle meets it: the drive follows a command a
-#: control period late, and odometry reports it later still
-REST_MARGIN_S = 0.25
+#: a passive manoeuvre is at rest this long (s) before a moving obstacle meets it: a robot that has only just
+#: stopped was still driving for anyone watching (the simulator counts a contact within half a second of driving
+#: as the robot's own, sim/robot.py DRIVING_WINDOW_S), and the drive follows a command a control period late
+REST_MARGIN_S = 0.6
 
 
 @dataclass(frozen=True)
@@ -90,12 +91,12 @@ def decide(optimizer: MppiOptimizer, scene: Scene, samples: Rollouts, hold: int)
     plan = Decision("plan", plan_controls[0], plan_poses[0], plan_controls[0])
     if free[0]:
         return plan
-    if free[1]:
-        return taken("brake", 1, controls[1])
     escapes = np.nonzero(free[2:])[0]
     if len(escapes):
         sample = ranked[escapes[0]]
         return taken("escape", 2 + escapes[0], samples.controls[sample])
+    if free[1]:
+        return taken("brake", 1, controls[1])
     if not passive.any():
         return taken("brake (no safe way)", 1, controls[1])
     # nothing is free: the passive manoeuvre met latest, braking on a tie
