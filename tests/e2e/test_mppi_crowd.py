@@ -10,4 +10,4 @@ pytestmark = [pytest.mark.timeout(1200), pytest.mark.e2e]
 
 
 def test_the_round_robot_crosses_an_easy_crowd_with_mppi():
-    assert_crossed("crowd:WORLD", *drive("crowd:WORLD", CROWD + (f"base_local_planner={MPPI_LOCAL_PLANNER}",)))
+    assert_crossed("crowd:6", *drive("crowd:6", CROWD + (f"base_local_planner={MPPI_LOCAL_PLANNER}",)))
