@@ -150,7 +150,8 @@ class MppiController:
                                  state[0], state[1])
         if cost in (kernels.INSCRIBED, kernels.LETHAL):
             self._started = False
-            return CycleResult(False, message="the robot's centre is in an inscribed or lethal cell of the local costmap")
+            return CycleResult(False, message="the robot's centre is in an inscribed or lethal cell of the local "
+                                              "costmap")
         if not self._started:
             self.optimizer.reset(state[3:5])
             self._started = True
@@ -223,7 +224,8 @@ class MppiController:
         prediction = MotionPrediction(moving.dynamic_obstacle_prediction_horizon or math.inf,
                                       moving.dynamic_obstacle_max_uncertainty, moving.dynamic_obstacle_radius_growth)
         return Scene(state, path, target, self.plan[-1].copy(), remaining <= cfg.critics.threshold_to_consider,
-                     costmap.costmap, lethal_distance(costmap), (costmap.origin_x, costmap.origin_y, costmap.resolution),
+                     costmap.costmap, lethal_distance(costmap),
+                     (costmap.origin_x, costmap.origin_y, costmap.resolution),
                      self._outline(costmap.resolution), self.circles, np.ascontiguousarray(rows), prediction)
 
     def _path_ahead(self, state: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:

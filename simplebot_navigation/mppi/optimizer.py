@@ -21,6 +21,8 @@ from simplebot_navigation.perception.prediction import MotionPrediction
 #: and at the largest turn rates)
 FAN_SPEEDS = (0.0, 0.25, 0.5, 0.75, 1.0)
 FAN_TURNS = (-1.0, -0.5, -0.2, 0.0, 0.2, 0.5, 1.0)
+#: the first rows of every batch: the sequence itself and braking; the fan follows
+FIXED_ROWS = 2
 #: an obstacle that is already within the contact margin is met when it comes this much nearer (m)
 CLOSING_M = 0.05
 
@@ -104,9 +106,11 @@ class MppiOptimizer:
         if scene.near_goal:
             costs = crit.goal_weight * terms[:, kernels.GOAL]
         else:
-            costs = (crit.path_align_weight * terms[:, kernels.ALIGN] + crit.path_follow_weight * terms[:, kernels.FOLLOW]
+            costs = (crit.path_align_weight * terms[:, kernels.ALIGN]
+                     + crit.path_follow_weight * terms[:, kernels.FOLLOW]
                      + crit.path_angle_weight * terms[:, kernels.ANGLE])
-        costs += (crit.prefer_forward_weight * terms[:, kernels.REVERSE] + crit.smoothness_weight * terms[:, kernels.SMOOTH]
+        costs += (crit.prefer_forward_weight * terms[:, kernels.REVERSE]
+                  + crit.smoothness_weight * terms[:, kernels.SMOOTH]
                   + crit.cost_weight * mean_cost + mov.clearance_weight * shortfall)
         costs += crit.collision_cost * np.where(static_first < steps, 1.0 - static_first / steps, 0.0)
         contact = moving_first < steps
@@ -120,9 +124,11 @@ class MppiOptimizer:
         """(B, T, 2): the first rows turn the sequence into itself, braking and the fan; the rest are normal."""
         sampling = self.cfg.sampling
         steps = sampling.time_steps
-        eps = self.rng.standard_normal((sampling.batch_size, steps, 2)) * np.array([sampling.vx_std, sampling.wz_std])
+        eps = self.rng.standard_normal((sampling.batch_size, steps, 2), dtype=np.float32) * np.array([sampling.vx_std,
+                                                                                                       sampling.wz_std])
+        fan = fan_targets(self.cfg)
         fixed = np.concatenate([self.sequence[None], np.zeros((1, steps, 2)),
-                                np.broadcast_to(fan_targets(self.cfg)[:, None, :], (len(fan_targets(self.cfg)), steps, 2))])
+                                np.broadcast_to(fan[:, None, :], (len(fan), steps, 2))])
         count = min(len(fixed), len(eps))
         eps[:count] = fixed[:count] - self.sequence[None]
         return eps

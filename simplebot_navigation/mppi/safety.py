@@ -8,7 +8,10 @@ Lethal cells of the costmap count as walls, and also as obstacles the tracker ma
 moves, the robot keeps as far from them as one could walk towards it since the cycle began (unknown_obstacle_speed).
 In order, the cycle takes: the optimised sequence if its manoeuvre is free; the cheapest sample whose manoeuvre
 is free (an escape: the samples' costs weigh progress, so one of them usually beats standing); braking now if that
-is free; of the passive manoeuvres the one met latest (braking on a tie); else braking now. Since every command sent leaves a passive
+is free; the sample that, driven on, meets anything latest, if that is at least MIN_GAIN_S later than the braking
+robot is met (running from an obstacle that would strike it standing: the escape is judged by its own rollout, and
+checked again next cycle); braking now if that is passive; the optimised sequence if its manoeuvre is passive; else
+braking now. Since every command sent leaves a passive
 manoeuvre, and the next cycle's braking is that manoeuvre's continuation, a contact the prediction foresaw finds
 the robot at rest.
 """
@@ -20,10 +23,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from simplebot_navigation.mppi import kernels
-from simplebot_navigation.mppi.optimizer import CLOSING_M, MppiOptimizer, Rollouts, Scene
+from simplebot_navigation.mppi.optimizer import CLOSING_M, FIXED_ROWS, MppiOptimizer, Rollouts, Scene, fan_targets
 
-#: samples whose manoeuvres are checked for an escape, cheapest first
+#: samples whose manoeuvres are checked for an escape, cheapest first (and the fan's)
 ESCAPE_CANDIDATES = 24
+#: when nothing is free, a sample is driven instead of braking only if it meets the obstacle this much later (s)
+MIN_GAIN_S = 0.5
 #: a velocity below this (m/s, rad/s) is at rest
 AT_REST = 1e-6
 #: a passive manoeuvre is at rest this long (s) before a moving obstacle meets it: a robot that has only just
@@ -78,7 +83,9 @@ def decide(optimizer: MppiOptimizer, scene: Scene, samples: Rollouts, hold: int)
     steps make one control period."""
     steps = optimizer.sequence.shape[0]
     hold = min(max(hold, 1), steps)
+    fan = np.arange(FIXED_ROWS, min(FIXED_ROWS + len(fan_targets(optimizer.cfg)), len(samples.costs)))
     ranked = np.argsort(samples.costs, kind="stable")[:ESCAPE_CANDIDATES]
+    ranked = np.concatenate([ranked, np.setdiff1d(fan, ranked)])
     heads = np.concatenate([optimizer.sequence[None, :hold], np.zeros((1, hold, 2)), samples.controls[ranked, :hold]])
     controls, poses = optimizer.rollout(scene.state, manoeuvres(heads, steps))
     scored = optimizer.evaluate(scene, controls, poses)
@@ -97,13 +104,15 @@ def decide(optimizer: MppiOptimizer, scene: Scene, samples: Rollouts, hold: int)
         return taken("escape", 2 + escapes[0], samples.controls[sample])
     if free[1]:
         return taken("brake", 1, controls[1])
-    if not passive.any():
-        return taken("brake (no safe way)", 1, controls[1])
-    # nothing is free: the passive manoeuvre met latest, braking on a tie
-    latest = np.where(passive, scored.moving_first, -1)
-    row = 1 if latest[1] == latest.max() else int(np.argmax(latest))
-    if row == 0:
-        return plan
-    if row == 1:
+    # nothing is free and braking would be met: the sample that, driven on, meets nothing for longest, if that is
+    # clearly longer than the braking robot has (an escape that keeps moving; the next cycle checks it again)
+    met = np.minimum(samples.static_first, samples.moving_first)[ranked]
+    best = int(np.argmax(met))
+    gain = round(MIN_GAIN_S / optimizer.cfg.sampling.model_dt)
+    if met[best] - min(scored.moving_first[1], scored.static_first[1]) >= gain:
+        return taken("escape", 2 + best, samples.controls[ranked[best]])
+    if passive[1]:
         return taken("brake", 1, controls[1])
-    return taken("escape", row, samples.controls[ranked[row - 2]])
+    if passive[0]:
+        return plan
+    return taken("brake (no safe way)", 1, controls[1])

@@ -20,7 +20,8 @@ SELECT = f"base_local_planner={MPPI_LOCAL_PLANNER}"
 def test_its_namespace_is_in_the_parameter_tree_only_when_selected():
     assert MPPI_LOCAL_PLANNER in LOCAL_PLANNERS.types
     selected = parameter_table({"base_local_planner": MPPI_LOCAL_PLANNER})
-    assert {"MPPILocalPlannerROS.batch_size", "MPPILocalPlannerROS.vx_max", "MPPILocalPlannerROS.ax_min"} <= set(selected)
+    assert {"MPPILocalPlannerROS.batch_size", "MPPILocalPlannerROS.vx_max",
+            "MPPILocalPlannerROS.ax_min"} <= set(selected)
     assert not any(name.startswith("MPPILocalPlannerROS.") for name in parameter_table({}))
 
 
