@@ -1,5 +1,6 @@
-"""Passive safety: the command of a cycle is sent only if the robot can still stop after it without touching a wall,
-and without meeting a moving obstacle while it moves (docs/reference.md §4.10).
+"""Passive safety: the command of a cycle is sent if the robot can still stop after it without touching a wall,
+and without meeting a moving obstacle while it moves, or if it escapes a contact that braking would meet
+(docs/reference.md §4.10).
 
 Every candidate is judged by its manoeuvre: its first control period, then braking at the deceleration limits
 (ax_min, az_max) to rest, and standing until the horizon. A manoeuvre is **free** when nothing meets it within the
@@ -11,9 +12,8 @@ is free (an escape: the samples' costs weigh progress, so one of them usually be
 is free; the sample that, driven on, meets anything latest, if that is at least MIN_GAIN_S later than the braking
 robot is met (running from an obstacle that would strike it standing: the escape is judged by its own rollout, and
 checked again next cycle); braking now if that is passive; the optimised sequence if its manoeuvre is passive; else
-braking now. Since every command sent leaves a passive
-manoeuvre, and the next cycle's braking is that manoeuvre's continuation, a contact the prediction foresaw finds
-the robot at rest.
+braking now. A command whose manoeuvre is passive has that manoeuvre's continuation as the next cycle's braking,
+so a contact the prediction foresaw, and that no escape avoids, finds the robot at rest.
 """
 
 from __future__ import annotations
