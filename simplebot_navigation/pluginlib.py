@@ -120,6 +120,9 @@ class PluginSpec:
     #: builds its configuration from its namespace (ROS 1 form, None when absent): (config, warnings);
     #: planners only, the ROS wrapper builds its own from the same namespace
     config: Callable[[dict | None], tuple[Any, list[str]]] | None = None
+    #: a local planner's values of its namespace that follow move_base's one speed setting (max_speed, m/s), by
+    #: name within the namespace (move_base/speed_profile.py); None: none follow it
+    speed_parameters: Callable[[float], dict[str, float]] | None = None
 
     def load(self) -> Any:
         if not isinstance(self.implementation, str):

@@ -3,8 +3,8 @@
 Layers, lowest first; a module may import its own layer and the layers below, never one above:
   geometry, paths, parameters, pluginlib, web_host  shared math, file locations, the parameter layer, the plugin
                                                     registries' base, Host checks
-  costmap, planning, teb, sim, move_base, safety,   the navigation core: plain Python, no ROS
-  perception, maps, localization
+  costmap, planning, teb, mppi, sim, move_base,     the navigation core: plain Python, no ROS
+  safety, perception, maps, localization
   ros                                               the nodes and their ROS shells
   launch, scenarios, viewer, testing                what a user runs (and what tests and benches share)
 Within a layer, two packages import each other one way at most (scenarios/ uses launch/, never back).
@@ -27,7 +27,7 @@ ROOT = Path(__file__).resolve().parents[1] / PACKAGE
 LAYERS = [
     {"geometry", "geometry_kernels", "paths", "parameters", "pluginlib", "kernel_cache", "web_host", "laser_scan",
      "log_throttle", ""},
-    {"costmap", "planning", "teb", "sim", "move_base", "safety", "perception", "maps", "localization"},
+    {"costmap", "planning", "teb", "mppi", "sim", "move_base", "safety", "perception", "maps", "localization"},
     {"ros"},
     {"launch", "scenarios", "viewer", "testing"},
 ]

@@ -16,6 +16,7 @@ from simplebot_navigation.parameters.ros2 import to_ros2_overrides
 from simplebot_navigation.launch.loader import LaunchConfig, LaunchError
 
 NODE = "move_base"
+LOCAL_PLANNER_KEY = "base_local_planner"
 
 
 def apply_set(config: LaunchConfig, assignments: list[str]) -> None:
@@ -53,15 +54,19 @@ def speed_assignments(config: LaunchConfig, explicit: list[str]) -> tuple[list[s
     tree = config.params.get(specs[0].full_name, {})
     teb = tree.get("TebLocalPlannerROS", {}) if isinstance(tree, dict) else {}
     viapoints_on = isinstance(teb, dict) and float(teb.get("global_plan_viapoint_sep", -0.1) or -0.1) > 0
-    try:
-        derived = speed_parameters(speed, viapoints_on)
-    except ValueError as err:
-        raise LaunchError(str(err)) from None
     replaced = {a.partition("=")[0].strip(): a.partition("=")[2].strip() for a in explicit}
+    selected = replaced.get(LOCAL_PLANNER_KEY)
+    planner = selected if selected is not None else (tree.get(LOCAL_PLANNER_KEY) if isinstance(tree, dict) else None)
+    try:
+        derived = speed_parameters(speed, viapoints_on, *([str(planner)] if planner else []))
+    except ValueError as err:       # ParameterError too: an unknown planner type
+        raise LaunchError(str(err)) from None
     report = [f"max_speed {speed:g} m/s: " + ", ".join(f"{name}={_shown(v)}" for name, v in derived.items())]
     report += [f"--set {name}={replaced[name]} replaces max_speed's {_shown(derived[name])}"
                for name in derived if name in replaced]
-    return [f"{name}={v!r}" for name, v in derived.items()], report
+    # a planner chosen by --set is chosen first, so that its derived parameters exist when they are set
+    chosen = [f"{LOCAL_PLANNER_KEY}={selected}"] if selected is not None else []
+    return chosen + [f"{name}={v!r}" for name, v in derived.items()], report
 
 
 def _shown(value) -> str:

@@ -12,6 +12,9 @@ from __future__ import annotations
 
 import math
 
+from simplebot_navigation.move_base.plugins import LOCAL_PLANNERS, plugin_namespace
+from simplebot_navigation.teb.plugin import TEB_LOCAL_PLANNER
+
 #: the range of top speeds (m/s) the rules are made for: TEB's own speed limit above, a crawl below
 MIN_SPEED = 0.1
 MAX_SPEED = 2.0
@@ -43,10 +46,13 @@ def check_speed(speed: float) -> str | None:
     return None
 
 
-def speed_parameters(speed: float, viapoints_on: bool) -> dict[str, float | int]:
+def speed_parameters(speed: float, viapoints_on: bool,
+                     local_planner: str = TEB_LOCAL_PLANNER) -> dict[str, float | int]:
     """move_base's parameters (ROS 2 names, as ``--set`` takes them) for a top speed of ``speed`` m/s.
     ``viapoints_on``: the parameter files use TEB's via-points (global_plan_viapoint_sep > 0), whose spacing then
-    follows the speed too. ValueError for a speed outside [MIN_SPEED, MAX_SPEED]."""
+    follows the speed too. TEB's own are derived below; another ``local_planner``'s come from its registration's
+    ``speed_parameters`` (none if it has none). ValueError for a speed outside [MIN_SPEED, MAX_SPEED],
+    ParameterError for an unknown planner."""
     problem = check_speed(speed)
     if problem is not None:
         raise ValueError(problem)
@@ -70,7 +76,10 @@ def speed_parameters(speed: float, viapoints_on: bool) -> dict[str, float | int]
     }
     if viapoints_on:
         teb["global_plan_viapoint_sep"] = round(max(0.1, speed * dt_ref), 3)
-    out: dict[str, float | int] = {f"TebLocalPlannerROS.{key}": value for key, value in teb.items()}
+    if local_planner != TEB_LOCAL_PLANNER:
+        hook = LOCAL_PLANNERS.spec(local_planner).speed_parameters
+        teb = hook(speed) if hook is not None else {}
+    out: dict[str, float | int] = {f"{plugin_namespace(local_planner)}.{key}": value for key, value in teb.items()}
     out["local_costmap.width"] = out["local_costmap.height"] = window
     for laser in ("front_laser", "back_laser"):
         out[f"local_costmap.obstacles.{laser}.obstacle_range"] = sight

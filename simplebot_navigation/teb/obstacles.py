@@ -7,8 +7,7 @@ import math
 import numpy as np
 
 from simplebot_navigation.costmap.cost_values import LETHAL_OBSTACLE
-from simplebot_navigation.perception.prediction import (POSITION_SPREAD, VX, VY, MotionPrediction, prediction_rows,
-                                                        valid_covariances)
+from simplebot_navigation.perception.prediction import POSITION_SPREAD, VX, VY, MotionPrediction, prediction_rows
 from simplebot_navigation.teb import footprint_kernels
 
 
@@ -98,35 +97,3 @@ def dynamic_obstacle_edges(model, poses: np.ndarray, times: np.ndarray, obstacle
     gap = np.hypot(*(centres - poses[None, inner, :2]).transpose(2, 0, 1)) - model.bounding_radius - radii
     k, i = np.nonzero(gap <= reach)
     return inner[i], np.column_stack([centres[k, i], radii[k, i]])
-
-
-def checked_dynamic_obstacles(obstacles, covariance=None) -> tuple[np.ndarray, np.ndarray | None, str]:
-    """set_dynamic_obstacles' input checked: (K, 5) rows x, y, vx, vy, radius and None or (K, 4, 4)
-    covariances over x, y, vx, vy. A wrong shape raises ValueError; rows with a non-finite value or a
-    negative radius, or whose covariance is not one (valid_covariances), are dropped. Returns the kept rows,
-    their covariances and what was dropped ("" if nothing)."""
-    rows = np.asarray(obstacles, dtype=float)
-    if rows.size == 0:
-        rows = rows.reshape(0, 5)
-    if rows.ndim != 2 or rows.shape[1] != 5:
-        raise ValueError(f"dynamic obstacles must be a (K, 5) array of x, y, vx, vy, radius; got shape {rows.shape}")
-    valid = np.isfinite(rows).all(axis=1) & (rows[:, 4] >= 0)
-    dropped = []
-    if not valid.all():
-        dropped.append(f"{np.count_nonzero(~valid)} with a non-finite value or a negative radius")
-    cov = None
-    if covariance is not None:
-        cov = np.asarray(covariance, dtype=float)
-        if cov.size == 0 and len(rows) == 0:
-            cov = cov.reshape(0, 4, 4)
-        if cov.shape != (len(rows), 4, 4):
-            raise ValueError(f"dynamic obstacle covariances must be a (K, 4, 4) array over x, y, vx, vy for the "
-                             f"{len(rows)} obstacles; got shape {cov.shape}")
-        bad = ~valid_covariances(cov) & valid
-        if bad.any():
-            dropped.append(f"{np.count_nonzero(bad)} whose covariance is not finite, symmetric and positive "
-                           "semi-definite")
-        valid &= ~bad
-        cov = cov[valid].copy()
-    what = f"{np.count_nonzero(~valid)} of {len(rows)} dynamic obstacles ({', '.join(dropped)})" if dropped else ""
-    return rows[valid].copy(), cov, what

@@ -21,8 +21,9 @@ from simplebot_navigation.teb.failure_detector import FailureDetector, buffer_le
 from simplebot_navigation.teb.feasibility import collision_model, is_trajectory_feasible
 from simplebot_navigation.teb.footprint import FootprintModel
 from simplebot_navigation.teb.homotopy import HomotopyClassPlanner
-from simplebot_navigation.teb.obstacles import (behind_robot_filter, checked_dynamic_obstacles, costmap_point_obstacles,
-                                                motion_prediction, planned_motion)
+from simplebot_navigation.perception.prediction import checked_dynamic_obstacles
+from simplebot_navigation.teb.obstacles import (behind_robot_filter, costmap_point_obstacles, motion_prediction,
+                                                planned_motion)
 from simplebot_navigation.teb.optimizer import RotType
 
 GOAL_ORIENTATION_AVERAGE = 3

@@ -150,5 +150,5 @@ def test_move_base_loads_each_by_type_name_and_drives_with_them(examples, tmp_pa
 
 def test_an_unregistered_type_is_refused_naming_the_known_ones():
     with pytest.raises(LaunchError, match="unknown type 'example/PurePursuit'; known types: "
-                                          "teb_local_planner/TebLocalPlannerROS"):
+                                          "mppi_local_planner/MPPILocalPlannerROS, teb_local_planner/TebLocalPlannerROS"):
         NavigationSession("empty", overrides=("base_local_planner=example/PurePursuit",))
