@@ -2,7 +2,7 @@
 
 import rclpy.logging
 
-from simplebot_navigation.ros.move_base.teb_local_planner_ros import log_notices
+from simplebot_navigation.ros.move_base.local_planner_shell import log_notices
 
 
 def test_warnings_and_infos_alternate_without_upsetting_rclpys_logger(capfd):
