@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from simplebot_navigation.parameters import ParameterError, build, param, section
+from simplebot_navigation.perception.prediction import KeepOutGrowth
 
 #: the fastest drive this stack is built for (a 2 m/s Jackal-class base, sim/diff_drive.py); beyond these a limit is
 #: a typing error, not a robot
@@ -84,9 +85,9 @@ class Critics:
 
 
 @dataclass(slots=True)
-class MovingObstacles:
+class MovingObstacles(KeepOutGrowth):
     """Moving obstacles (docs/reference.md §4.8): predicted at constant velocity, their keep-out circles grown as
-    TEB's are; a rollout is judged by its time to collision."""
+    TEB's are (KeepOutGrowth); a rollout is judged by its time to collision."""
     moving_obstacle_weight: float = param(1.0, "", "Here: time to collision: a rollout that meets a predicted "
                                           "obstacle at time t costs collision_cost x this x (1 - t / horizon)",
                                           ge=0, le=100.0)
@@ -98,16 +99,6 @@ class MovingObstacles:
                                              ge=0, le=3.0)
     contact_margin: float = param(0.1, "m", "Here: a rollout within this of a keep-out circle meets it", ge=0,
                                   le=1.0)
-    dynamic_obstacle_radius_growth: float = param(0.0, "m/s", "Here: a predicted obstacle's radius grows by this "
-                                                  "per second ahead", ge=0, le=2.0)
-    dynamic_obstacle_uncertainty_sigmas: float = param(2.0, "", "Here: and by this many standard deviations of "
-                                                       "its tracked position and of its velocity times the time "
-                                                       "ahead (0: none)", ge=0, le=5.0)
-    dynamic_obstacle_max_uncertainty: float = param(0.1, "m", "Here: the most the uncertainty adds to a "
-                                                    "predicted obstacle's radius", ge=0, le=2.0)
-    dynamic_obstacle_prediction_horizon: float = param(4.0, "s", "Here: the keep-out circle grows up to this far "
-                                                       "ahead and stays as large after it (0: no horizon)", ge=0,
-                                                       le=30.0)
     unknown_obstacle_speed: float = param(0.5, "m/s", "Here: the passive safety keeps the braking robot as far from "
                                           "the costmap's lethal cells as an obstacle the tracker has not picked up "
                                           "could walk towards it at this speed until the robot is at rest (0: off)",

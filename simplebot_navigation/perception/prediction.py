@@ -16,6 +16,24 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from simplebot_navigation.parameters import param
+
+@dataclass(slots=True)
+class KeepOutGrowth:
+    """The parameters of the formula above, shared by every planner that predicts obstacles with it (each
+    declares them in its own namespace under these names)."""
+    dynamic_obstacle_radius_growth: float = param(0.0, "m/s", "Here: a predicted obstacle's radius grows by this "
+                                                  "per second of prediction", ge=0, le=2.0)
+    dynamic_obstacle_uncertainty_sigmas: float = param(2.0, "", "Here: a predicted obstacle's radius grows by this "
+                                                       "many standard deviations of its tracked position and of "
+                                                       "its velocity times the time ahead (0: none)", ge=0, le=5.0)
+    dynamic_obstacle_max_uncertainty: float = param(0.1, "m", "Here: the most the uncertainty adds to a predicted "
+                                                    "obstacle's radius", ge=0, le=2.0)
+    dynamic_obstacle_prediction_horizon: float = param(4.0, "s", "Here: a moving obstacle's keep-out circle grows "
+                                                       "with the time ahead up to this far, and stays as large "
+                                                       "after it (0: no horizon)", ge=0, le=30.0)
+
+
 #: Columns of a predicted obstacle's row: position and velocity (m, m/s), radius (m), and the n_sigma spreads of
 #: position (m) and velocity (m/s).
 X, Y, VX, VY, RADIUS, POSITION_SPREAD, VELOCITY_SPREAD = range(7)

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from simplebot_navigation.parameters import ParameterError, build, param, section
+from simplebot_navigation.perception.prediction import KeepOutGrowth
 
 #: physical bounds of a velocity limit: the fastest drive this stack is built for (a 2 m/s Jackal-class base;
 #: the simulated box reaches 1.05 m/s and about 4.5 rad/s); beyond them a limit is a typing error, not a robot
@@ -162,20 +163,10 @@ class Optimization:
 
 
 @dataclass(slots=True)
-class MovingObstacles:
+class MovingObstacles(KeepOutGrowth):
     """This stack's additions for moving obstacles (teb_local_planner has no such section): how a predicted
-    obstacle's keep-out circle grows with the time ahead, and the evasion when the band would meet one."""
-    dynamic_obstacle_radius_growth: float = param(0.0, "m/s", "Here: a predicted obstacle's radius grows by this "
-                                                  "per second of prediction (with include_dynamic_obstacles)",
-                                                  ge=0, le=2.0)
-    dynamic_obstacle_uncertainty_sigmas: float = param(2.0, "", "Here: a predicted obstacle's radius grows by this "
-                                                       "many standard deviations of its tracked position and of "
-                                                       "its velocity times the time ahead (0: none)", ge=0, le=5.0)
-    dynamic_obstacle_max_uncertainty: float = param(0.1, "m", "Here: the most the uncertainty adds to a predicted "
-                                                    "obstacle's radius", ge=0, le=2.0)
-    dynamic_obstacle_prediction_horizon: float = param(4.0, "s", "Here: a moving obstacle's keep-out circle grows "
-                                                       "with the time ahead up to this far, and stays as large "
-                                                       "after it (0: no horizon)", ge=0, le=30.0)
+    obstacle's keep-out circle grows with the time ahead (KeepOutGrowth), and the evasion when the band would meet
+    one."""
     dynamic_obstacle_evasion_horizon: float = param(2.5, "s", "Here: when the band or a standstill would meet a "
                                                     "predicted moving obstacle within this time, drive the sampled "
                                                     "command that meets one latest (0: stop as TEB does)",
