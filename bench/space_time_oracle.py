@@ -43,10 +43,9 @@ DEFAULT_BUDGET_S = 100.0
 DEFAULT_SUCCESS_RADIUS = 0.5
 
 
-def oracle(world_name: str, speed: float, clearance: float) -> dict:
+def oracle(world_name: str, world, speed: float, clearance: float) -> dict:
     """One world's answer: solvable, arrival (s after the goal is sent), and the search's own time."""
     started = time.perf_counter()
-    world = load_world(world_name)
     goal = world.goals[0]
     free, origin = static_free(world, ROBOT_RADIUS + clearance, RESOLUTION)
     search = SpaceTimeSearch(free, origin, RESOLUTION)
@@ -114,10 +113,21 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if not (0 < args.speed <= 5.0) or not (0 <= args.clearance <= 2.0):
         parser.error("--speed must be in (0, 5] m/s and --clearance in [0, 2] m")
+    try:
+        names = expand_worlds(args.worlds.split(","))
+        worlds = {name: load_world(name) for name in names}
+    except ValueError as err:
+        parser.error(f"--worlds: {err}")
+    if any(not world.goals for world in worlds.values()):
+        parser.error(f"--worlds: {', '.join(n for n, w in worlds.items() if not w.goals)} has no goal")
+    try:
+        runs = campaign_runs(args.campaign, args.speed)
+    except (OSError, ValueError) as err:      # a missing file, a line that is not JSON
+        parser.error(f"--campaign: {err}")
     load_before = os.getloadavg()[0]
     results = []
-    for name in expand_worlds(args.worlds.split(",")):
-        results.append(oracle(name, args.speed, args.clearance))
+    for name in names:
+        results.append(oracle(name, worlds[name], args.speed, args.clearance))
         r = results[-1]
         print(f"{name}: {'solvable, arrival %.1f s' % r['arrival_s'] if r['solvable'] else 'NOT solvable'} "
               f"(search {r['search_s']:.1f} s)", flush=True)
@@ -125,7 +135,7 @@ def main(argv=None) -> int:
         Path(args.out).write_text("".join(json.dumps(r) + "\n" for r in results))
     print(f"\nspeed {args.speed:g} m/s, round body r = {ROBOT_RADIUS} m, clearance {args.clearance:g} m, "
           f"grid {RESOLUTION} m")
-    print("\n".join(table(results, campaign_runs(args.campaign, args.speed))))
+    print("\n".join(table(results, runs)))
     print(f"\nsearch time per world p50 {statistics.median(r['search_s'] for r in results):.1f} s; "
           f"load average {load_before:.1f} before, {os.getloadavg()[0]:.1f} after")
     return 0
