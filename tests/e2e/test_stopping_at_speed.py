@@ -25,8 +25,11 @@ GOAL = Pose2D(16.0, 0.0, 0.0)
 #: the box that appears: this deep along the corridor, as wide as it; parked out of sight and reach until then
 DEPTH = 0.2
 PARKED = (0.0, 40.0)
-#: the box appears once the robot's centre is this far down the corridor (full speed from about 1 m on)
+#: the box appears once the robot's centre is this far down the corridor (full speed from about 1 m on) and it is
+#: at full speed: TEB's command dips to about 1.9 m/s for a cycle now and then, and which cycle that is depends on
+#: the CPU's floating point, so a fixed trigger point alone may catch a dip on one machine and not on another
 TRIGGER_X = 4.0
+FULL_SPEED = 0.97 * SPEED
 #: simulated time watched after the box appears: the robot's forward motion ends after 1.4 s (2 m) and 2.1 s (3 m)
 WATCH_S = 3.0
 WORLD = f"""name: corridor
@@ -72,7 +75,8 @@ def _stops_short(corridor, gap, collision_monitor):
         session.driver.on_step(lambda: truth.append((sim.sim_time, *_xyv(sim.ground_truth()))))
         session.wait_ready(wall_timeout_s=120)
         session.send_goal(GOAL)
-        session.run_until(None, lambda: sim.ground_truth().x >= TRIGGER_X, wall_timeout_s=120)
+        session.run_until(None, lambda: sim.ground_truth().x >= TRIGGER_X and sim.ground_truth().vx > FULL_SPEED,
+                          wall_timeout_s=120)
 
         # From the next physics step on, the box stands across the corridor `gap` ahead of the body's front.
         now = session.time
@@ -87,7 +91,7 @@ def _stops_short(corridor, gap, collision_monitor):
     t, x, y, v = track.T
     v0, gap0 = v[0], face - (x[0] + RADIUS)
     standing = np.flatnonzero(v < 0.01)          # forward motion ends (it may turn back at once, as it does)
-    assert v0 > 0.97 * SPEED, f"only {v0:.2f} m/s when the box appeared"
+    assert v0 > FULL_SPEED, f"only {v0:.2f} m/s when the box appeared"
     assert gap0 == pytest.approx(gap, abs=0.05)
     assert collisions.count == 0 and not collisions.in_contact and client_collisions == 0, collisions
     assert len(standing), f"still at {v[-1]:.2f} m/s {WATCH_S:g} s after the box appeared"
