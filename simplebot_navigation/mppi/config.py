@@ -108,6 +108,26 @@ class MovingObstacles(KeepOutGrowth):
 
 
 @dataclass(slots=True)
+class SpaceTimeGuide:
+    """The space-time path the rollouts follow (mppi/guide.py): a wavefront over x, y and t against the predicted
+    keep-out circles, replanned every few cycles, that chooses the gap and the moment to go through it."""
+    space_time_guide: bool = param(True, "", "Here: follow a space-time path through the moving obstacles (false: "
+                                   "the global plan ahead, as without moving obstacles)")
+    guide_horizon: float = param(6.0, "s", "Here: how far ahead the space-time search looks", ge=1.0, le=15.0)
+    guide_resolution: float = param(0.1, "m", "Here: cell size of the search's grid around the robot", ge=0.05,
+                                    le=0.5)
+    guide_period: float = param(0.1, "s", "Here: the search runs again after this long", ge=0.0, le=2.0)
+    guide_speed_share: float = param(0.9, "", "Here: the search plans at this share of vx_max (a diff drive must "
+                                     "turn before it steps aside)", gt=0, le=1.0)
+    guide_clearance: float = param(0.1, "m", "Here: clearance the search keeps from every keep-out circle", ge=0,
+                                   le=1.0)
+    guide_radius_growth: float = param(0.3, "m/s", "Here: the search's keep-out circles grow this much per second "
+                                       "ahead, on top of dynamic_obstacle_radius_growth", ge=0, le=2.0)
+    guide_weight: float = param(5.0, "", "Here: mean distance of the rollout from where the space-time path is at "
+                                "the same time, per metre", ge=0, le=1000.0)
+
+
+@dataclass(slots=True)
 class GoalTolerance:
     """When the goal counts as reached (Nav2's SimpleGoalChecker)."""
     xy_goal_tolerance: float = param(0.2, "m", "distance to the goal that counts as reached", ge=0.01, le=5.0)
@@ -127,6 +147,7 @@ class MppiConfig:
     limits: Limits = section(Limits)
     critics: Critics = section(Critics)
     moving_obstacles: MovingObstacles = section(MovingObstacles)
+    space_time: SpaceTimeGuide = section(SpaceTimeGuide)
     goal_tolerance: GoalTolerance = section(GoalTolerance)
     #: non-fatal findings while loading (unknown keys)
     warnings: list = field(default_factory=list)

@@ -2,8 +2,9 @@
 it the global plan (in the local costmap's frame), the moving obstacles, and per cycle the robot pose, the odometry
 velocity and the local Costmap2D; it reads back the command and the trajectory it starts.
 
-A cycle: the plan ahead of the robot, resampled; the sequence optimised (optimizer.py); the command chosen by the
-passive safety (safety.py). Within half the xy tolerance of the goal the robot brakes and turns to the goal's yaw
+A cycle: the plan ahead of the robot, resampled; among moving obstacles, every guide_period, the space-time guide
+(guide.py), which then stands in for the plan ahead; the sequence optimised (optimizer.py); the command chosen by
+the passive safety (safety.py). Within half the xy tolerance of the goal the robot brakes and turns to the goal's yaw
 in place, until it leaves the tolerance again.
 """
 
@@ -19,6 +20,7 @@ from simplebot_navigation.geometry import normalize_theta
 from simplebot_navigation.mppi import kernels
 from simplebot_navigation.mppi.body import body_circles, outline_points
 from simplebot_navigation.mppi.config import MppiConfig
+from simplebot_navigation.mppi.guide import SpaceTimeGuide
 from simplebot_navigation.mppi.optimizer import MppiOptimizer, Scene
 from simplebot_navigation.mppi.safety import Decision, decide, judge, manoeuvres, unseen
 from simplebot_navigation.parameters import fields_of, set_value, value_of
@@ -54,6 +56,9 @@ class MppiController:
         self.cfg = cfg
         self.controller_period = float(controller_period)
         self.optimizer = MppiOptimizer(cfg, seed)
+        self.guide = SpaceTimeGuide(cfg)
+        #: the space-time guide as (G, 3) rows t, x, y from when it was planned, and the time since (s)
+        self._guide, self._guide_age = np.zeros((0, 3)), math.inf
         self.set_costmap_footprint(costmap_footprint)
         self.plan = np.zeros((0, 3))
         self._index = 0
@@ -78,6 +83,7 @@ class MppiController:
             if spec.dynamic:
                 set_value(self.cfg, name, value_of(cfg, name))
         self._started = False
+        self._guide_age = math.inf
 
     def set_controller_period(self, controller_period: float) -> None:
         if not controller_period > 0:
@@ -103,6 +109,7 @@ class MppiController:
         self.plan = plan.copy()
         self._index = 0
         self._latched = False
+        self._guide_age = math.inf
 
     def move_plan(self, plan) -> None:
         """The same plan seen anew in the local frame (map -> odom moved)."""
@@ -124,6 +131,7 @@ class MppiController:
         self._near = (np.zeros((0, 5)), np.zeros((0, 4, 4)))
         self._started = False
         self._latched = False
+        self._guide_age = math.inf
         self.trajectory = np.zeros((0, 3))
 
     def pop_notices(self) -> list[tuple[str, str]]:
@@ -223,10 +231,36 @@ class MppiController:
         rows = prediction_rows(rows, covariance, moving.dynamic_obstacle_uncertainty_sigmas)
         prediction = MotionPrediction(moving.dynamic_obstacle_prediction_horizon or math.inf,
                                       moving.dynamic_obstacle_max_uncertainty, moving.dynamic_obstacle_radius_growth)
+        guide = self._guide_ahead(state, costmap, rows, prediction)
+        if len(guide):
+            path = guide[:, 1:]
+            horizon = cfg.sampling.time_steps * cfg.sampling.model_dt
+            target = np.array([np.interp(horizon, guide[:, 0], guide[:, 1]),
+                               np.interp(horizon, guide[:, 0], guide[:, 2])])
         return Scene(state, path, target, self.plan[-1].copy(), remaining <= cfg.critics.threshold_to_consider,
                      costmap.costmap, lethal_distance(costmap),
                      (costmap.origin_x, costmap.origin_y, costmap.resolution),
-                     self._outline(costmap.resolution), self.circles, np.ascontiguousarray(rows), prediction)
+                     self._outline(costmap.resolution), self.circles, np.ascontiguousarray(rows), prediction,
+                     guide)
+
+    def _guide_ahead(self, state: np.ndarray, costmap, rows: np.ndarray, prediction: MotionPrediction) -> np.ndarray:
+        """The space-time guide from this cycle's time: planned again once guide_period has passed, else the last
+        one, a cycle older; (0, 3) when off or there is none."""
+        guide = self.cfg.space_time
+        if not guide.space_time_guide:
+            return np.zeros((0, 3))
+        self._guide_age += self.controller_period
+        if self._guide_age >= guide.guide_period - 1e-9:
+            xy = self.plan[self._index:, :2]
+            arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
+            xy = xy[arc <= 2 * self.guide.half_width()]
+            reach = float(np.max(np.hypot(*self.circles[:, :2].T) + self.circles[:, 2]))
+            found = self.guide.plan(state, xy, costmap, rows, prediction, reach)
+            self._guide = np.zeros((0, 3)) if found is None else np.column_stack([found.times, found.xy])
+            self._guide_age = 0.0
+        ahead = self._guide.copy()
+        ahead[:, 0] -= self._guide_age
+        return ahead
 
     def _path_ahead(self, state: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
         """The plan from its point closest to the robot (looked for ahead of the last one) up to prune_distance,

@@ -212,6 +212,25 @@ def path_terms(poses, controls, velocity, dt, path, target, goal):
 
 
 @njit(cache=True, nogil=True)
+def guide_terms(poses, dt, guide):
+    """Per rollout (B, T, 3; pose t at time (t + 1) dt): the mean distance of every STRIDE-th pose from where the
+    space-time guide ((G, 3) rows t, x, y; held at its ends) is at the pose's time."""
+    n_batch, n_steps = poses.shape[0], poses.shape[1]
+    out = np.zeros(n_batch)
+    n_strided = (n_steps + STRIDE - 1) // STRIDE
+    times = (np.arange(0, n_steps, STRIDE) + 1) * dt
+    gx = np.interp(times, guide[:, 0], guide[:, 1])
+    gy = np.interp(times, guide[:, 0], guide[:, 2])
+    for b in range(n_batch):
+        total = 0.0
+        for i in range(n_strided):
+            t = i * STRIDE
+            total += math.hypot(poses[b, t, 0] - gx[i], poses[b, t, 1] - gy[i])
+        out[b] = total / n_strided
+    return out
+
+
+@njit(cache=True, nogil=True)
 def unseen_first(poses, controls, dt, distance, origin_x, origin_y, resolution, circles, speed, closing):
     """Per manoeuvre (B, T): the index of the first pose, while the robot still moves, at which a lethal cell could
     reach the body if it were an obstacle the tracker has not seen, walking towards it at ``speed`` from time 0

@@ -58,6 +58,7 @@ class Scene:
     circles: np.ndarray         # (C, 3) covering circles of the body
     obstacles: np.ndarray       # (K, 7) prediction rows of the moving obstacles
     prediction: MotionPrediction
+    guide: np.ndarray           # (G, 3) t, x, y: the space-time guide from this cycle's time (G = 0: none)
 
 
 @dataclass
@@ -109,6 +110,8 @@ class MppiOptimizer:
             costs = (crit.path_align_weight * terms[:, kernels.ALIGN]
                      + crit.path_follow_weight * terms[:, kernels.FOLLOW]
                      + crit.path_angle_weight * terms[:, kernels.ANGLE])
+        if len(scene.guide):
+            costs += cfg.space_time.guide_weight * kernels.guide_terms(poses, dt, scene.guide)
         costs += (crit.prefer_forward_weight * terms[:, kernels.REVERSE]
                   + crit.smoothness_weight * terms[:, kernels.SMOOTH]
                   + crit.cost_weight * mean_cost + mov.clearance_weight * shortfall)

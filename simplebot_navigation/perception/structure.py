@@ -44,9 +44,11 @@ class StructureMap:
         self.corner = np.zeros(2)                      # the window's first cell's corner (x, y), metres
         self.stamp: float | None = None
 
-    def update(self, points: np.ndarray, stamp: float, centre: np.ndarray) -> np.ndarray:
+    def update(self, points: np.ndarray, stamp: float, centre: np.ndarray, learn: np.ndarray | None = None
+               ) -> np.ndarray:
         """(N,) whether each point lies on (or next to) a cell that returns had kept hitting before this update;
-        then every cell decays and the cells these points hit gain one step's weight."""
+        then every cell decays and the cells these points hit (those ``learn`` marks, default all) gain one step's
+        weight."""
         found = np.zeros(len(points), dtype=bool)
         if self.time_constant <= 0 or not np.isfinite(centre).all() or abs(centre).max() > 1e9:
             return found
@@ -62,6 +64,9 @@ class StructureMap:
         for dy, dx in _OFFSETS:
             best = np.maximum(best, self.score[row + dy, col + dx])
         found[inside] = best >= STRUCTURE_SCORE
+        if learn is not None:
+            kept = np.asarray(learn, dtype=bool)[inside]
+            row, col = row[kept], col[kept]
         self.score[row, col] += 1.0 - math.exp(-min(elapsed, MAX_STEP_S) / self.time_constant)   # once per cell
         self.stamp = float(stamp)
         return found

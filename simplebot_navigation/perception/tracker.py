@@ -30,6 +30,8 @@ from simplebot_navigation.perception.trail import ClearingTrail
 RADIUS_SMOOTHING = 0.3
 #: a new cluster this close to an existing track's outline is a fragment of it, not a new track
 FRAGMENT_MARGIN = 0.1
+#: returns this far (m) beyond a moving track's predicted outline are still that obstacle's
+ON_TRACK_M = 0.1
 #: a cluster with this share of its returns on structure is structure
 STRUCTURE_SHARE = 0.5
 #: the association gate widens by this many sigmas of a track's position, up to MAX_GATE
@@ -122,7 +124,7 @@ class ObstacleTracker:
         self.stamp = stamp
         points = np.concatenate([s.points() for s in scans]) if scans else np.empty((0, 2))
         flags = self.structure.update(points, stamp, np.mean([s.origin for s in scans], axis=0) if scans
-                                      else np.full(2, np.nan))
+                                      else np.full(2, np.nan), ~self._on_moving_tracks(points))
         if self.static_cells is not None and len(points):
             known = np.zeros(len(points), dtype=bool)
             finite = np.isfinite(points).all(axis=1)
@@ -142,6 +144,19 @@ class ObstacleTracker:
         self.trail.add(stamp, self.ids[live], np.column_stack([self.state[live, :2], self.radius[live]]),
                        self.ids[live & self._clearing()])
         return True
+
+    def _on_moving_tracks(self, points: np.ndarray) -> np.ndarray:
+        """(N,) whether each point lies on a moving track where it is predicted now (within its radius and
+        ON_TRACK_M): such returns are that obstacle's, not evidence of structure. A big person walking along their
+        own side keeps hitting the same cells for a second, as a wall does, and would stop their own track."""
+        on = np.zeros(len(points), dtype=bool)
+        moving = np.flatnonzero(self.confirmed & self.moving)
+        if not len(moving) or not len(points):
+            return on
+        with np.errstate(invalid="ignore"):
+            d = np.hypot(*(points[:, None, :] - self.state[None, moving, :2]).transpose(2, 0, 1))
+            on = (d <= self.radius[moving][None] + ON_TRACK_M).any(axis=1)
+        return on
 
     def _predict(self, dt: float) -> None:
         """Every track with a velocity to dt later; a track seen once stays where it was seen."""

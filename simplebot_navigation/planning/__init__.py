@@ -4,7 +4,7 @@ from pathlib import Path
 
 from simplebot_navigation.kernel_cache import drop_stale_kernel_caches
 
-drop_stale_kernel_caches(Path(__file__).parent, ("expansion_kernels", "path_kernels"))
+drop_stale_kernel_caches(Path(__file__).parent, ("expansion_kernels", "path_kernels", "space_time_kernels"))
 
 
 from simplebot_navigation.planning.config import GLOBAL_PLANNER, NAVFN, GlobalPlannerConfig, OrientationMode

@@ -103,3 +103,11 @@ def path_terms(poses, controls, velocity, dt, path, target, goal):
     previous = np.concatenate([np.broadcast_to(np.asarray(velocity, float), (n_batch, 1, 2)), controls[:, :-1]], axis=1)
     out[:, k.SMOOTH] = (((controls - previous) / dt) ** 2).sum(-1).mean(1)
     return out
+
+
+def guide_terms(poses, dt, guide):
+    """kernels.guide_terms, vectorised."""
+    strided = poses[:, ::k.STRIDE]
+    times = (np.arange(poses.shape[1])[::k.STRIDE] + 1) * dt
+    at = np.column_stack([np.interp(times, guide[:, 0], guide[:, 1]), np.interp(times, guide[:, 0], guide[:, 2])])
+    return np.hypot(*(strided[..., :2] - at[None]).transpose(2, 0, 1)).mean(1)

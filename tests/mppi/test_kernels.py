@@ -95,6 +95,18 @@ def test_path_terms_match_the_reference(seed):
     np.testing.assert_allclose(kernels.path_terms(*args), reference.path_terms(*args), atol=TOLERANCE, rtol=0)
 
 
+@pytest.mark.parametrize("seed", range(4))
+def test_guide_terms_match_the_reference(seed):
+    """A guide that waits, then goes, ending before the rollouts do (held at its end)."""
+    rng, state, sequence, noise, limits = scene(seed)
+    controls, poses = kernels.rollout(state, sequence, noise, limits, 0.05)
+    times = np.linspace(-0.05, 1.5, 16)
+    guide = np.column_stack([times, np.maximum(times - 0.5, 0.0) * rng.uniform(0.5, 1.0), 0.2 * np.sin(times)])
+    terms = kernels.guide_terms(poses, 0.05, guide)
+    np.testing.assert_allclose(terms, reference.guide_terms(poses, 0.05, guide), atol=TOLERANCE, rtol=0)
+    assert terms.min() < terms.max()
+
+
 def test_the_body_is_covered_by_its_circles():
     """Every point of the footprint lies in one of the circles; the round body is one circle of its radius."""
     for footprint in (BOX, ROUND):

@@ -1,6 +1,6 @@
 """The space-time search (planning/space_time.py) against answers known in closed form: the free run, a corridor
 closed until a known time (one safe interval after it), one closed for good, and a dead end an obstacle sweeps
-into, where no robot escapes."""
+into, where no robot escapes; and the paths it traces back through them."""
 
 from __future__ import annotations
 
@@ -77,3 +77,57 @@ def test_a_crossing_obstacle_delays_the_robot_or_not_never_speeds_it_up():
 def test_a_speed_that_is_not_positive_is_refused(speed):
     with pytest.raises(ValueError, match="speed"):
         corridor().earliest_arrival((0.0, 0.0), (5.0, 0.0), 0.1, speed, nothing, 0.0, 10.0)
+
+
+def way_to(x: float):
+    return lambda xy: np.abs(xy[:, 0] - x)
+
+
+def assert_drivable(search: SpaceTimeSearch, path, speed: float, discs) -> None:
+    """Every step of the path is within a step's travel, and every point is clear of the obstacle at its time."""
+    steps = np.hypot(*np.diff(path.xy, axis=0).T)
+    assert steps.max() <= speed * search.step_s(speed) + RES, steps.max()
+    for t, (x, y) in zip(path.times[1:], path.xy[1:]):
+        d = discs(t)
+        assert (np.hypot(*(d.centres - (x, y)).T) > d.radii).all(), (t, x, y)
+
+
+def test_with_nothing_in_the_way_the_path_drives_straight_to_the_goal_and_stays():
+    search = corridor()
+    path = search.path((0.0, 0.0), way_to(5.0), 1.0, nothing, 0.0, 8.0)
+    assert path.full and path.times[0] == 0.0 and path.times[-1] == pytest.approx(8.0, abs=search.step_s(1.0))
+    assert_drivable(search, path, 1.0, nothing)
+    there = np.flatnonzero(np.abs(path.xy[:, 0] - 5.0) <= RES)
+    assert len(there) and path.times[there[0]] <= 4.9 + 2 * search.step_s(1.0)        # as early as it can
+    assert (np.abs(path.xy[there[0]:, 0] - 5.0) <= RES).all()                          # then it waits there
+
+
+def test_a_corridor_closed_until_four_seconds_waits_before_the_obstacle_and_goes_in_time():
+    """The path goes up to the obstacle at once, waits there while it stands, and passes it once it is gone, to
+    arrive as early as the earliest arrival says."""
+    search, discs = corridor(), disc_at(2.5, 0.0, 0.5, until=4.0)
+    path = search.path((0.0, 0.0), way_to(5.0), 1.0, discs, 0.0, 10.0)
+    assert path.full
+    assert_drivable(search, path, 1.0, discs)
+    assert path.at(2.0)[0] == pytest.approx(1.7, abs=0.1)          # waiting before the obstacle by t = 2 s
+    assert path.at(3.9)[0] < 2.5 - 0.75 + RES
+    there = np.flatnonzero(np.abs(path.xy[:, 0] - 5.0) <= RES)
+    assert path.times[there[0]] <= 7.2 + 2 * search.step_s(1.0)
+
+
+def test_a_path_through_an_oncoming_obstacle_steps_aside_and_lets_it_pass():
+    """A corridor 1.5 m wide and an obstacle coming down its middle: the path takes a side and holds it."""
+    search = corridor(half_width=0.75)
+    discs = disc_at(6.0, 0.0, 0.25, vx=-1.0)
+    path = search.path((0.0, 0.0), way_to(5.0), 1.0, discs, 0.0, 8.0)
+    assert path.full
+    assert_drivable(search, path, 1.0, discs)
+    meeting = path.times[np.argmin(np.abs(path.xy[:, 0] - (6.0 - path.times)))]
+    assert np.abs(path.at(meeting)[1]) >= 0.5, meeting                 # beside the obstacle as it passes
+    assert path.xy[-1, 0] == pytest.approx(5.0, abs=RES)               # and past it, at the goal
+
+
+def test_a_robot_caught_in_a_dead_end_gets_a_path_only_until_it_is_caught():
+    search, discs = corridor(), disc_at(3.0, 0.0, 0.5, vx=-1.0)
+    path = search.path((0.0, 0.0), way_to(5.0), 1.0, discs, 0.0, 10.0)
+    assert path is not None and not path.full and path.times[-1] < 3.0
