@@ -114,15 +114,17 @@ class SpaceTimeGuide:
     space_time_guide: bool = param(True, "", "Here: follow a space-time path through the moving obstacles (false: "
                                    "the global plan ahead, as without moving obstacles)")
     guide_horizon: float = param(6.0, "s", "Here: how far ahead the space-time search looks", ge=1.0, le=15.0)
-    guide_resolution: float = param(0.1, "m", "Here: cell size of the search's grid around the robot", ge=0.05,
-                                    le=0.5)
+    guide_step: float = param(0.2, "s", "Here: the search's time step; its cells are as wide as half of what the "
+                              "robot travels in one (0.09 m at 0.9 m/s), so its cost does not grow with the speed",
+                              ge=0.05, le=1.0)
     guide_period: float = param(0.1, "s", "Here: the search runs again after this long", ge=0.0, le=2.0)
     guide_speed_share: float = param(0.9, "", "Here: the search plans at this share of vx_max (a diff drive must "
                                      "turn before it steps aside)", gt=0, le=1.0)
-    guide_clearance: float = param(0.1, "m", "Here: clearance the search keeps from every keep-out circle", ge=0,
+    guide_clearance: float = param(0.05, "m", "Here: clearance the search keeps from every keep-out circle", ge=0,
                                    le=1.0)
-    guide_radius_growth: float = param(0.3, "m/s", "Here: the search's keep-out circles grow this much per second "
-                                       "ahead, on top of dynamic_obstacle_radius_growth", ge=0, le=2.0)
+    guide_radius_growth: float = param(0.0, "m/s", "Here: the search's keep-out circles grow this much per second "
+                                       "ahead, on top of dynamic_obstacle_radius_growth (over a 6 s horizon any "
+                                       "growth closes a corridor to an oncoming person)", ge=0, le=2.0)
     guide_weight: float = param(5.0, "", "Here: mean distance of the rollout from where the space-time path is at "
                                 "the same time, per metre", ge=0, le=1000.0)
 

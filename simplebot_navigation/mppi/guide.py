@@ -2,7 +2,7 @@
 
 A sampling controller sees three seconds ahead and scores each rollout on its own; among a crowd it stops in front
 of a gap that opens a second later, or slips into one that closes. Every guide_period the guide runs the
-space-time wavefront (planning/space_time.py) on a grid around the robot: the local costmap's inscribed cells are
+space-time wavefront (planning/space_time.py) on a grid around the robot, in steps of guide_step (0.2 s): the local costmap's inscribed cells are
 static walls, the moving obstacles' predicted keep-out circles (grown by guide_radius_growth per second ahead)
 close cells step by step, and the robot moves at guide_speed_share x vx_max. Of the places reachable at the
 horizon it takes the one with the least way left along the global plan, and traces back how to be there; the
@@ -22,7 +22,7 @@ from scipy import ndimage
 from simplebot_navigation.mppi import kernels
 from simplebot_navigation.mppi.config import MppiConfig
 from simplebot_navigation.perception.prediction import MotionPrediction
-from simplebot_navigation.planning.space_time import MovingDiscs, SpaceTimePath, SpaceTimeSearch
+from simplebot_navigation.planning.space_time import STEP_CELLS, MovingDiscs, SpaceTimePath, SpaceTimeSearch
 
 #: spacing (m) of the plan points the way left is measured from
 PLAN_SPACING_M = 0.2
@@ -53,7 +53,8 @@ class SpaceTimeGuide:
         half = self.half_width()
         if len(plan_xy) == 0 or not _near(obstacles, state[:2], half + guide.guide_horizon * _speeds(obstacles)):
             return None
-        search = SpaceTimeSearch(*_static_free(costmap, state[:2], half, guide.guide_resolution))
+        cell = self.speed() * guide.guide_step / STEP_CELLS
+        search = SpaceTimeSearch(*_static_free(costmap, state[:2], half, cell))
         growth = guide.guide_radius_growth
 
         def discs_at(t: float) -> MovingDiscs:

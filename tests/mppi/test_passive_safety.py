@@ -34,10 +34,10 @@ def costmap_with(walls) -> Costmap2D:
     return costmap
 
 
-def drive(costmap, obstacle, start_speed: float, goal_x: float, seconds: float):
+def drive(costmap, obstacle, start_speed: float, goal_x: float, seconds: float, **params):
     """The robot from (0, 0, 0) at start_speed along the plan to (goal_x, 0) among one obstacle (x, y, vx, vy, r);
     per control period: time, robot (x, y, yaw, v, w), the gap between the bodies, the decision's kind."""
-    cfg = MppiConfig.from_params(speed_parameters(1.0))
+    cfg = MppiConfig.from_params({**speed_parameters(1.0), **params})
     controller = MppiController(cfg, footprint_from_radius(RADIUS), PERIOD)
     controller.set_plan(np.column_stack([np.linspace(0.0, goal_x, 200), np.zeros(200), np.zeros(200)]))
     robot = np.array([0.0, 0.0, 0.0, start_speed, 0.0])
