@@ -149,14 +149,13 @@ class ObstacleTracker:
         """(N,) whether each point lies on a moving track where it is predicted now (within its radius and
         ON_TRACK_M): such returns are that obstacle's, not evidence of structure. A big person walking along their
         own side keeps hitting the same cells for a second, as a wall does, and would stop their own track."""
-        on = np.zeros(len(points), dtype=bool)
         moving = np.flatnonzero(self.confirmed & self.moving)
         if not len(moving) or not len(points):
-            return on
-        with np.errstate(invalid="ignore"):
-            d = np.hypot(*(points[:, None, :] - self.state[None, moving, :2]).transpose(2, 0, 1))
-            on = (d <= self.radius[moving][None] + ON_TRACK_M).any(axis=1)
-        return on
+            return np.zeros(len(points), dtype=bool)
+        dx = points[:, 0, None] - self.state[None, moving, 0]
+        dy = points[:, 1, None] - self.state[None, moving, 1]
+        with np.errstate(invalid="ignore"):           # rows of beams without a return are NaN: on nothing
+            return (dx * dx + dy * dy <= (self.radius[moving] + ON_TRACK_M) ** 2).any(axis=1)
 
     def _predict(self, dt: float) -> None:
         """Every track with a velocity to dt later; a track seen once stays where it was seen."""
