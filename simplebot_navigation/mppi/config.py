@@ -120,11 +120,11 @@ class SpaceTimeGuide:
     guide_period: float = param(0.1, "s", "Here: the search runs again after this long", ge=0.0, le=2.0)
     guide_speed_share: float = param(0.9, "", "Here: the search plans at this share of vx_max (a diff drive must "
                                      "turn before it steps aside)", gt=0, le=1.0)
-    guide_clearance: float = param(0.05, "m", "Here: clearance the search keeps from every keep-out circle", ge=0,
+    guide_clearance: float = param(0.1, "m", "Here: clearance the search keeps from every keep-out circle", ge=0,
                                    le=1.0)
-    guide_radius_growth: float = param(0.0, "m/s", "Here: the search's keep-out circles grow this much per second "
-                                       "ahead, on top of dynamic_obstacle_radius_growth (over a 6 s horizon any "
-                                       "growth closes a corridor to an oncoming person)", ge=0, le=2.0)
+    guide_radius_growth: float = param(0.3, "m/s", "Here: the search's keep-out circles grow this much per second "
+                                       "ahead, on top of dynamic_obstacle_radius_growth (where this and "
+                                       "guide_clearance close every way, it runs again without both)", ge=0, le=2.0)
     guide_weight: float = param(5.0, "", "Here: mean distance of the rollout from where the space-time path is at "
                                 "the same time, per metre", ge=0, le=1000.0)
 

@@ -4,7 +4,8 @@ A sampling controller sees three seconds ahead and scores each rollout on its ow
 of a gap that opens a second later, or slips into one that closes. Every guide_period the guide runs the
 space-time wavefront (planning/space_time.py) on a grid around the robot, in steps of guide_step (0.2 s): the local costmap's inscribed cells are
 static walls, the moving obstacles' predicted keep-out circles (grown by guide_radius_growth per second ahead)
-close cells step by step, and the robot moves at guide_speed_share x vx_max. Of the places reachable at the
+close cells step by step, and the robot moves at guide_speed_share x vx_max. Where those margins close the ways
+ahead (a corridor to an oncoming person), the search runs again without them. Of the places reachable at the
 horizon it takes the one with the least way left along the global plan, and traces back how to be there; the
 rollouts are then scored against where that path is at each of their times (kernels.guide_terms), so the
 controller waits where the path waits and goes where it goes.
@@ -28,6 +29,9 @@ from simplebot_navigation.planning.space_time import STEP_CELLS, MovingDiscs, Sp
 PLAN_SPACING_M = 0.2
 #: the grid reaches this far (m) beyond the horizon's travel around the robot
 GRID_MARGIN_M = 1.0
+#: a path with the margins that makes less than this share of the progress the horizon allows is planned again
+#: without them, and that one taken if it gets further
+SLOW_SHARE = 0.25
 
 
 class SpaceTimeGuide:
@@ -55,14 +59,25 @@ class SpaceTimeGuide:
             return None
         cell = self.speed() * guide.guide_step / STEP_CELLS
         search = SpaceTimeSearch(*_static_free(costmap, state[:2], half, cell))
-        growth = guide.guide_radius_growth
+        cost = way_left(plan_xy)
 
-        def discs_at(t: float) -> MovingDiscs:
-            radii = prediction.radii(obstacles, [t])[:, 0] + reach + growth * t
-            return MovingDiscs(prediction.centres(obstacles, [t])[:, 0], radii, _speeds(obstacles))
+        def search_with(growth: float, clearance: float) -> SpaceTimePath | None:
+            def discs_at(t: float) -> MovingDiscs:
+                radii = prediction.radii(obstacles, [t])[:, 0] + reach + growth * t
+                return MovingDiscs(prediction.centres(obstacles, [t])[:, 0], radii, _speeds(obstacles))
+            return search.path(tuple(state[:2]), cost, self.speed(), discs_at, 0.0, guide.guide_horizon, clearance)
 
-        return search.path(tuple(state[:2]), way_left(plan_xy), self.speed(), discs_at, 0.0, guide.guide_horizon,
-                           guide.guide_clearance)
+        found = search_with(guide.guide_radius_growth, guide.guide_clearance)
+        if guide.guide_radius_growth == 0 and guide.guide_clearance == 0:
+            return found
+        start = cost(state[None, :2])[0]
+        progress = -math.inf if found is None or not found.full else start - cost(found.xy[-1:])[0]
+        if progress < SLOW_SHARE * self.speed() * guide.guide_horizon:
+            # the margins closed the ways ahead (a corridor to an oncoming person): without them, if that goes on
+            bare = search_with(0.0, 0.0)
+            if bare is not None and bare.full and start - cost(bare.xy[-1:])[0] > progress:
+                found = bare
+        return found
 
 
 def way_left(plan_xy: np.ndarray):
