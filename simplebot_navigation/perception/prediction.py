@@ -115,10 +115,18 @@ class MotionPrediction:
         return float(self.horizon), float(self.max_uncertainty), float(self.radius_growth)
 
 
+#: a moving obstacle is a person or a robot: its radius at most this (m), its speed at most MAX_SPEED_M_S and its
+#: position within MAX_COORDINATE_M of the frame's origin; a row beyond is not a real obstacle, and its squares
+#: would overflow the planners' arithmetic (obstacle_msgs.py refuses the same in another node's message)
+MAX_RADIUS_M = 5.0
+MAX_SPEED_M_S = 10.0
+MAX_COORDINATE_M = 1e4
+
+
 def checked_dynamic_obstacles(obstacles, covariance=None) -> tuple[np.ndarray, np.ndarray | None, str]:
     """set_dynamic_obstacles' input checked: (K, 5) rows x, y, vx, vy, radius and None or (K, 4, 4)
-    covariances over x, y, vx, vy. A wrong shape raises ValueError; rows with a non-finite value or a
-    negative radius, or whose covariance is not one (valid_covariances), are dropped. Returns the kept rows,
+    covariances over x, y, vx, vy. A wrong shape raises ValueError; rows with a non-finite value, a negative
+    radius or a value beyond the bounds above, or whose covariance is not one (valid_covariances), are dropped. Returns the kept rows,
     their covariances and what was dropped ("" if nothing)."""
     rows = np.asarray(obstacles, dtype=float)
     if rows.size == 0:
@@ -129,6 +137,13 @@ def checked_dynamic_obstacles(obstacles, covariance=None) -> tuple[np.ndarray, n
     dropped = []
     if not valid.all():
         dropped.append(f"{np.count_nonzero(~valid)} with a non-finite value or a negative radius")
+    with np.errstate(invalid="ignore", over="ignore"):
+        beyond = valid & ((np.abs(rows[:, :2]) > MAX_COORDINATE_M).any(axis=1) | (rows[:, 4] > MAX_RADIUS_M)
+                          | (np.hypot(rows[:, 2], rows[:, 3]) > MAX_SPEED_M_S))
+    if beyond.any():
+        dropped.append(f"{np.count_nonzero(beyond)} beyond {MAX_COORDINATE_M:g} m from the origin, a radius of "
+                       f"{MAX_RADIUS_M:g} m or a speed of {MAX_SPEED_M_S:g} m/s")
+    valid &= ~beyond
     cov = None
     if covariance is not None:
         cov = np.asarray(covariance, dtype=float)

@@ -14,6 +14,8 @@ from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
 from simplebot_navigation.perception import Track
+# an obstacle another node reports is a person or a robot: one beyond these bounds is dropped
+from simplebot_navigation.perception.prediction import MAX_COORDINATE_M, MAX_RADIUS_M, MAX_SPEED_M_S
 
 #: marker height of a tracked obstacle (m)
 MARKER_HEIGHT = 1.0
@@ -23,12 +25,6 @@ MAX_OBSTACLES = 100
 MAX_POLYGON_POINTS = 100
 MAX_POINTS = 1000
 MAX_FRAME_ID_BYTES = 256
-#: an obstacle another node reports is a person or a robot: its circle (radius, or the circle around its polygon)
-#: at most this (m), its speed at most MAX_SPEED_M_S and its points within MAX_COORDINATE_M of the frame's origin;
-#: an obstacle beyond is dropped
-MAX_RADIUS_M = 5.0
-MAX_SPEED_M_S = 10.0
-MAX_COORDINATE_M = 1e4
 
 
 def obstacle_array_msg(tracks: list[Track], frame: str, stamp: TimeMsg) -> ObstacleArrayMsg:
