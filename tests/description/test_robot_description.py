@@ -104,9 +104,9 @@ def test_bad_args_are_rejected(kwargs, match):
 
 
 def test_builtin_worlds():
-    assert builtin_worlds() == ["clutter", "doors", "empty", "lab"]
+    assert builtin_worlds() == ["clutter", "doors", "empty", "lab", "office"]
     assert world_path("lab").name == "lab.yaml"
-    with pytest.raises(ValueError, match="unknown world 'attic'; built-in worlds: clutter, doors, empty, lab"):
+    with pytest.raises(ValueError, match="unknown world 'attic'; built-in worlds: clutter, doors, empty, lab, office"):
         world_path("attic")
     with pytest.raises(ValueError, match="unknown world"):
         world_path("../worlds/lab")

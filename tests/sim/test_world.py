@@ -8,6 +8,7 @@ import pytest
 from simplebot_description import robot_description, world_path
 from simplebot_navigation.sim import (
     World, clutter_world, door_goal_name, doors_world, load_world, world_from_dict, write_world)
+from simplebot_navigation.sim.office import office_world
 
 from .reachability import reachable_goals
 
@@ -70,7 +71,8 @@ def test_clutter_world_that_cannot_fit_fails():
         clutter_world(0, n_boxes=200)
 
 
-@pytest.mark.parametrize("name, generated", [("doors", doors_world(0.6)), ("clutter", clutter_world(0))])
+@pytest.mark.parametrize("name, generated", [("doors", doors_world(0.6)), ("clutter", clutter_world(0)),
+                                             ("office", office_world())])
 def test_shipped_generated_worlds_match_their_generator(name, generated):
     assert load_world(name).to_dict() == generated.to_dict()
 
@@ -138,7 +140,7 @@ def test_bad_world_files_name_file_and_entry(tmp_path, text, message):
 
 def test_unknown_world_name_lists_builtins():
     with pytest.raises(ValueError, match=r"world 'attic': not a built-in world "
-                                         r"\(clutter, doors, empty, lab\)"):
+                                         r"\(clutter, doors, empty, lab, office\)"):
         load_world("attic")
 
 
