@@ -4,7 +4,7 @@ Layers, lowest first; a module may import its own layer and the layers below, ne
   geometry, paths, parameters, pluginlib, web_host  shared math, file locations, the parameter layer, the plugin
                                                     registries' base, Host checks
   costmap, planning, teb, mppi, sim, move_base,     the navigation core: plain Python, no ROS
-  safety, perception, maps, localization
+  safety, perception, maps, localization, slam
   ros                                               the nodes and their ROS shells
   launch, scenarios, viewer, testing                what a user runs (and what tests and benches share)
 Within a layer, two packages import each other one way at most (scenarios/ uses launch/, never back).
@@ -27,7 +27,8 @@ ROOT = Path(__file__).resolve().parents[1] / PACKAGE
 LAYERS = [
     {"geometry", "geometry_kernels", "paths", "parameters", "pluginlib", "kernel_cache", "web_host", "laser_scan",
      "log_throttle", ""},
-    {"costmap", "planning", "teb", "mppi", "sim", "move_base", "safety", "perception", "maps", "localization"},
+    {"costmap", "planning", "teb", "mppi", "sim", "move_base", "safety", "perception", "maps", "localization",
+     "slam"},
     {"ros"},
     {"launch", "scenarios", "viewer", "testing"},
 ]
@@ -35,7 +36,8 @@ LAYERS = [
 ROS_LAYERS = [
     {"conversions", "poses", "tf", "qos", "params", "publishers", "executor", "lifecycle_state", "node_main", ""},
     {"costmap"},
-    {"move_base", "amcl", "simulator", "tools", "collision_monitor_node", "map_server_node", "map_saver_node"},
+    {"move_base", "amcl", "simulator", "tools", "collision_monitor_node", "map_server_node", "map_saver_node",
+     "slam"},
 ]
 CORE = LAYERS[1] | {"geometry", "parameters"}
 MAX_LINES = 400
