@@ -7,9 +7,7 @@ may move it later on ``initialpose`` (RViz's and the viewer's 2D Pose Estimate, 
 """
 
 from simplebot_navigation.launch.description import Arg, Group, Node, Param, Remap, RosParam
-from simplebot_navigation.launch.simplebot_args import NAMESPACE, WORLD
-from simplebot_navigation.sim.starts import parse_starts
-from simplebot_navigation.sim.world_loader import load_world
+from simplebot_navigation.launch.simplebot_args import NAMESPACE, WORLD, start_pose
 
 CONFIG = "$(find simplebot_navigation)/config"
 
@@ -21,19 +19,8 @@ ARGS = [
 ]
 
 
-def initial_pose(args: dict[str, str]) -> tuple[float, float, float]:
-    if args["initial_pose"].strip():
-        poses = parse_starts(args["initial_pose"])
-        if len(poses) != 1:
-            raise ValueError(f"initial_pose:={args['initial_pose']!r} must be one x,y,yaw")
-        pose = poses[0]
-    else:
-        pose = load_world(args["world"]).start
-    return pose.x, pose.y, pose.yaw
-
-
 def generate(args: dict[str, str]) -> list:
-    x, y, yaw = initial_pose(args)
+    x, y, yaw = start_pose(args["world"], args["initial_pose"])
     prefix = f"{args['namespace']}/" if args["namespace"] else ""
     return [Group(ns=args["namespace"], children=[
         Node(pkg="amcl", type="amcl", name="amcl", output="screen", respawn=args["respawn"], params=[

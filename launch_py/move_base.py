@@ -9,7 +9,7 @@ overridden below.
 
 from simplebot_navigation.launch.description import Arg, Group, Include, Node, Param, Remap, RosParam
 from simplebot_navigation.launch.simplebot_args import (COLLISION_MONITOR, MAP, MAPPED, MAX_SPEED, MOVING_OBSTACLES,
-                                                        NAMESPACE)
+                                                        NAMESPACE, SLAM)
 from simplebot_navigation.launch.simplebot_args import TIGHT as TIGHT_ARG
 
 CONFIG = "$(find simplebot_navigation)/config"
@@ -38,6 +38,7 @@ LAUNCH = [
     MAP,
     MAX_SPEED,
     MOVING_OBSTACLES,
+    SLAM,
 
     Param("/use_sim_time", True),
 
@@ -82,9 +83,12 @@ LAUNCH = [
           for costmap in ("global_costmap", "local_costmap") for laser, scan in LASERS.items()
           for key, value in (("sensor_frame", f"{PREFIX}{laser}_link"), ("topic", f"{laser}/{scan}"))),
 
-        # Navigating on a map: the global costmap in amcl's map frame with the map as its static layer (after the
-        # namespace's frames above: the map frame is shared by all robots).
+        # Navigating on a map: the global costmap in amcl's (or slam's) map frame with the map as its static layer
+        # (after the namespace's frames above: the map frame is shared by all robots).
         RosParam(file=f"{CONFIG}/map/costmap_global_map.yaml", ns="move_base", if_=MAPPED),
+        # ... except with a slam per robot: each robot's own map, in its namespace.
+        Param("move_base/global_costmap/static_layer/map_topic", "map",
+              if_="$(eval slam == 'true' and namespace != '')"),
 
         # The last word on every command: the scans against the body, in a process of its own.
         Node(pkg="simplebot_navigation", type="collision_monitor", name="collision_monitor", output="screen",

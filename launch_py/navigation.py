@@ -5,9 +5,9 @@ start, the global costmap is in ``map`` with the map as its static layer, and th
 """
 
 from simplebot_navigation.launch.description import Arg, Include, Node, Param
-from simplebot_navigation.launch.simplebot_args import (COLLISION_MONITOR, ENCODER_NOISE, INITIAL_POSE, MAP,
-                                                        MAPPED, MAX_SPEED, MOVING_OBSTACLES, NAMESPACE, RADIUS,
-                                                        ROBOT, RTF, TIGHT,
+from simplebot_navigation.launch.simplebot_args import (COLLISION_MONITOR, ENCODER_NOISE, EXPLORE, GIVEN_MAP,
+                                                        INITIAL_POSE, MAP, MAPPED, MAX_SPEED, MOVING_OBSTACLES,
+                                                        NAMESPACE, RADIUS, ROBOT, RTF, SLAM, TIGHT,
                                                         WITH_ENCODER_NOISE, WORLD)
 from simplebot_navigation.web_host import FOXGLOVE_ALLOWED_ORIGINS
 
@@ -37,22 +37,29 @@ LAUNCH = [
     ENCODER_NOISE,
     MAX_SPEED,
     MOVING_OBSTACLES,
+    SLAM,
+    EXPLORE,
 
     Include(file=f"{LAUNCH_DIR}/simulator.py", args={
         "world": "$(arg world)", "robot": "$(arg robot)", "radius": "$(arg radius)", "rtf": "$(arg rtf)",
         "respawn": "$(arg respawn)", "namespaces": "$(arg namespace)", "encoder_noise": WITH_ENCODER_NOISE,
-        "map_to_odom": "$(eval map == '')", "max_speed": "$(arg max_speed)"}),
+        "map_to_odom": "$(eval map == '' and slam != 'true')", "max_speed": "$(arg max_speed)"}),
     Include(file=f"{LAUNCH_DIR}/move_base.py", args={
         "robot": "$(arg robot)", "radius": "$(arg radius)", "tight": "$(arg tight)", "respawn": "$(arg respawn)",
         "namespace": "$(arg namespace)", "collision_monitor": "$(arg collision_monitor)", "map": "$(arg map)",
-        "max_speed": "$(arg max_speed)", "moving_obstacles": "$(arg moving_obstacles)"}),
+        "max_speed": "$(arg max_speed)", "moving_obstacles": "$(arg moving_obstacles)", "slam": "$(arg slam)"}),
 
     # Navigation on a map: the map_server's map and amcl on it.
     Node(pkg="map_server", type="map_server", name="map_server", output="screen", respawn="$(arg respawn)",
-         if_=MAPPED, params=[Param("yaml_filename", "$(arg map)")]),
-    Include(file=f"{LAUNCH_DIR}/amcl.py", if_=MAPPED, args={
+         if_=GIVEN_MAP, params=[Param("yaml_filename", "$(arg map)")]),
+    Include(file=f"{LAUNCH_DIR}/amcl.py", if_=GIVEN_MAP, args={
         "world": "$(arg world)", "namespace": "$(arg namespace)", "initial_pose": "$(arg initial_pose)",
         "respawn": "$(arg respawn)"}),
+
+    # Or the map built while driving, and the frontiers driven to.
+    Include(file=f"{LAUNCH_DIR}/slam.py", if_="$(arg slam)", args={
+        "world": "$(arg world)", "namespace": "$(arg namespace)", "initial_pose": "$(arg initial_pose)",
+        "explore": "$(arg explore)", "respawn": "$(arg respawn)"}),
 
     Node(pkg="simplebot_navigation", type="viewer", name="viewer", output="screen", respawn="$(arg respawn)",
          if_="$(arg viewer)", params=[

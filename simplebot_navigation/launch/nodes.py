@@ -23,6 +23,8 @@ EXECUTABLES: dict[tuple[str, str], Executable] = {
                                                             "FoxgloveBridge"),
     ("map_server", "map_server"): Executable("simplebot_navigation.ros.map_server_node", "MapServerNode"),
     ("map_server", "map_saver"): Executable("simplebot_navigation.ros.map_saver_node", None),
+    ("simplebot_navigation", "slam"): Executable("simplebot_navigation.ros.slam.slam_node", "SlamNode"),
+    ("simplebot_navigation", "explore"): Executable("simplebot_navigation.ros.slam.explore_node", "ExploreNode"),
 }
 
 

@@ -158,6 +158,8 @@ class _Session(abc.ABC):
     executor: SingleThreadedExecutor | None = None
     #: navigating on this map (a map YAML or a world's name); empty: in odom, the lab's way
     map_name: str = ""
+    #: navigating on the map the slam node builds (in the world's frame, as a world's exported map is)
+    slam: bool = False
 
     @property
     @abc.abstractmethod
@@ -224,7 +226,7 @@ class _Session(abc.ABC):
 
     def goal_message(self, goal: Pose2D) -> MoveBase.Goal:
         """A goal in odom, or on a map in ``map``: a map exported from the world has the world's coordinates."""
-        on_map = bool(self.map_name)
+        on_map = bool(self.map_name) or self.slam
         x, y, yaw = (goal.x, goal.y, goal.yaw) if on_map else self.to_odom(goal.x, goal.y, goal.yaw)
         msg = MoveBase.Goal()
         pose: PoseStamped = msg.target_pose
@@ -275,18 +277,21 @@ class _Session(abc.ABC):
 def launch_args(world: str, robot: str, radius: float, rtf: float, tight: bool,
                 respawn: bool = False, foxglove_port: int | None = None,
                 collision_monitor: bool = True, map_name: str = "", max_speed: float | None = None,
-                moving_obstacles: bool = True) -> dict[str, str]:
+                moving_obstacles: bool = True, slam: bool = False) -> dict[str, str]:
     """The navigation launch file's arguments for a session; by default a node that dies is not respawned,
     so a scenario shows the crash instead of hiding it. With a foxglove_port (0: a free one) the run is
     also served to the Foxglove app on 127.0.0.1. With a map_name (a map YAML or a world) it runs on a map. With a
     max_speed the drive and move_base's speed parameters follow it (docs/reference.md §10). Without
-    moving_obstacles nothing is tracked or predicted (every obstacle is a costmap mark)."""
+    moving_obstacles nothing is tracked or predicted (every obstacle is a costmap mark). With slam the map is built
+    while driving (docs/reference.md §13)."""
     args = {"world": str(world), "robot": robot, "radius": str(radius), "rtf": str(rtf),
             "tight": "true" if tight else "false", "respawn": "true" if respawn else "false",
             "collision_monitor": "true" if collision_monitor else "false",
             "moving_obstacles": "true" if moving_obstacles else "false"}
     if map_name:
         args["map"] = map_name
+    if slam:
+        args["slam"] = "true"
     if max_speed is not None:
         args["max_speed"] = repr(float(max_speed))
     if foxglove_port is not None:
@@ -300,16 +305,18 @@ class NavigationSession(_Session):
     def __init__(self, world: str = "lab", robot: str = "box", radius: float = 0.3, rtf: float = 0.0,
                  seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation", tight: bool = False,
                  overrides: tuple[str, ...] = (), foxglove_port: int | None = None, collision_monitor: bool = True,
-                 map_name: str = "", max_speed: float | None = None, moving_obstacles: bool = True):
+                 map_name: str = "", max_speed: float | None = None, moving_obstacles: bool = True,
+                 slam: bool = False):
         if not (math.isfinite(rtf) and rtf >= 0):
             raise ValueError(f"rtf must be >= 0 (0: lockstep), got {rtf!r}")
         self.description = robot_description(robot, radius)
         self.world = load_world(world, robot_radius=self.description.inscribed_radius)
         self.rtf = rtf
-        self.map_name = map_name
+        self.map_name, self.slam = map_name, slam
         config = load_launch(launch_file, launch_args(world, robot, radius, rtf, tight, foxglove_port=foxglove_port,
                                                       collision_monitor=collision_monitor, map_name=map_name,
-                                                      max_speed=max_speed, moving_obstacles=moving_obstacles))
+                                                      max_speed=max_speed, moving_obstacles=moving_obstacles,
+                                                      slam=slam))
         apply_set(config, speed_assignments(config, list(overrides))[0] + list(overrides))
         self.context = rclpy.Context()
         rclpy.init(context=self.context)
@@ -330,6 +337,8 @@ class NavigationSession(_Session):
                         spec = dataclasses.replace(spec, parameters={**spec.parameters, "watchdog_timeout": 0.0})
                     elif spec.name == "collision_monitor" and rtf == 0:    # nor a wall-clock guard
                         spec = dataclasses.replace(spec, parameters={**spec.parameters, "scan_silence_timeout": 0.0})
+                    elif spec.name == "slam" and rtf == 0:     # every scan, in order: a run repeats
+                        spec = dataclasses.replace(spec, parameters={**spec.parameters, "synchronous": True})
                     cls = getattr(importlib.import_module(exe.module), exe.node_class)
                     self.nodes.append(cls(cli_args=ros_args(spec, write_params_file(spec, run_dir)),
                                           use_global_arguments=False, context=self.context))
