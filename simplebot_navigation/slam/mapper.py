@@ -3,8 +3,8 @@
 A scan becomes a node once the robot has moved ``minimum_travel_distance`` or turned ``minimum_travel_heading``
 since the last one (slam_toolbox's rule). Its pose is first odometry's guess from the last node, then the scan
 matcher's against the running buffer (the last ``scan_buffer_size`` nodes within
-``scan_buffer_maximum_scan_distance``). Two edges tie it to the last node: odometry's, with a spread growing with
-the travel, and the match's, with the matcher's covariance and a robust kernel.
+``scan_buffer_maximum_scan_distance``). One edge ties it to the last node: the match's, with the matcher's covariance
+and a robust kernel, or, where the match is not trusted, odometry's, with a spread growing with the travel.
 
 Loop closure: nodes within ``loop_search_maximum_distance`` that the robot passed long enough ago (further along
 the trajectory than the running buffer reaches) form a chain of at least ``loop_match_minimum_chain_size``; the
@@ -39,6 +39,8 @@ MAX_NODES = 20_000
 #: per metre, and a loop closure must be able to bend odometry's chain, not the matched one.
 ODOM_SIGMA_XY = (0.02, 0.1)
 ODOM_SIGMA_YAW = (0.01, 0.02, 0.1)
+#: the spread of a node placed without odometry or a match (after a restart): a metre and a radian
+UNLINKED = np.diag([1.0, 1.0, 1.0])
 #: the matcher's covariance is floored here: a perfect response is not a perfect pose
 MATCH_FLOOR = np.diag([0.01 ** 2, 0.01 ** 2, 0.005 ** 2])
 #: occupancy probability of a cell a beam ends in, and of one it crosses: a cell needs two returns more than
@@ -151,13 +153,18 @@ class Mapper:
         return np.diag([s_xy ** 2, s_xy ** 2, s_yaw ** 2])
 
     def _link(self, index: int, odom_pose, pose, match: Match | None) -> None:
+        """The match's edge to the last node, or odometry's where there is no trusted match. Not both: odometry's
+        heading drifts by a bias (a wheel's scale error), not by noise, and beside a chain of matched edges it would
+        make the robust kernel take the matches for the outliers."""
         previous = tuple(self.graph.poses[index - 1])
-        if self._last_odom is not None:
-            relative = compose2(inverse2(self._last_odom), odom_pose)
-            self.graph.add_edge(index - 1, index, relative, self._odometry_covariance(odom_pose), "odometry")
         if match is not None and match.response >= self.params.link_match_minimum_response_fine:
             self.graph.add_edge(index - 1, index, compose2(inverse2(previous), pose),
                                 self._edge_covariance(match, previous[2]), "scan")
+        elif self._last_odom is not None:
+            relative = compose2(inverse2(self._last_odom), odom_pose)
+            self.graph.add_edge(index - 1, index, relative, self._odometry_covariance(odom_pose), "odometry")
+        else:       # odometry restarted and no match: where map -> odom put it, loosely
+            self.graph.add_edge(index - 1, index, compose2(inverse2(previous), pose), UNLINKED, "odometry")
 
     @staticmethod
     def _edge_covariance(match: Match, frame_yaw: float) -> np.ndarray:
