@@ -239,6 +239,8 @@ class Mapper:
 
     # -- localization on a loaded session -------------------------------------------------------
     def _localize(self, odom_pose, scan: ScanPoints) -> Update:
+        if not self.scans:
+            raise ValueError("localization: no map to localize on (load a session: map_file_name, deserialize_map)")
         if self._localization_grid is None:
             occupancy = self.occupancy_map()
             self._localization_grid = CorrelationGrid.from_occupancy(

@@ -9,14 +9,17 @@ the launch does, so map, truth and exported map compare cell for cell.
 from __future__ import annotations
 
 import math
+import os
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
+import yaml
 from scipy import ndimage
 
 from simplebot_description import robot_description
 from simplebot_navigation.maps.map_io import OccupancyMap
+from simplebot_navigation.paths import package_share
 from simplebot_navigation.sim.diff_drive import OdomNoise
 from simplebot_navigation.sim.map_export import export_map
 from simplebot_navigation.sim.simulator import SimplebotSim
@@ -44,28 +47,40 @@ class SlamRun:
     add_scan_s: list[float] = field(default_factory=list)                       # wall time of each add_scan
     sim_time: float = 0.0
     reached: bool = False
+    final_odometry: tuple[float, float, float] = (0.0, 0.0, 0.0)                # in the odom frame, at the end
+    final_truth: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+def configured_params(**overrides) -> SlamParams:
+    """config/slam/slam.yaml, as the launch gives it to the slam node, with ``overrides``."""
+    path = os.path.join(package_share("simplebot_navigation"), "config", "slam", "slam.yaml")
+    with open(path, encoding="utf-8") as f:
+        return SlamParams.from_params({**yaml.safe_load(f), **overrides})
 
 
 def drive(world: World, goals: list[Pose2D], params: SlamParams, speed: float = 1.0, seed: int = 0,
-          odom_noise: OdomNoise = ENCODER_NOISE, time_limit_s: float = 1200.0) -> SlamRun:
-    """Drive from the world's start through ``goals`` (route planned on the true map), mapping as it goes."""
+          odom_noise: OdomNoise = ENCODER_NOISE, time_limit_s: float = 1200.0, mapper: Mapper | None = None,
+          start: tuple[float, float, float] | None = None) -> SlamRun:
+    """Drive from the world's start through ``goals`` (route planned on the true map), mapping as it goes: into
+    ``mapper`` (a new one by default), which is told the robot starts at ``start`` (default: the world's start)."""
     description = robot_description("box")
     follower = PathFollower(planned_route(world, goals, description.inscribed_radius), speed)
     sensors = {frame: (p[0], p[1], p[3]) for frame, p in description.laser_poses.items()}
-    mapper = Mapper(params)
-    run = SlamRun(mapper)
-    start = (world.start.x, world.start.y, world.start.yaw)
+    run = SlamRun(mapper if mapper is not None else Mapper(params))
+    start = start or (world.start.x, world.start.y, world.start.yaw)
     with SimplebotSim(world, description, seed=seed, odom_noise=odom_noise) as sim:
         odom = sim.odometry()
-        mapper.set_pose(start, (odom.x, odom.y, odom.yaw))
+        run.mapper.set_pose(start, (odom.x, odom.y, odom.yaw))
         while not follower.done and sim.sim_time < time_limit_s:
             truth = sim.ground_truth()
             sim.set_cmd_vel(*follower.command(truth.x, truth.y, truth.yaw))
             sim.step()
             scans = sim.due_scans()
             if scans:
-                _map_scans(run, sim, scans, sensors, start)
+                _map_scans(run, sim, scans, sensors, (world.start.x, world.start.y, world.start.yaw))
+        odom, truth = sim.odometry(), sim.ground_truth()
         run.sim_time, run.reached = sim.sim_time, follower.done
+        run.final_odometry, run.final_truth = (odom.x, odom.y, odom.yaw), (truth.x, truth.y, truth.yaw)
     return run
 
 
