@@ -20,6 +20,9 @@ MAX_BUFFER = 1000           # scans in the running buffer or a loop chain
 MAX_INTERVAL = 3600.0       # s
 _SOLVER = "the pose graph is optimised by gtsam's Levenberg-Marquardt (slam/pose_graph.py), not Ceres"
 _INTERACTIVE = "slam_toolbox's interactive mode (moving nodes in rviz) is not offered"
+_SEARCH = ("the search runs at the map's resolution over every heading a cell apart at the farthest return, then "
+           "refines the pose continuously")
+_LOG_ODDS = "the map is kept in log-odds: occupied_threshold and free_threshold (ours) decide a cell"
 
 
 @dataclass
@@ -107,6 +110,44 @@ class SlamParams:
     ceres_loss_function: str = param("None", "", "Ceres loss; here matching edges always have a Cauchy kernel",
                                      not_implemented=_SOLVER)
     enable_interactive_mode: bool = param(True, "", "rviz interactive markers", not_implemented=_INTERACTIVE)
+    ceres_dogleg_type: str = param("TRADITIONAL_DOGLEG", "", "Ceres dogleg", not_implemented=_SOLVER)
+    scan_topic: str = param("/scan", "", "slam_toolbox's one laser topic", not_implemented="scan_topics (ours) "
+                            "names the topics, both lidars by default", restart=True)
+    map_name: str = param("/map", "", "topic of the map", not_implemented="the map goes out on map (remap it)")
+    debug_logging: bool = param(False, "", "verbose logs", not_implemented="the node logs at its log level "
+                                "(--ros-args --log-level)")
+    transform_timeout: float = param(0.2, "s", "how long a scan waits for its transform", ge=0.0, le=10.0,
+                                     not_implemented="a scan whose odometry transform is not there yet is dropped")
+    tf_buffer_duration: float = param(30.0, "s", "TF buffer length", ge=0.0, le=MAX_INTERVAL,
+                                      not_implemented="the transform buffer keeps tf2's 10 s")
+    stack_size_to_use: int = param(40_000_000, "", "thread stack size", ge=0, le=2 ** 31 - 1,
+                                   not_implemented="nothing here recurses deeply")
+    scan_queue_size: int = param(1, "", "scans queued while busy", ge=0, le=1000,
+                                 not_implemented="asynchronous: a scan that comes while the mapper is busy is dropped")
+    use_scan_barycenter: bool = param(True, "", "measure travel from the scan's barycenter",
+                                      not_implemented="travel is the base frame's, from odometry")
+    link_scan_maximum_distance: float = param(1.5, "m", "nodes within this are linked to a new one", ge=0.0,
+                                              le=MAX_RANGE,
+                                              not_implemented="a new node is linked to the last one (and to loops)")
+    fine_search_angle_offset: float = param(0.00349, "rad", "heading window of the fine search", ge=0.0,
+                                            le=math.pi, not_implemented=_SEARCH)
+    coarse_angle_resolution: float = param(0.0349, "rad", "heading step of the coarse search", ge=0.0, le=math.pi,
+                                           not_implemented=_SEARCH)
+    correlation_search_space_resolution: float = param(0.01, "m", "step of the matching search", ge=0.0, le=1.0,
+                                                       not_implemented=_SEARCH)
+    loop_search_space_resolution: float = param(0.05, "m", "step of the loop search", ge=0.0, le=1.0,
+                                                not_implemented=_SEARCH)
+    loop_match_maximum_variance_coarse: float = param(3.0, "", "largest covariance of an accepted coarse loop "
+                                                      "match", ge=0.0, le=1e6,
+                                                      not_implemented="a closure must pass the fine match's response")
+    use_response_expansion: bool = param(True, "", "widen the search when the response is low",
+                                         not_implemented="the window is searched exhaustively once")
+    min_pass_through: int = param(2, "", "beams through a cell before it counts", ge=0, le=1000,
+                                  not_implemented=_LOG_ODDS)
+    occupancy_threshold: float = param(0.1, "", "share of hits to passes for an occupied cell", ge=0.0, le=1.0,
+                                       not_implemented=_LOG_ODDS)
+    map_start_at_dock: bool = param(False, "", "start at the dock of a loaded session",
+                                    not_implemented="map_start_pose or initialpose place the robot")
     warnings: list[str] = field(default_factory=list)
 
     @classmethod

@@ -18,6 +18,7 @@ from __future__ import annotations
 import math
 import sys
 import threading
+from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 
 from geometry_msgs.msg import PoseWithCovarianceStamped, TransformStamped
@@ -39,8 +40,8 @@ from simplebot_navigation.ros.params import declare_defaults, given_parameter_tr
 from simplebot_navigation.ros.publishers import create_publisher
 from simplebot_navigation.ros.qos import LATCHED, SERVICE_QOS
 from simplebot_navigation.ros.slam.slam_messages import ScanMerger, graph_markers
-from simplebot_navigation.ros.tf import (Buffer, ExtrapolationException, TransformBroadcaster, TransformException,
-                                         TransformListener, strip_frame)
+from simplebot_navigation.ros.tf import (Buffer, TransformBroadcaster, TransformException, TransformListener,
+                                         strip_frame)
 from simplebot_navigation.slam import session
 from simplebot_navigation.slam.mapper import Mapper
 from simplebot_navigation.slam.params import SlamParams
@@ -50,8 +51,11 @@ MAX_SCAN_TOPICS = 8
 #: a scan stamped this far ahead of the node's clock is dropped; one this far behind the newest means time went back
 MAX_SCAN_AHEAD_S = 1.0
 TIME_JUMP_BACK_S = 1.0
-#: how long a merged scan waits for its odometry transform
+#: how long a merged scan waits for its odometry transform (as a tf2 message filter), how often it looks again,
+#: and how many merged scans wait at most
 MAX_SCAN_WAIT_S = 0.5
+RETRY_PERIOD_S = 0.02
+MAX_PENDING = 32
 
 
 class SlamNode(SetUpNode):
@@ -75,6 +79,8 @@ class SlamNode(SetUpNode):
         self._worker = None if p.synchronous else ThreadPoolExecutor(max_workers=1, thread_name_prefix="slam")
         self._busy = threading.Event()
         self._merger = ScanMerger(self.topics)
+        self._pending: deque[tuple[int, int, object]] = deque(maxlen=MAX_PENDING)   # (stamp, arrival, points)
+        self._odom_error: TransformException | None = None
         self._sensor_poses: dict[str, tuple[float, float, float]] = {}
         self._newest_ns, self._last_used_ns, self._count = -1, -(10 ** 18), 0
         self._map_to_odom: tuple[float, float, float] | None = None
@@ -94,6 +100,8 @@ class SlamNode(SetUpNode):
         self.create_service(LoadMap, "~/deserialize_map", self._on_deserialize, qos_profile=SERVICE_QOS)
         if p.transform_publish_period > 0:
             self.create_timer(p.transform_publish_period, self._send_map_to_odom)
+        self._retry = self.create_timer(RETRY_PERIOD_S, self._use_pending)
+        self._retry.cancel()
         self.add_on_set_parameters_callback(self._on_set_parameters)
         if self.mapper is not None and self.mapper.scans:
             self._publish_map(self.mapper, self.get_clock().now().to_msg())
@@ -127,6 +135,8 @@ class SlamNode(SetUpNode):
             new = SlamParams.from_params(values)
         except (ParameterError, ValueError) as err:
             return SetParametersResult(successful=False, reason=str(err))
+        for warning in set(new.warnings) - set(self.params.warnings):
+            self.get_logger().warn(warning)
         self.params = new
         if self.mapper is not None:
             self._on_worker(setattr, self.mapper, "params", new)
@@ -134,52 +144,84 @@ class SlamNode(SetUpNode):
 
     # -- scans ----------------------------------------------------------------------------------
     def _on_scan(self, topic: str, msg: LaserScan) -> None:
-        stamp_ns = Time.from_msg(msg.header.stamp).nanoseconds
-        now_ns = self.get_clock().now().nanoseconds
-        if msg.header.stamp.sec < 0 or stamp_ns > now_ns + MAX_SCAN_AHEAD_S * 1e9:
-            self.get_logger().warn(f"{topic}: scan dropped: stamp {stamp_ns * 1e-9:.3f} s is negative or more than "
-                                   f"{MAX_SCAN_AHEAD_S:g} s ahead of the clock", throttle_duration_sec=5.0)
+        stamp = msg.header.stamp
+        stamp_ns, now_ns = stamp.sec * 10 ** 9 + stamp.nanosec, self.get_clock().now().nanoseconds
+        if stamp.sec < 0 or stamp_ns > now_ns + MAX_SCAN_AHEAD_S * 1e9:
+            why = "negative" if stamp.sec < 0 else f"{(stamp_ns - now_ns) * 1e-9:.3f} s ahead of the clock"
+            self.get_logger().warn(f"{topic}: scan dropped: stamp {stamp_ns * 1e-9:.3f} s is {why} (at most "
+                                   f"{MAX_SCAN_AHEAD_S:g} s ahead)", throttle_duration_sec=5.0)
             return
         if stamp_ns < self._newest_ns - TIME_JUMP_BACK_S * 1e9:
             self._restart_after_time_jump(topic, stamp_ns)
         self._newest_ns = max(self._newest_ns, stamp_ns)
         p = self.params
         try:
-            points = scan_points(msg.ranges, msg.angle_min, msg.angle_increment, max(msg.range_min, p.min_laser_range),
-                                 msg.range_max, self._sensor_pose(strip_frame(msg.header.frame_id)), p.max_laser_range)
+            range_min = max(msg.range_min, p.min_laser_range)
+            points = scan_points(msg.ranges, msg.angle_min, msg.angle_increment, range_min, msg.range_max,
+                                 self._sensor_pose(strip_frame(msg.header.frame_id)), p.max_laser_range)
+            if not len(points):
+                raise ValueError(f"none of its {len(msg.ranges)} ranges is usable (NaN, -inf or below range_min "
+                                 f"{range_min:g} m)")
+            ready = self._merger.add(topic, stamp_ns, points)
         except (ValueError, TransformException) as err:
             self.get_logger().warn(f"{topic}: scan dropped: {err}", throttle_duration_sec=5.0)
             return
-        for moment_ns, merged in self._merger.add(topic, stamp_ns, points):
-            self._use(moment_ns, merged)
+        for moment_ns, merged in ready:
+            self._count += 1
+            if self._count % p.throttle_scans == 0:
+                self._pending.append((moment_ns, now_ns, merged))
+        self._use_pending()
 
     def _sensor_pose(self, frame: str) -> tuple[float, float, float]:
         if frame not in self._sensor_poses:
             self._sensor_poses[frame] = transform_to_xyyaw(self.tf.lookup_transform(self.base_frame, frame, Time()))
         return self._sensor_poses[frame]
 
-    def _use(self, stamp_ns: int, points) -> None:
-        """Hand a merged scan to the mapper, unless it is throttled, too soon, or the mapper is still busy."""
+    def _use_pending(self) -> None:
+        """The merged scans in order, each once the odometry at its stamp is known; one whose odometry does not come
+        within MAX_SCAN_WAIT_S, or cannot come any more (odometry is newer), is dropped with a warning."""
+        while self._pending:
+            stamp_ns, arrival_ns, points = self._pending[0]
+            if not self._use(stamp_ns, points):
+                waited = (self.get_clock().now().nanoseconds - arrival_ns) * 1e-9
+                if waited <= MAX_SCAN_WAIT_S and not self._odometry_newer_than(stamp_ns):
+                    if self._retry.is_canceled():
+                        self._retry.reset()
+                    return
+                self.get_logger().warn(f"scan dropped: no {self.odom_frame} -> {self.base_frame} transform at its "
+                                       f"stamp {stamp_ns * 1e-9:.3f} s (waited {max(waited, 0.0):.2f} s): "
+                                       f"{self._odom_error}", throttle_duration_sec=5.0)
+            self._pending.popleft()
+        self._retry.cancel()
+
+    def _odometry_newer_than(self, stamp_ns: int) -> bool:
+        try:
+            newest = self.tf.lookup_transform(self.odom_frame, self.base_frame, Time()).header.stamp
+        except TransformException:
+            return False
+        return newest.sec * 10 ** 9 + newest.nanosec > stamp_ns
+
+    def _use(self, stamp_ns: int, points) -> bool:
+        """Hand a merged scan to the mapper, unless it is too soon or the mapper is still busy; False while the
+        odometry at its stamp is not known."""
         if self.mapper is None:
             self.get_logger().warn("no map to localize on: set map_file_name or call deserialize_map",
                                    throttle_duration_sec=10.0)
-            return
-        self._count += 1
-        p = self.params
-        if self._count % p.throttle_scans or stamp_ns - self._last_used_ns < p.minimum_time_interval * 1e9:
-            return
+            return True
+        if stamp_ns - self._last_used_ns < self.params.minimum_time_interval * 1e9:
+            return True
         try:
             odom = transform_to_xyyaw(self.tf.lookup_transform(self.odom_frame, self.base_frame, Time(
                 nanoseconds=stamp_ns)))
         except TransformException as err:
-            if not isinstance(err, ExtrapolationException):
-                self.get_logger().warn(f"scan dropped: {err}", throttle_duration_sec=5.0)
-            return
+            self._odom_error = err
+            return False
         if self._busy.is_set():
-            return
+            return True
         self._last_used_ns = stamp_ns
         self._busy.set()
         self._on_worker(self._map_scan, self.mapper, odom, points, stamp_ns)
+        return True
 
     def _on_worker(self, fn, *args):
         """fn(*args) on the mapper's thread, after what is queued there (at once when synchronous); its result."""
@@ -212,6 +254,7 @@ class SlamNode(SetUpNode):
         self.tf.clear()
         self._sensor_poses.clear()
         self._merger.clear()
+        self._pending.clear()
         self._newest_ns, self._last_used_ns, self._last_map_ns = -1, -(10 ** 18), -(10 ** 18)
         if self.mapper is not None:
             self._on_worker(self.mapper.restart_odometry)
