@@ -116,8 +116,8 @@ class SlamParams:
     map_name: str = param("/map", "", "topic of the map", not_implemented="the map goes out on map (remap it)")
     debug_logging: bool = param(False, "", "verbose logs", not_implemented="the node logs at its log level "
                                 "(--ros-args --log-level)")
-    transform_timeout: float = param(0.2, "s", "how long a scan waits for its transform", ge=0.0, le=10.0,
-                                     not_implemented="a scan whose odometry transform is not there yet is dropped")
+    transform_timeout: float = param(0.2, "s", "how long a scan waits for its odometry transform before it is "
+                                     "dropped", ge=0.0, le=10.0)
     tf_buffer_duration: float = param(30.0, "s", "TF buffer length", ge=0.0, le=MAX_INTERVAL,
                                       not_implemented="the transform buffer keeps tf2's 10 s")
     stack_size_to_use: int = param(40_000_000, "", "thread stack size", ge=0, le=2 ** 31 - 1,

@@ -56,7 +56,8 @@ def load(name: str | Path, params: SlamParams) -> Mapper:
     except FileNotFoundError:
         raise ValueError(f"{path}: no such file") from None
     except (OSError, ValueError, EOFError, zipfile.BadZipFile) as err:
-        raise ValueError(f"{path}: not a readable session file ({err})") from None
+        reason = "it holds pickled data" if "pickle" in str(err) else str(err)
+        raise ValueError(f"{path}: not a readable session file ({reason})") from None
     try:
         return _mapper(arrays, params)
     except (KeyError, IndexError, TypeError) as err:

@@ -8,7 +8,7 @@ import numpy as np
 from geometry_msgs.msg import Point
 from visualization_msgs.msg import Marker, MarkerArray
 
-from simplebot_navigation.slam.scan_points import ScanPoints
+from simplebot_navigation.slam.scan_points import MAX_BEAMS, ScanPoints
 
 #: scans of one moment differ in stamp by at most this (the simulator stamps both lidars alike; real drivers jitter)
 SAME_MOMENT_NS = 20_000_000
@@ -25,8 +25,13 @@ class ScanMerger:
         self._moments: OrderedDict[int, dict[str, ScanPoints]] = OrderedDict()
 
     def add(self, topic: str, stamp_ns: int, points: ScanPoints) -> list[tuple[int, ScanPoints]]:
-        """The moments now ready, oldest first, each as (stamp, merged scan)."""
+        """The moments now ready, oldest first, each as (stamp, merged scan); ValueError, before anything changes,
+        when the scan and the other lidars' of its moment hold more than MAX_BEAMS beams together."""
         key = next((k for k in self._moments if abs(k - stamp_ns) <= SAME_MOMENT_NS), stamp_ns)
+        others = sum(len(p) for t, p in self._moments.get(key, {}).items() if t != topic)
+        if others + len(points) > MAX_BEAMS:
+            raise ValueError(f"{len(points)} beams and the other lidars' {others} of its moment: more than the "
+                             f"{MAX_BEAMS} a merged scan may hold")
         self._moments.setdefault(key, {})[topic] = points
         complete = [k for k, parts in self._moments.items() if len(parts) == len(self.topics)]
         ready = []

@@ -1,7 +1,8 @@
 """slam: slam.Mapper behind slam_toolbox's topics, frames and services (docs/reference.md §13).
 
 In: the scans of every topic in ``scan_topics`` (both lidars; one moment's scans are merged), odometry as TF
-(``odom_frame`` -> ``base_frame`` at each scan's stamp), ``initialpose``. Out: ``map`` and ``map_metadata``
+(``odom_frame`` -> ``base_frame`` at each scan's stamp; a scan waits up to transform_timeout for it, as behind a
+tf2 message filter), ``initialpose``. Out: ``map`` and ``map_metadata``
 (latched, every map_update_interval and at once after a loop closure), ``map_frame`` -> ``odom_frame`` on /tf
 (post-dated by transform_tolerance after the newest scan, so that it goes stale without scans, as amcl's does),
 ``~/graph`` (visualization_msgs/MarkerArray). Services: ``~/save_map`` (nav2_msgs/SaveMap: map_server YAML +
@@ -53,7 +54,6 @@ MAX_SCAN_AHEAD_S = 1.0
 TIME_JUMP_BACK_S = 1.0
 #: how long a merged scan waits for its odometry transform (as a tf2 message filter), how often it looks again,
 #: and how many merged scans wait at most
-MAX_SCAN_WAIT_S = 0.5
 RETRY_PERIOD_S = 0.02
 MAX_PENDING = 32
 
@@ -147,9 +147,10 @@ class SlamNode(SetUpNode):
         stamp = msg.header.stamp
         stamp_ns, now_ns = stamp.sec * 10 ** 9 + stamp.nanosec, self.get_clock().now().nanoseconds
         if stamp.sec < 0 or stamp_ns > now_ns + MAX_SCAN_AHEAD_S * 1e9:
-            why = "negative" if stamp.sec < 0 else f"{(stamp_ns - now_ns) * 1e-9:.3f} s ahead of the clock"
-            self.get_logger().warn(f"{topic}: scan dropped: stamp {stamp_ns * 1e-9:.3f} s is {why} (at most "
-                                   f"{MAX_SCAN_AHEAD_S:g} s ahead)", throttle_duration_sec=5.0)
+            why = "negative" if stamp.sec < 0 else (f"{(stamp_ns - now_ns) * 1e-9:.3f} s ahead of the clock (at "
+                                                    f"most {MAX_SCAN_AHEAD_S:g} s may be)")
+            self.get_logger().warn(f"{topic}: scan dropped: stamp {stamp_ns * 1e-9:.3f} s is {why}",
+                                   throttle_duration_sec=5.0)
             return
         if stamp_ns < self._newest_ns - TIME_JUMP_BACK_S * 1e9:
             self._restart_after_time_jump(topic, stamp_ns)
@@ -179,12 +180,12 @@ class SlamNode(SetUpNode):
 
     def _use_pending(self) -> None:
         """The merged scans in order, each once the odometry at its stamp is known; one whose odometry does not come
-        within MAX_SCAN_WAIT_S, or cannot come any more (odometry is newer), is dropped with a warning."""
+        within transform_timeout, or cannot come any more (odometry is newer), is dropped with a warning."""
         while self._pending:
             stamp_ns, arrival_ns, points = self._pending[0]
             if not self._use(stamp_ns, points):
                 waited = (self.get_clock().now().nanoseconds - arrival_ns) * 1e-9
-                if waited <= MAX_SCAN_WAIT_S and not self._odometry_newer_than(stamp_ns):
+                if waited <= self.params.transform_timeout and not self._odometry_newer_than(stamp_ns):
                     if self._retry.is_canceled():
                         self._retry.reset()
                     return
@@ -269,8 +270,14 @@ class SlamNode(SetUpNode):
         except (ValueError, TransformException) as err:
             self.get_logger().warn(f"initialpose ignored: {err}")
             return
-        self._on_worker(self.mapper.set_pose, (x, y, yaw), odom)
+        self._on_worker(self._set_pose, self.mapper, (x, y, yaw), odom)
         self.get_logger().info(f"initial pose ({x:.3f}, {y:.3f}, {math.degrees(yaw):.1f} deg) in {self.map_frame}")
+
+    def _set_pose(self, mapper: Mapper, pose, odom) -> None:
+        """On the worker: the robot is at ``pose`` now; map -> odom follows at once."""
+        mapper.set_pose(pose, odom)
+        self._map_to_odom = mapper.map_to_odom
+        self._send_map_to_odom()
 
     # -- outputs --------------------------------------------------------------------------------
     def _publish_map(self, mapper: Mapper, stamp) -> None:
