@@ -2,6 +2,8 @@
 
     .venv/bin/python bench/realtime.py [--goals nw_office,library] [--stress 2] [--baseline ../other-checkout]
     .venv/bin/python bench/realtime.py --arg map:=lab --stress 0    # on a map: amcl's CPU too, goals in map
+    .venv/bin/python bench/realtime.py --arg slam:=true --goals="-4.5,0,3.14;-7.5,0,3.14;-8,4.5,1.57;-2.5,3,0;-1,0,0" \
+        --stress 0                                                # mapping: slam's CPU, goals in the map being built
     .venv/bin/python bench/realtime.py --world crowd:2 --arg robot:=round --arg radius:=0.25 --arg tight:=true \
         --set TebLocalPlannerROS.max_vel_x=1.0 ... --stress 0      # a crowd world: 24 moving obstacles in view
     .venv/bin/python bench/realtime.py --world forest:3 --arg robot:=round --arg radius:=0.25 --arg tight:=true \
@@ -11,7 +13,8 @@ Each run starts ``python -m simplebot_navigation.launch navigation world:=lab rt
 own process, as a user runs it; ``--world``, ``--arg`` and ``--set`` change what it starts), sends the tour's goals one after the other through the move_base
 action and measures, only while a goal is active ("while driving"):
 
-  CPU %       utime + stime of the move_base, simulator, collision_monitor and (with map:=...) amcl processes
+  CPU %       utime + stime of the move_base, simulator, collision_monitor and (with map:=...) amcl, (with
+              slam:=true) slam processes
               (/proc/<pid>/stat, all threads), as a percentage of one core; "/sim s" is move_base's
               per simulated second, which stays comparable when a loaded machine makes the simulator
               fall behind; "-" for a process the version does not run.
@@ -77,7 +80,7 @@ from simplebot_navigation.sim.world_loader import load_world  # noqa: E402
 from simplebot_navigation.testing.proc_stats import cpu_seconds, loadavg, start_stress, stop_stress  # noqa: E402
 
 WORLD = "lab"
-NODES = ("move_base", "simulator", "collision_monitor", "amcl")
+NODES = ("move_base", "simulator", "collision_monitor", "amcl", "slam")
 LOOP_STATUS = "move_base: control loop"
 LATE_FACTOR = 1.5
 WARM_UP_S = 2.0          # sim seconds before the first goal, as the scenario runner waits
@@ -234,7 +237,8 @@ class Run:
     def send(self, goal: Pose2D, start: Pose2D, budget_s: float) -> int:
         """Send a goal (world frame), wait for its result (cancel after budget_s); its final status. On a map
         (map:=...) the goal is in map, which is the world frame."""
-        on_map = any(arg.startswith("map:=") and arg != "map:=" for arg in self.version.launch_args)
+        on_map = any(arg.startswith("map:=") and arg != "map:=" or arg == "slam:=true"
+                     for arg in self.version.launch_args)
         x, y, yaw = (goal.x, goal.y, goal.yaw) if on_map else \
             pose_in_frame((start.x, start.y, start.yaw), (goal.x, goal.y, goal.yaw))
         msg = MoveBase.Goal()
@@ -306,7 +310,7 @@ def percentiles(values: list[float]) -> str:
 
 def table(results: list[RunResult], period_ms: float) -> str:
     header = (f"{'version':40} {'load':9} {'goals':>5} {'mb CPU%':>7} {'/sim s':>6} {'sim CPU%':>8} {'cm CPU%':>7} "
-              f"{'amcl CPU%':>9} "
+              f"{'amcl CPU%':>9} {'slam CPU%':>9} "
               f"{'cycle p50/p95/max ms':>21} "
               f"{'missed%':>7} {'cmd_vel p50/p95/max ms':>23} {'late%':>6} {'load1':>5}")
     lines = [header, "-" * len(header)]
@@ -318,7 +322,7 @@ def table(results: list[RunResult], period_ms: float) -> str:
         late = (f"{100 * np.mean(np.asarray(r.intervals_ms) > LATE_FACTOR * period_ms):.2f}"
                 if r.intervals_ms else "-")
         lines.append(f"{r.version:40} {r.load:9} {f'{r.goals_reached}/{r.goals}':>5} {cpu['move_base']:>7} "
-                     f"{per_sim:>6} {cpu['simulator']:>8} {cpu['collision_monitor']:>7} {cpu['amcl']:>9} "
+                     f"{per_sim:>6} {cpu['simulator']:>8} {cpu['collision_monitor']:>7} {cpu['amcl']:>9} {cpu['slam']:>9} "
                      f"{percentiles(r.cycle_ms):>21} {missed:>7} "
                      f"{percentiles(r.intervals_ms):>23} {late:>6} {r.loadavg:>5}"
                      + (f"  ({r.error})" if r.error else ""))
