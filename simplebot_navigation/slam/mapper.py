@@ -184,7 +184,8 @@ class Mapper:
 
     def _match_buffer(self, scan: ScanPoints, prior) -> Match:
         p = self.params
-        grid = CorrelationGrid.from_points(self._points(self._buffer() or [len(self.scans) - 1]), p.resolution,
+        grid = CorrelationGrid.from_points(self._points(self._buffer() or [len(self.scans) - 1]),
+                                           p.correlation_search_space_resolution,
                                            p.correlation_search_space_smear_deviation)
         return self._matcher().match(grid, scan.returns, prior)
 
@@ -221,12 +222,14 @@ class Mapper:
         p, pose = self.params, tuple(self.graph.poses[index])
         points = self._points(chain)
         coarse = ScanMatcher(p.loop_search_space_dimension / 2, p.coarse_search_angle_offset).match(
-            CorrelationGrid.from_points(points, p.resolution, p.correlation_search_space_smear_deviation),
+            CorrelationGrid.from_points(points, p.loop_search_space_resolution,
+                                        p.correlation_search_space_smear_deviation),
             scan.returns, pose)
         if coarse.response < p.loop_match_minimum_response_coarse:
             return False
         fine = ScanMatcher(*FINE_WINDOW).match(
-            CorrelationGrid.from_points(points, p.resolution, p.loop_search_space_smear_deviation),
+            CorrelationGrid.from_points(points, p.correlation_search_space_resolution,
+                                        p.loop_search_space_smear_deviation),
             scan.returns, coarse.pose)
         if fine.response < p.loop_match_minimum_response_fine:
             return False

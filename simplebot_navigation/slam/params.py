@@ -20,8 +20,8 @@ MAX_BUFFER = 1000           # scans in the running buffer or a loop chain
 MAX_INTERVAL = 3600.0       # s
 _SOLVER = "the pose graph is optimised by gtsam's Levenberg-Marquardt (slam/pose_graph.py), not Ceres"
 _INTERACTIVE = "slam_toolbox's interactive mode (moving nodes in rviz) is not offered"
-_SEARCH = ("the search runs at the map's resolution over every heading a cell apart at the farthest return, then "
-           "refines the pose continuously")
+_SEARCH = ("the search steps by every heading that moves the farthest return by a cell of its grid, then refines "
+           "the pose continuously")
 _LOG_ODDS = "the map is kept in log-odds: occupied_threshold and free_threshold (ours) decide a cell"
 
 
@@ -133,10 +133,11 @@ class SlamParams:
                                             le=math.pi, not_implemented=_SEARCH)
     coarse_angle_resolution: float = param(0.0349, "rad", "heading step of the coarse search", ge=0.0, le=math.pi,
                                            not_implemented=_SEARCH)
-    correlation_search_space_resolution: float = param(0.01, "m", "step of the matching search", ge=0.0, le=1.0,
-                                                       not_implemented=_SEARCH)
-    loop_search_space_resolution: float = param(0.05, "m", "step of the loop search", ge=0.0, le=1.0,
-                                                not_implemented=_SEARCH)
+    correlation_search_space_resolution: float = param(0.01, "m", "cell of the matching grid (and of the fine loop "
+                                                       "match): the search's step, before the continuous refinement",
+                                                       ge=0.005, le=1.0)
+    loop_search_space_resolution: float = param(0.05, "m", "cell of the coarse loop search's grid", ge=0.005,
+                                                le=1.0)
     loop_match_maximum_variance_coarse: float = param(3.0, "", "largest covariance of an accepted coarse loop "
                                                       "match", ge=0.0, le=1e6,
                                                       not_implemented="a closure must pass the fine match's response")
