@@ -13,6 +13,11 @@ One cycle, as amcl's laserReceived runs it for every scan:
    towards resample_interval (amcl counts each laser's message), and resampling happens when the count reaches it.
 3. ``estimate()``: the heaviest cluster's mean with amcl's covariance; amcl publishes it after each resampling.
 
+Global relocalization (relocalization.py, ours): ``global_localization()`` spreads the particles uniformly, as amcl,
+and once the next scans are in (every laser's, or one laser's second) puts them round the scan matcher's best poses
+over the whole map; recovery's injected particles come from those candidates too, matched anew at most every
+recovery_match_interval of the scans' stamps. global_localization_candidates 0 keeps amcl's uniform spreading.
+
 ``reset()`` (time went backwards) starts over as if constructed anew: particles around initial_pose_* (which the
 node may have updated from the last estimate, save_pose_rate) and the generator re-seeded.
 """
@@ -30,6 +35,7 @@ from simplebot_navigation.localization.laser_models import LaserModel, RangeScan
 from simplebot_navigation.localization.map_grid import AmclMap
 from simplebot_navigation.localization.motion_model import angle_diff, sample_motion
 from simplebot_navigation.localization.particle_filter import ParticleFilter
+from simplebot_navigation.localization.relocalization import Relocalizer
 from simplebot_navigation.parameters import fields_of
 
 #: the narrowest spread a filter restarted on a new map keeps (m^2 and rad^2: 1 cm, 0.6 deg)
@@ -47,13 +53,18 @@ class Amcl:
         self.params = params
         self.map = AmclMap(map_data, resolution, origin)
         self.laser = LaserModel(params, self.map)
+        self.relocalizer = Relocalizer(self.map, map_data)
         self.reset()
 
     def reset(self) -> None:
         """Forget everything: particles around the initial_pose_* parameters, a fresh generator from ``seed``."""
         p = self.params
         self.filter = ParticleFilter(p, self.map, np.random.default_rng(p.seed))
+        self.filter.injector = self._recovery_poses
+        self.relocalizer.forget()
         self._odom_reference: np.ndarray | None = None
+        self._odom_latest = np.zeros(3)                 # the last odometry pose given, moved or not
+        self._stamp: float | None = None                # the last scans' stamp, if the caller gives stamps
         self._update_due = True
         self._sources_used: set[str] = set()     # the lasers weighed since the particles last moved
         self._force_update = False
@@ -82,13 +93,17 @@ class Amcl:
                              f"{np.round(np.linalg.eigvalsh(cov), 6).tolist()}") from None
         self.filter.init_gaussian((x, y, yaw), cov)
         self._restarted()
+        self.relocalizer.pending = False        # a pose given wins over a global localization still to seed
         if self.params.force_update_after_initialpose:
             self._force_update = True
 
     def global_localization(self) -> None:
-        """Spread max_particles particles uniformly over the free cells (amcl's global_localization service)."""
+        """Spread max_particles particles uniformly over the free cells (amcl's global_localization service); unless
+        global_localization_candidates is 0, the next scans then seed them round the matcher's candidates."""
         self.filter.init_uniform()
         self._restarted()
+        if self.params.global_localization_candidates > 0:
+            self.relocalizer.request()
 
     def request_nomotion_update(self) -> None:
         """Make the next odometry update move the particles and the next sensor update weigh them, whether the
@@ -106,6 +121,7 @@ class Amcl:
         pose = np.array(odom_pose, dtype=float)           # a copy: the caller may reuse its array
         if pose.shape != (3,) or not np.all(np.isfinite(pose)):
             raise ValueError(f"odometry pose: expected finite (x, y, yaw), got {odom_pose!r}")
+        self._odom_latest = pose
         if self._odom_reference is None:
             self._odom_reference = pose
             self._update_due = True
@@ -128,13 +144,22 @@ class Amcl:
         self._sources_used = set()
         return True
 
-    def sensor_update(self, scans: list[RangeScan], source: str = "") -> bool:
+    def sensor_update(self, scans: list[RangeScan], source: str = "", stamp: float | None = None) -> bool:
         """Weigh the particles with the scans of one ``source`` (a laser), and resample every resample_interval
         scans: once per source after each motion update, as amcl updates each of its lasers once (lidars are
         seldom in step, so each one's next scan counts). True if the scans were used. ValueError naming the field
-        of a malformed scan (nothing changes then)."""
+        of a malformed scan or a non-finite ``stamp`` (nothing changes then).
+
+        Every call's scans are kept for the matcher, used or not; a global localization due to be seeded is seeded
+        first (and these scans then weigh the seeded particles). ``stamp`` (s, the scans' time) bounds how often
+        recovery matches; without stamps recovery injects uniform particles, as amcl."""
         for scan in scans:
             scan.check()
+        if stamp is not None and not math.isfinite(stamp):
+            raise ValueError(f"stamp: must be finite, got {stamp!r}")
+        self._stamp = stamp
+        if self.relocalizer.observe(source, scans, self._odom_latest) and self._seed():
+            self._sources_used = set()
         if source in self._sources_used:
             return False
         grid_poses = self.map.to_grid(self.filter.poses)
@@ -150,6 +175,25 @@ class Amcl:
         self._update_due = False
         self._sources_used.add(source)
         return True
+
+    def _particle_odom(self) -> np.ndarray:
+        """The odometry pose the particles stand for (the last one they moved to, else the last given)."""
+        return self._odom_reference if self._odom_reference is not None else self._odom_latest
+
+    def _seed(self) -> bool:
+        """Global localization's particles round the matcher's candidates; False (uniform ones stay, and the
+        seeding waits for the next scans) when the kept scans give none."""
+        p, odom = self.params, self._particle_odom()
+        if not self.relocalizer.match(odom, self._stamp, p):
+            return False
+        self.filter.restart(self.relocalizer.poses(p.max_particles, p, odom, self.filter.rng,
+                                                   self.filter.random_poses))
+        self.relocalizer.pending = False
+        return True
+
+    def _recovery_poses(self, n: int) -> np.ndarray:
+        return self.relocalizer.recovery_poses(n, self.params, self._particle_odom(), self._stamp, self.filter.rng,
+                                               self.filter.random_poses)
 
     def reconfigure(self, params: AmclParams) -> None:
         """New parameters while running (a live change), the particles kept; a change of max_particles takes

@@ -16,6 +16,7 @@ import math
 from dataclasses import dataclass, field
 
 from simplebot_navigation.parameters import ParameterError, build, fields_of, param
+from simplebot_navigation.slam.scan_matcher import MAX_CANDIDATES
 
 LASER_MODELS = ("likelihood_field", "beam", "likelihood_field_prob")
 ODOM_MODELS = ("diff", "diff-corrected", "omni", "omni-corrected")
@@ -33,6 +34,7 @@ MAX_RATE = 100.0                # Hz
 MAX_BEAMS = 100_000             # readings of one scan
 MAX_LIKELIHOOD_DIST = 100.0     # m: capped distances to the nearest obstacle
 MAX_ALPHA = 100.0               # odometry noise factors (the cfg's sliders stop at 10)
+MAX_RECOVERY_MATCH_INTERVAL = 3600.0  # s: an hour; a longer wait is as good as never matching
 _NODE = "amcl's ROS node offers no diagnostics and no set_map service"
 _UNUSED_IN_ROS1 = "ROS 1's amcl reads it but never uses it either"
 _OMNI = "odom_alpha5 is the strafe noise of the omni models; a differential drive does not strafe"
@@ -142,6 +144,17 @@ class AmclParams:
     seed: int = param(0, "", "seed of the filter's random generator (ours: ROS 1 seeds from the clock); the same "
                       "seed, map and inputs give the same particles", ge=0, le=2 ** 32 - 1,
                       restart=True)
+    global_localization_candidates: int = param(15, "", "global localization and recovery put their particles "
+                                                "round this many of the scan matcher's best poses over the whole "
+                                                "map (ours); 0: uniformly over the free space, as amcl", ge=0,
+                                                le=MAX_CANDIDATES, rounds=True)
+    global_localization_uniform_share: float = param(0.1, "", "share of those particles spread uniformly over the "
+                                                     "free space all the same, so that candidates that all miss "
+                                                     "the robot can still be recovered from", ge=0.0, le=1.0)
+    recovery_match_interval: float = param(5.0, "s", "least time (the scans' stamps) between two whole-map matches "
+                                           "for recovery's injected particles (each costs 0.1-0.4 s on the lab's "
+                                           "map); between them the last candidates, moved by the odometry, are "
+                                           "reused", ge=0.0, le=MAX_RECOVERY_MATCH_INTERVAL)
     warnings: list[str] = field(default_factory=list)
 
     @property

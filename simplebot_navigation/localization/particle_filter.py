@@ -6,7 +6,8 @@
 - Resampling draws particles in proportion to their weight (amcl's plain multinomial draw, not the low-variance
   sampler), each one instead a random pose on a free cell with probability max(0, 1 - w_fast / w_slow), and stops
   as soon as the particles drawn exceed the KLD bound for the number of 0.5 m x 0.5 m x 10 deg bins they fill
-  (kld_err, kld_z, within min_particles and max_particles). After an injection both averages restart. With
+  (kld_err, kld_z, within min_particles and max_particles). The injected poses come from ``injector``: uniform
+  free cells, or what Amcl sets (the scan matcher's candidates). After an injection both averages restart. With
   selective_resampling the particles are kept as they are while the effective sample size 1 / sum(w^2) is above
   half their number.
 - Convergence (for beam skipping): every particle within 0.5 m of the unweighted mean in x and in y.
@@ -17,6 +18,7 @@ All randomness comes from one numpy Generator, so the same seed and inputs give 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -43,17 +45,19 @@ class ParticleFilter:
         self.w_slow = self.w_fast = 0.0
         self.n_effective = float(params.max_particles)
         self.converged = False
+        #: n poses for recovery's injection (amcl's uniformPoseGenerator unless Amcl sets its matcher's)
+        self.injector: Callable[[int], np.ndarray] = self.random_poses
 
     def init_gaussian(self, mean, covariance: np.ndarray) -> None:
         """max_particles particles drawn from N(mean, covariance) (amcl's pf_init)."""
         n = self.params.max_particles
         draws = self.rng.standard_normal((n, 3)) @ np.linalg.cholesky(covariance).T + np.asarray(mean)
         draws[:, 2] = wrap(draws[:, 2])
-        self._restart(draws)
+        self.restart(draws)
 
     def init_uniform(self) -> None:
         """max_particles particles on random free cells with random yaw (global localization)."""
-        self._restart(self.random_poses(self.params.max_particles))
+        self.restart(self.random_poses(self.params.max_particles))
 
     def random_poses(self, n: int) -> np.ndarray:
         """n poses at the centres of uniformly drawn free cells, yaw uniform in [-pi, pi) (amcl's
@@ -64,7 +68,8 @@ class ParticleFilter:
         out[:, 2] = self.rng.uniform(-math.pi, math.pi, n)
         return out
 
-    def _restart(self, poses: np.ndarray) -> None:
+    def restart(self, poses: np.ndarray) -> None:
+        """These particles, equally weighted, and the recovery averages started over."""
         self.poses = poses
         self.weights = np.full(len(poses), 1.0 / len(poses))
         self.w_slow = self.w_fast = 0.0
@@ -103,7 +108,7 @@ class ParticleFilter:
         w_diff = self.injection_probability()
         cumulative = np.concatenate(([0.0], np.cumsum(self.weights)))
         u_pick, u_inject = self.rng.random(max_n), self.rng.random(max_n)
-        random_poses = self.random_poses(max_n) if w_diff > 0.0 else np.zeros((0, 3))
+        random_poses = self.injector(max_n) if w_diff > 0.0 else np.zeros((0, 3))
         out = np.empty((max_n, 3))
         count = kernels.kld_resample(self.poses, cumulative, u_pick, u_inject, random_poses, w_diff, BIN_XY,
                                      BIN_YAW, YAW_BINS, p.min_particles, max_n, p.kld_err, p.kld_z, out)

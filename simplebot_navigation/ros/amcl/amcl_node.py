@@ -234,7 +234,10 @@ class AmclNode(SetUpNode):
             self.get_logger().warn("global_localization: no map yet")
             return response
         self.amcl.global_localization()
-        self.get_logger().info(f"global localization: {len(self.amcl.particles)} particles over the free space")
+        seeded = "; the next scans seed them round the scan matcher's candidates" if self.amcl.relocalizer.pending \
+            else ""
+        self.get_logger().info(f"global localization: {len(self.amcl.particles)} particles over the free space"
+                               + seeded)
         return response
 
     def _on_nomotion_update(self, _request, response):
@@ -294,7 +297,7 @@ class AmclNode(SetUpNode):
             self._resume_saved(t, odom)
         try:
             self.amcl.odometry_update(odom)
-            updated = self.amcl.sensor_update([scan], source=topic)
+            updated = self.amcl.sensor_update([scan], source=topic, stamp=t)
         except ValueError as err:
             self._warn_dropped(topic, msg, err)
             return True
