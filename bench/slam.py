@@ -1,7 +1,7 @@
 """SLAM against the truth: the mapper on scripted drives through the lab and around the office's corridor loop, with
 the launch's drifting encoders, side by side with odometry alone.
 
-    python bench/slam.py [--drives lab,office] [--seeds 0,1,2] [--speed 1.0]
+    python bench/slam.py [--drives lab,office] [--seeds 0,1,2] [--speed 1.0] [--save-maps DIR]
 
 Each drive runs the pure mapper (slam.Mapper with config/slam/slam.yaml, as navigation slam:=true runs it) on the
 simulator without ROS: the robot follows a route planned on the world's map by pure pursuit on the true pose, so every
@@ -21,7 +21,8 @@ corridor loop round the block (101 m) and on past the start to the kitchen. Per 
   optimise     gtsam's Levenberg-Marquardt on a 1000-node graph with 100 loop edges (once per run, median of 5)
 
 Lines "odometry only" are the same drive with use_scan_matching and do_loop_closing off: the map odometry alone
-draws.
+draws. ``--save-maps DIR`` writes each slam map as DIR/<drive>_<seed>.yaml + .pgm (map_server's format), to navigate
+on: ``python -m simplebot_navigation.scenarios --world lab --map DIR/lab_0.yaml``.
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from simplebot_navigation.maps.map_io import save_map  # noqa: E402
 from simplebot_navigation.sim.world import Pose2D  # noqa: E402
 from simplebot_navigation.sim.world_loader import load_world  # noqa: E402
 from simplebot_navigation.slam.pose_graph import PoseGraph  # noqa: E402
@@ -52,12 +54,15 @@ def routes() -> dict[str, tuple[str, list[Pose2D]]]:
     return {"lab": ("lab", [*lab.goals, lab.start]), "office": ("office", loop)}
 
 
-def one(world_name: str, goals: list[Pose2D], seed: int, speed: float, odometry_only: bool) -> dict:
+def one(world_name: str, goals: list[Pose2D], seed: int, speed: float, odometry_only: bool,
+        save_as: Path | None = None) -> dict:
     world = load_world(world_name)
     overrides = {"use_scan_matching": False, "do_loop_closing": False} if odometry_only else {}
     run = drive(world, goals, configured_params(**overrides), speed=speed, seed=seed)
     mapper = run.mapper
     score = map_score(mapper.occupancy_map(), world, run)
+    if save_as is not None:
+        save_map(mapper.occupancy_map(), save_as, "trinary", 0.65, 0.25)
     node_times = np.array(run.add_scan_s) * 1e3
     return {"reached": run.reached, "sim_s": run.sim_time, "nodes": len(mapper.scans),
             "ate": trajectory_rmse(mapper.graph.poses, run.truth), "odom": trajectory_rmse(run.odometry, run.truth),
@@ -95,6 +100,7 @@ def main() -> int:
     parser.add_argument("--drives", default="lab,office")
     parser.add_argument("--seeds", default="0,1,2")
     parser.add_argument("--speed", type=float, default=1.0)
+    parser.add_argument("--save-maps", type=Path, help="a folder for the slam maps (map_server YAML + PGM)")
     args = parser.parse_args()
     table = routes()
     seeds = [int(s) for s in args.seeds.split(",")]
@@ -107,7 +113,9 @@ def main() -> int:
         world_name, goals = table[name]
         for seed in seeds:
             for odometry_only in (False, True):
-                r = one(world_name, goals, seed, args.speed, odometry_only)
+                save_as = (args.save_maps / f"{name}_{seed}.yaml" if args.save_maps is not None and not odometry_only
+                           else None)
+                r = one(world_name, goals, seed, args.speed, odometry_only, save_as)
                 label = "odometry only" if odometry_only else "slam"
                 print(f"| {name} | {seed} | {label} | {r['reached']} | {r['nodes']} | {r['ate']:.3f} | "
                       f"{r['odom']:.2f} | {r['precision']:.3f} | {r['recall']:.3f} | {r['doubled']} | "
