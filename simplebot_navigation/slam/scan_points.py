@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from simplebot_navigation.geometry import transform_points
+
 #: beams one ScanPoints may hold (two 683-beam lidars need 1366; a 16-lidar robot fits)
 MAX_BEAMS = 16_384
 
@@ -48,10 +50,7 @@ class ScanPoints:
 
     def in_frame(self, pose) -> tuple[np.ndarray, np.ndarray]:
         """(origins, ends) moved by ``pose`` (x, y, yaw): the base frame's points in the frame the pose is in."""
-        x, y, yaw = pose
-        c, s = math.cos(yaw), math.sin(yaw)
-        rotation = np.array([[c, s], [-s, c]])
-        return self.origins @ rotation + (x, y), self.ends @ rotation + (x, y)
+        return transform_points(pose, self.origins), transform_points(pose, self.ends)
 
     @staticmethod
     def merged(parts: list[ScanPoints]) -> ScanPoints:
