@@ -81,6 +81,12 @@ class CommandObserver:
         self.thread = threading.Thread(target=self.executor.spin, daemon=True)
         self.thread.start()
 
+    def matched(self, move_base) -> bool:
+        """Discovery is done: the observer sees move_base's publisher, and move_base this subscriber beside the
+        collision monitor's."""
+        return (self.node.count_publishers("/cmd_vel_nav") >= 1
+                and move_base.count_subscribers("/cmd_vel_nav") >= 2)
+
     def close(self) -> None:
         self.executor.shutdown()
         self.node.destroy_node()
@@ -97,6 +103,10 @@ def test_move_base_stops_the_robot_while_its_executor_is_blocked_on_a_loaded_mac
     try:
         with NavigationSession("lab", rtf=1.0) as session:
             session.wait_ready(wall_timeout_s=120.0)
+            # The observer is a second DDS participant: on a loaded machine discovery may take seconds, and a
+            # command sent before it is matched is not heard. Wait for the match both ways, then send the goal.
+            assert session.run_until(None, lambda: observer.matched(session.move_base), wall_timeout_s=60.0), \
+                "the observer never matched move_base's /cmd_vel_nav"
             session.send_goal(Pose2D(4.0, 0.0, 0.0, "corridor"))
             # Under this load the simulator may fall behind the wall clock at first (transform timeouts): wait
             # for the robot to drive rather than for a fixed time.
