@@ -24,6 +24,7 @@ What differs, and why:
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -159,6 +160,84 @@ class Explorer:
 
     def _blacklisted(self, goal: tuple[float, float]) -> bool:
         return any(math.dist(goal, bad) <= self.blacklist_radius for bad in self._blacklist)
+
+
+# -- where the robot goes for a frontier ---------------------------------------------------------------
+#: Where a frontier's goal is sent (goal_to_send). The goal lies next to the unknown, often in a doorway, by a wall's
+#: end or by a desk that a SLAM map does not show yet (slam marks a cell occupied after two returns and free after
+#: four misses), while move_base's costmap holds every return and its global planner cannot plan to a goal in its
+#: inscribed band. So the robot is sent GOAL_MARGIN (m) clearer than ``clearance`` of the unknown, to a cell
+#: TURN_CLEARANCE (m) clear of the obstacles that sees the goal, up to VIEW_SHIFT (m) back (the lidars reach 5.6 m).
+#: A box robot (circumscribed radius 0.54 m) driven into a nook may not get out: TEB left it in a 1.2 x 1.7 m nook
+#: of the office's east room, between a table, a shelf and two walls, where it could just turn (0.6 m)
+GOAL_MARGIN = 0.1
+TURN_CLEARANCE = 0.75
+VIEW_SHIFT = 2.0
+
+
+def goal_to_send(grid: OccupancyMap, goal, clearance: float) -> tuple[float, float] | None:
+    """Where to send the robot for the frontier whose goal is ``goal`` (a free cell of ``grid`` by the unknown): the
+    cell nearest the goal within VIEW_SHIFT that sees it (no obstacle cell on the way), is TURN_CLEARANCE clear of the
+    map's obstacles and GOAL_MARGIN clearer than ``clearance`` of the unknown, and is joined to the goal over cells
+    ``clearance`` clear of the obstacles. None when no cell is: the frontier lies in a nook."""
+    data, res, origin = _checked_grid(grid)
+    goal = _point("goal", goal)
+    clearance = _number("clearance", clearance, positive=True, high=MAX_CLEARANCE)
+    rows, cols, distance = _window(data.shape, res, origin, goal, VIEW_SHIFT + TURN_CLEARANCE)
+    row, col = (math.floor((goal[k] - origin[k]) / res) - start for k, start in ((1, rows.start), (0, cols.start)))
+    if not (0 <= row < distance.shape[0] and 0 <= col < distance.shape[1]):
+        return None
+    cells = data[rows, cols]
+    blocked = cells > FREE_MAX
+    clear, clear_of_unknown = (ndimage.distance_transform_edt(~mask, sampling=res) - res / 2 if mask.any()
+                               else np.full(cells.shape, np.inf) for mask in (blocked, cells < 0))
+    labels, _ = ndimage.label((cells >= 0) & (clear >= clearance - _EPS))
+    if not labels[row, col]:
+        return None
+    roomy = np.argwhere((labels == labels[row, col]) & (clear_of_unknown >= clearance + GOAL_MARGIN - _EPS)
+                        & (clear >= TURN_CLEARANCE - _EPS) & (distance <= VIEW_SHIFT))
+    for r, c in roomy[np.argsort(distance[roomy[:, 0], roomy[:, 1]], kind="stable")]:
+        steps = np.linspace(0.0, 1.0, 2 * max(abs(r - row), abs(c - col)) + 2)
+        if not blocked[np.rint(r + steps * (row - r)).astype(int), np.rint(c + steps * (col - c)).astype(int)].any():
+            return (float(origin[0] + (cols.start + c + 0.5) * res), float(origin[1] + (rows.start + r + 0.5) * res))
+    return None
+
+
+def footprint_cleared(grid: OccupancyMap, robot_xy, looked_from=(), clearance: float = 0.3) -> OccupancyMap:
+    """The map as the robot's own presence shows it. The lidars never see under the robot, and a SLAM map marks a
+    cell free only once several scans saw through it, so where the robot stood the map may keep an unknown patch: a
+    frontier no drive resolves, and at the robot a patch that cuts its cell off from the free space round it. So an
+    unknown patch round the robot, or round a place in ``looked_from`` (where it turned on the spot), that lies
+    within 2 x ``clearance`` of it is free, and so is every unknown cell within ``clearance`` of the robot
+    (costmap_2d clears the footprint too). The grid given is not changed."""
+    data, res, origin = _checked_grid(grid)
+    robot = _point("robot_xy", robot_xy)
+    clearance = _number("clearance", clearance, positive=True, high=MAX_CLEARANCE)
+    data = data.copy()
+    for spot in (robot, *(_point("looked_from", spot) for spot in looked_from)):
+        rows, cols, _ = _window(data.shape, res, origin, spot, 2.0 * clearance)
+        labels, _ = ndimage.label(data[rows, cols] < 0)
+        row, col = (math.floor((spot[k] - origin[k]) / res) for k in (1, 0))
+        if not (rows.start <= row < rows.stop and cols.start <= col < cols.stop):
+            continue                                    # off the map: nothing of it is under the robot
+        patch = labels[row - rows.start, col - cols.start]
+        border = np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]])
+        if patch and patch not in border:
+            data[rows, cols][labels == patch] = 0
+    rows, cols, distance = _window(data.shape, res, origin, robot, clearance)
+    data[rows, cols][(distance <= clearance) & (data[rows, cols] < 0)] = 0
+    return dataclasses.replace(grid, data=data)
+
+
+def _window(shape: tuple[int, int], resolution: float, origin: tuple[float, float], centre: tuple[float, float],
+            radius: float) -> tuple[slice, slice, np.ndarray]:
+    """The grid's rows and columns within ``radius`` of ``centre`` (a square), and their cells' distances to it."""
+    (height, width), (x0, y0) = shape, origin
+    cols, rows = (slice(max(math.floor((at - radius - low) / resolution), 0),
+                        max(min(math.ceil((at + radius - low) / resolution), n), 0))
+                  for at, low, n in ((centre[0], x0, width), (centre[1], y0, height)))
+    y, x = np.ogrid[rows, cols]
+    return rows, cols, np.hypot(x0 + (x + 0.5) * resolution - centre[0], y0 + (y + 0.5) * resolution - centre[1])
 
 
 # -- reachability --------------------------------------------------------------------------------

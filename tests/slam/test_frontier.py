@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from simplebot_navigation.maps.map_io import OccupancyMap
-from simplebot_navigation.slam.frontier import Explorer, find_frontiers
+from simplebot_navigation.slam.frontier import Explorer, find_frontiers, footprint_cleared, goal_to_send
 
 RES = 0.1
 UNKNOWN, FREE, WALL = -1, 0, 100
@@ -200,3 +200,95 @@ def test_bad_maps_times_and_goals_are_refused():
         Explorer().next_goal(half_seen_room(), (1.0, 1.0), now=math.nan)
     with pytest.raises(ValueError, match="goal"):
         Explorer().goal_failed((math.nan, 1.0))
+
+
+# -- where the robot is sent, and the patch under it --------------------------------------------------------------
+def room_at_5cm(width_cells=120, height_cells=80):
+    """A 6 m x 4 m room at 5 cm, seen free, walled round."""
+    data = np.zeros((height_cells, width_cells), dtype=np.int8)
+    data[[0, -1], :] = data[:, [0, -1]] = WALL
+    return data
+
+
+def test_a_goal_by_the_unknown_is_sent_back_from_it():
+    data = room_at_5cm()
+    data[1:-1, 60:-1] = UNKNOWN                                         # the right half not seen
+    goal = (59.5 * 0.05, 40.5 * 0.05)                                   # the free cell by the frontier
+    target = goal_to_send(OccupancyMap(data, 0.05), goal, clearance=0.35)
+    assert target == pytest.approx((50.5 * 0.05, goal[1]))              # 0.45 m from the unknown, straight back
+
+
+def test_a_goal_in_a_passage_is_looked_at_from_where_the_robot_can_turn():
+    data = room_at_5cm()
+    data[:, 80:] = WALL
+    data[36:54, 80:101] = FREE                                          # a 0.9 m passage, 1.05 m deep
+    data[36:54, 101:-1] = UNKNOWN                                       # unseen beyond it
+    goal = (100.5 * 0.05, 44.5 * 0.05)
+    target = goal_to_send(OccupancyMap(data, 0.05), goal, clearance=0.35)
+    assert target == pytest.approx((67.5 * 0.05, goal[1]))              # in the room, 0.75 m from the jambs, in sight
+    data[36:54, 80:82] = WALL                                           # the passage shut: the goal is cut off
+    assert goal_to_send(OccupancyMap(data, 0.05), goal, clearance=0.35) is None
+
+
+def test_a_goal_behind_a_pillar_is_sent_to_where_the_goal_is_in_sight():
+    data = room_at_5cm()
+    data[1:-1, 90:-1] = UNKNOWN
+    goal = (89.5 * 0.05, 40.5 * 0.05)
+    data[36:46, 70:76] = WALL                                           # a pillar on the straight way back
+    target = goal_to_send(OccupancyMap(data, 0.05), goal, clearance=0.35)
+    assert target is not None
+    row, col = (round(target[1] / 0.05 - 0.5), round(target[0] / 0.05 - 0.5))
+    assert not (36 <= row < 46) and math.dist(target, goal) <= 2.0 + 1e-9
+    steps = np.linspace(0.0, 1.0, 200)
+    line_rows = np.rint(row + steps * (40 - row)).astype(int)
+    line_cols = np.rint(col + steps * (89 - col)).astype(int)
+    assert not (data[line_rows, line_cols] == WALL).any()                # the goal is in sight from there
+
+
+def test_the_unknown_patch_under_a_standing_robot_counts_as_free():
+    data = room_at_5cm()
+    data[36:46, 56:66] = UNKNOWN                                        # 0.5 m square under the robot, never seen
+    data[1:-1, 100:-1] = UNKNOWN                                        # a real frontier, far off
+    grid = OccupancyMap(data, 0.05)
+    robot = (61 * 0.05, 41 * 0.05)
+    cleared = footprint_cleared(grid, robot, clearance=0.35)
+    assert (cleared.data[36:46, 56:66] == FREE).all()
+    assert (cleared.data[1:-1, 100:-1] == UNKNOWN).all()                # the unseen beyond is left alone
+    assert (grid.data[36:46, 56:66] == UNKNOWN).all()                   # the map given is not changed
+    frontiers = find_frontiers(cleared, robot, clearance=0.35)
+    assert len(frontiers) == 1 and frontiers[0].centroid[0] > 4.9
+    # without it the robot stands on unknown cells, reaches nothing, and exploration would end at once
+    assert find_frontiers(grid, robot, clearance=0.35) == []
+
+
+def test_a_patch_where_the_robot_turned_is_cleared_after_it_left():
+    data = room_at_5cm()
+    data[36:46, 26:36] = UNKNOWN                                        # where it turned on the spot
+    grid = OccupancyMap(data, 0.05)
+    far = (90 * 0.05, 41 * 0.05)
+    assert (footprint_cleared(grid, far, clearance=0.35).data[36:46, 26:36] == UNKNOWN).all()
+    looked = footprint_cleared(grid, far, looked_from=[(31 * 0.05, 41 * 0.05)], clearance=0.35)
+    assert (looked.data[36:46, 26:36] == FREE).all()
+
+
+def test_unknown_space_open_to_the_rest_is_not_cleared_beyond_the_robot_s_reach():
+    data = room_at_5cm()
+    data[1:-1, 60:-1] = UNKNOWN                                         # the robot stands at the frontier
+    robot = (58 * 0.05, 40.5 * 0.05)
+    cleared = footprint_cleared(OccupancyMap(data, 0.05), robot, clearance=0.35)
+    now_free = (cleared.data == FREE) & (data == UNKNOWN)
+    rows, cols = np.nonzero(now_free)
+    assert now_free.any()
+    assert np.hypot((cols + 0.5) * 0.05 - robot[0], (rows + 0.5) * 0.05 - robot[1]).max() <= 0.35 + 1e-9
+
+
+def test_bad_input_to_the_goal_and_footprint_helpers_is_refused():
+    grid = OccupancyMap(room_at_5cm(), 0.05)
+    with pytest.raises(ValueError, match="goal"):
+        goal_to_send(grid, (math.nan, 1.0), clearance=0.35)
+    with pytest.raises(ValueError, match="clearance"):
+        goal_to_send(grid, (1.0, 1.0), clearance=-1.0)
+    with pytest.raises(ValueError, match="looked_from"):
+        footprint_cleared(grid, (1.0, 1.0), looked_from=[(1.0,)], clearance=0.35)
+    assert goal_to_send(grid, (1e6, 1e6), clearance=0.35) is None       # off the map: nothing to send
+    assert (footprint_cleared(grid, (1e6, 1e6), clearance=0.35).data == grid.data).all()

@@ -358,10 +358,18 @@ class MoveBaseNode(Node):
         self._publish_cmd(0.0, 0.0)
 
 
+#: seconds a finished goal's result stays available to clients (rclpy's default is 900 s). In lockstep runs that
+#: sent goals for longer than 900 s of sim time, rcl's result-expiry timer kept firing at one frozen instant (945
+#: and 948 s in two exploration runs; the simulator's clock waits for idle nodes, so it never moved again). A day
+#: keeps the results of every goal of a day's run (a few kilobytes each) and stays clear of that
+RESULT_TIMEOUT_S = 86400.0
+
+
 def serve_actions(node: Node, actions) -> list[ActionServer]:
     """An action server per (action type, name, execute callback), every goal accepted (the arbiter preempts)."""
     group = ReentrantCallbackGroup()
     return [ActionServer(node, action, name, execute_callback=execute, callback_group=group,
+                         result_timeout=RESULT_TIMEOUT_S,
                          goal_callback=lambda _request: GoalResponse.ACCEPT,
                          cancel_callback=lambda _handle: CancelResponse.ACCEPT, goal_service_qos_profile=SERVICE_QOS,
                          result_service_qos_profile=SERVICE_QOS, cancel_service_qos_profile=SERVICE_QOS)
