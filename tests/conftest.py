@@ -37,6 +37,21 @@ PR_SET_CHILD_SUBREAPER = 36
 with contextlib.suppress(OSError, AttributeError):
     ctypes.CDLL(None, use_errno=True).prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0)
 
+#: test folders whose modules run whole stacks (lockstep sessions, launched processes) for tens of seconds each: they
+#: are collected first. The README's command deals modules out to a worker per core in collection order
+#: (--dist loadscope), so a long module dealt last keeps the other worker idle until it ends; longest first, the
+#: short unit modules fill the gaps at the end
+LONG_FIRST = ("e2e", "reliability", "scenarios", "network", "launch")
+
+
+def pytest_collection_modifyitems(session, config, items):
+    """Modules of the LONG_FIRST folders first, in that order; everything else after them, as collected."""
+    def rank(item) -> int:
+        parts = Path(str(item.fspath)).relative_to(Path(__file__).parent).parts
+        return LONG_FIRST.index(parts[0]) if len(parts) > 1 and parts[0] in LONG_FIRST else len(LONG_FIRST)
+    items.sort(key=rank)
+
+
 _contexts: weakref.WeakSet[Context] = weakref.WeakSet()
 _nodes: weakref.WeakSet[Node] = weakref.WeakSet()
 _context_init, _node_init = Context.init, Node.__init__
