@@ -103,7 +103,9 @@ class CorrelationGrid:
             raise ValueError(f"points: their bounds plus margin need {rows} x {cols} cells at {resolution} m, "
                              f"more than MAX_CELLS = {MAX_CELLS}")
         data = np.zeros((rows, cols), np.float32)
-        kernels.splat_likelihood(data, low[0], low[1], resolution, points, smear_deviation)
+        # one point per half cell (their centroid, within 0.36 cells of each): overlapping scans repeat their walls
+        kernels.splat_likelihood(data, low[0], low[1], resolution, _voxel_filter(points, resolution / 2),
+                                 smear_deviation)
         return cls(float(resolution), (float(low[0]), float(low[1])), data)
 
     @classmethod
@@ -299,12 +301,14 @@ def _checked_pose(pose, name: str) -> np.ndarray:
 def _voxel_filter(points: np.ndarray, size: float) -> np.ndarray:
     """One point per size x size cell (the centroid of its points), so dense patches of wall do not outvote the
     rest and the search costs what the scan's extent costs, not its beam count."""
-    keys = np.floor(points / size).astype(np.int64)
-    _, inverse, counts = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
+    if len(points) == 0:
+        return points
+    cells = np.floor(points / size).astype(np.int64)
+    cells -= cells.min(axis=0)
+    _, inverse, counts = np.unique(cells[:, 0] * (int(cells[:, 1].max()) + 1) + cells[:, 1], return_inverse=True,
+                                   return_counts=True)
     inverse = inverse.reshape(-1)
-    sums = np.zeros((len(counts), 2))
-    np.add.at(sums, inverse, points)
-    return sums / counts[:, None]
+    return np.column_stack([np.bincount(inverse, points[:, k], len(counts)) for k in (0, 1)]) / counts[:, None]
 
 
 def _derived_angle_step(returns: np.ndarray, resolution: float) -> float:

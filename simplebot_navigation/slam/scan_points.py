@@ -7,6 +7,7 @@ Both lidars' scans of one moment merge into one ScanPoints, each beam starting a
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -39,6 +40,7 @@ class ScanPoints:
             raise ValueError("ScanPoints.hits: expected a 1-D bool array")
         if n > MAX_BEAMS:
             raise ValueError(f"ScanPoints: at most {MAX_BEAMS} beams, got {n}")
+        object.__setattr__(self, "_surfaces", {})      # surfaces() by its arguments: a node's is asked for often
 
     def __len__(self) -> int:
         return len(self.hits)
@@ -47,6 +49,38 @@ class ScanPoints:
     def returns(self) -> np.ndarray:
         """(M, 2) the ends that are returns: what a scan matcher aligns."""
         return self.ends[self.hits]
+
+    @functools.cached_property
+    def sensors(self) -> np.ndarray:
+        """(K, 2) the distinct sensor positions (base frame): a robot's few lidars."""
+        origins = self.origins
+        changes = np.concatenate([[True], (origins[1:] != origins[:-1]).any(axis=1)]) if len(origins) else []
+        return np.unique(origins[changes], axis=0)
+
+    def surfaces(self, max_gap: float, spacing: float) -> np.ndarray:
+        """(M', 2) the returns with the surfaces between them filled in: between two neighbouring beams of one sensor
+        whose returns lie at most ``max_gap`` apart (one surface, not a wall and what lies behind its edge), points
+        at most ``spacing`` apart. A wall seen at a grazing angle is a row of returns far apart; a matcher's field
+        drawn from them alone has gaps, and a scan moved to where the field is denser scores better."""
+        key = (max_gap, spacing)
+        if key not in self._surfaces:
+            self._surfaces[key] = self._filled(max_gap, spacing)
+        return self._surfaces[key]
+
+    def _filled(self, max_gap: float, spacing: float) -> np.ndarray:
+        ends, hits, origins = self.ends, self.hits, self.origins
+        pair = hits[:-1] & hits[1:] & (origins[:-1] == origins[1:]).all(axis=1)
+        gaps = np.hypot(*(ends[1:] - ends[:-1]).T)
+        pair &= (gaps <= max_gap) & (gaps > spacing)
+        first = np.flatnonzero(pair)
+        if len(first) == 0:
+            return self.returns
+        steps = np.ceil(gaps[first] / spacing).astype(np.int64)        # pieces per gap; steps - 1 points inside
+        owner = np.repeat(np.arange(len(first)), steps - 1)
+        k = np.arange(len(owner)) - np.repeat(np.cumsum(steps - 1) - (steps - 1), steps - 1) + 1
+        t = (k / steps[owner])[:, None]
+        a, b = ends[first[owner]], ends[first[owner] + 1]
+        return np.concatenate([self.returns, a + t * (b - a)])
 
     def in_frame(self, pose) -> tuple[np.ndarray, np.ndarray]:
         """(origins, ends) moved by ``pose`` (x, y, yaw): the base frame's points in the frame the pose is in."""

@@ -52,3 +52,23 @@ def test_hostile_scans_are_refused_with_the_field(kwargs, word):
             "sensor_pose": (0.0, 0.0, 0.0), "max_laser_range": 5.0, **kwargs}
     with pytest.raises(ValueError, match=word):
         scan_points(**args)
+
+
+def test_surfaces_fill_in_between_neighbouring_returns_of_one_sensor_only():
+    ends = np.array([[1.0, 0.0], [1.0, 0.1], [1.0, 0.3], [2.0, 0.3], [2.0, 0.35], [2.0, 0.4], [2.0, 0.5]])
+    origins = np.zeros((7, 2))
+    origins[6:] = (0.3, 0.0)                                    # the last beam is another lidar's
+    hits = np.array([True, True, True, True, False, True, True])
+    filled = ScanPoints(origins, ends, hits).surfaces(max_gap=0.25, spacing=0.05)
+    assert np.allclose(filled[:6], ends[hits])                  # the returns first, as they were
+    added = {tuple(np.round(p, 6)) for p in filled[6:]}
+    # 0.1 m apart: one point between; 0.2 m apart: three; 1.0 m apart (a wall's edge and what lies behind it),
+    # a miss in between, and two sensors' neighbouring beams: none
+    assert added == {(1.0, 0.05), (1.0, 0.15), (1.0, 0.2), (1.0, 0.25)}
+    assert len(filled) == 6 + 4
+
+
+def test_a_scan_knows_its_sensors():
+    origins = np.array([[0.3, 0.0], [0.3, 0.0], [-0.3, 0.0]])
+    points = ScanPoints(origins, np.ones((3, 2)), np.ones(3, dtype=bool))
+    assert points.sensors.tolist() == [[-0.3, 0.0], [0.3, 0.0]]
