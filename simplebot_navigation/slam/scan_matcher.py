@@ -301,14 +301,12 @@ def _checked_pose(pose, name: str) -> np.ndarray:
 def _voxel_filter(points: np.ndarray, size: float) -> np.ndarray:
     """One point per size x size cell (the centroid of its points), so dense patches of wall do not outvote the
     rest and the search costs what the scan's extent costs, not its beam count."""
-    if len(points) == 0:
-        return points
     cells = np.floor(points / size).astype(np.int64)
-    cells -= cells.min(axis=0)
-    _, inverse, counts = np.unique(cells[:, 0] * (int(cells[:, 1].max()) + 1) + cells[:, 1], return_inverse=True,
-                                   return_counts=True)
-    inverse = inverse.reshape(-1)
-    return np.column_stack([np.bincount(inverse, points[:, k], len(counts)) for k in (0, 1)]) / counts[:, None]
+    cells -= cells.min(axis=0, initial=0)
+    _, inverse, counts = np.unique(cells[:, 0] * (int(cells[:, 1].max(initial=0)) + 1) + cells[:, 1],
+                                   return_inverse=True, return_counts=True)
+    sums = [np.bincount(inverse.reshape(-1), points[:, k], len(counts)) for k in (0, 1)]
+    return np.column_stack(sums) / counts[:, None]
 
 
 def _derived_angle_step(returns: np.ndarray, resolution: float) -> float:
