@@ -104,6 +104,8 @@ def main() -> int:
     args = parser.parse_args()
     table = routes()
     seeds = [int(s) for s in args.seeds.split(",")]
+    if args.save_maps is not None:
+        args.save_maps.mkdir(parents=True, exist_ok=True)
     print(f"# bench/slam.py --drives {args.drives} --seeds {args.seeds} --speed {args.speed:g}   "
           f"load {loadavg()}   cores {os.cpu_count()}")
     print("| drive | seed | mapping | reached | nodes | ATE m | odometry m | precision | recall | doubled | closures | "
