@@ -13,8 +13,10 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import importlib.util
 import os
 import signal
+import sys
 import time
 import weakref
 from pathlib import Path
@@ -50,6 +52,21 @@ def pytest_collection_modifyitems(session, config, items):
         parts = Path(str(item.fspath)).relative_to(Path(__file__).parent).parts
         return LONG_FIRST.index(parts[0]) if len(parts) > 1 and parts[0] in LONG_FIRST else len(LONG_FIRST)
     items.sort(key=rank)
+
+
+@pytest.fixture(scope="module")
+def bench(request):
+    """The benchmark script bench/<BENCH>.py of the checkout, for a test module that sets ``BENCH``: a test of
+    what the benchmark computes (its scores, its command line) without running it from a shell."""
+    name = request.module.BENCH
+    spec = importlib.util.spec_from_file_location(f"bench_{name}", Path(__file__).parents[1] / "bench" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module            # its dataclasses look their module up
+    try:
+        spec.loader.exec_module(module)
+        yield module
+    finally:
+        del sys.modules[spec.name]
 
 
 _contexts: weakref.WeakSet[Context] = weakref.WeakSet()

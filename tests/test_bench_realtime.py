@@ -1,33 +1,18 @@
 """bench/realtime.py's command line, without running anything: a forest of the benchmark set at a top speed, the
 lab's tour, and the values it refuses."""
 
-import importlib.util
 import math
-import sys
-from pathlib import Path
 
 import pytest
 
 from simplebot_navigation.sim.world_loader import load_world
 
-ROOT = Path(__file__).resolve().parents[1]
+BENCH = "realtime"          # the conftest's bench fixture loads bench/realtime.py
 FOREST = ["--world", "forest:3", "--arg", "robot:=round", "--arg", "radius:=0.25", "--arg", "tight:=true"]
 
 
-@pytest.fixture(scope="module")
-def realtime():
-    spec = importlib.util.spec_from_file_location("bench_realtime", ROOT / "bench" / "realtime.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module            # its dataclasses look their module up
-    try:
-        spec.loader.exec_module(module)
-        yield module
-    finally:
-        del sys.modules[spec.name]
-
-
-def test_a_forest_at_2_m_s_drives_from_its_start_to_its_exit_at_the_derived_speed(realtime):
-    plan = realtime.plan(FOREST + ["--arg", "max_speed:=2.0", "--stress", "0"])
+def test_a_forest_at_2_m_s_drives_from_its_start_to_its_exit_at_the_derived_speed(bench):
+    plan = bench.plan(FOREST + ["--arg", "max_speed:=2.0", "--stress", "0"])
     world = load_world("forest:3")
     assert [(g.name, g.x, g.y) for g in plan.goals] == [("exit", world.goal("exit").x, world.goal("exit").y)]
     assert plan.world.start == world.start
@@ -39,8 +24,8 @@ def test_a_forest_at_2_m_s_drives_from_its_start_to_its_exit_at_the_derived_spee
     assert plan.speed_report[0].startswith("max_speed 2 m/s: TebLocalPlannerROS.max_vel_x=2")
 
 
-def test_an_explicit_set_wins_over_max_speed_and_goes_to_the_launcher(realtime):
-    plan = realtime.plan(FOREST + ["--arg", "max_speed:=1.0", "--set", "TebLocalPlannerROS.max_vel_x=0.8",
+def test_an_explicit_set_wins_over_max_speed_and_goes_to_the_launcher(bench):
+    plan = bench.plan(FOREST + ["--arg", "max_speed:=1.0", "--set", "TebLocalPlannerROS.max_vel_x=0.8",
                                    "--time-budget", "100", "--without-monitor"])
     assert plan.max_vel_x == 0.8 and plan.time_budget == 100.0
     assert "--set TebLocalPlannerROS.max_vel_x=0.8 replaces max_speed's 1" in plan.speed_report
@@ -49,8 +34,8 @@ def test_an_explicit_set_wins_over_max_speed_and_goes_to_the_launcher(realtime):
     assert without.launch_args[-1] == "collision_monitor:=false" and without.domain == current.domain + 1
 
 
-def test_the_lab_tour_stays_the_default(realtime):
-    plan = realtime.plan([])
+def test_the_lab_tour_stays_the_default(bench):
+    plan = bench.plan([])
     assert plan.versions[0].world == "lab" and plan.versions[0].launch_args == ()
     assert [g.name for g in plan.goals] == [g.name for g in load_world("lab").goals]
     assert plan.max_vel_x == 0.4 and plan.speed_report == [] and plan.stress == 2
@@ -67,8 +52,8 @@ def test_the_lab_tour_stays_the_default(realtime):
     (["--world", "forest:x"], "unknown world"),
     (["--stress", "-1"], "--stress must be >= 0"),
 ])
-def test_bad_values_are_refused_before_anything_starts(realtime, capsys, argv, message):
+def test_bad_values_are_refused_before_anything_starts(bench, capsys, argv, message):
     with pytest.raises(SystemExit) as exit_info:
-        realtime.plan(argv)
+        bench.plan(argv)
     assert exit_info.value.code == 2
     assert message in capsys.readouterr().err

@@ -4,10 +4,6 @@ door, 1.25 times, takes move_base's tight set). The explore node turns on the sp
 map until none is left, and has slam save the map; the map is judged by bench/exploration.py's coverage: the share of
 the free space the robot can reach that the map shows free."""
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -19,21 +15,9 @@ from simplebot_navigation.sim.world_loader import load_world
 
 pytestmark = [pytest.mark.e2e, pytest.mark.timeout(600)]
 
-ROOT = Path(__file__).resolve().parents[2]
+BENCH = "exploration"       # the conftest's bench fixture loads bench/exploration.py
 #: sim seconds the two bays may take; the run repeats in lockstep and finishes at about 70 s
 SIM_BUDGET_S = 240.0
-
-
-@pytest.fixture(scope="module")
-def bench():
-    spec = importlib.util.spec_from_file_location("bench_exploration", ROOT / "bench" / "exploration.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    try:
-        spec.loader.exec_module(module)
-        yield module
-    finally:
-        del sys.modules[spec.name]
 
 
 @pytest.fixture(scope="module")

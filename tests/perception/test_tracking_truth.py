@@ -2,10 +2,7 @@
 itself on a small scale (a hard crowd world for a few seconds, the start of the lab tour). Only what holds for any
 sane tracker is asserted, not the bench's targets."""
 
-import importlib.util
 import math
-import sys
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -15,19 +12,7 @@ from simplebot_navigation.sim import MovingObstacleState
 from simplebot_navigation.testing.lidar_scenes import Cylinder, scans_at
 from simplebot_navigation.testing.tracking_truth import CrowdScore, FalseMotion, in_sight
 
-ROOT = Path(__file__).resolve().parents[2]
-
-
-@pytest.fixture(scope="module")
-def bench():
-    spec = importlib.util.spec_from_file_location("bench_tracking_truth", ROOT / "bench" / "tracking_truth.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    try:
-        spec.loader.exec_module(module)
-        yield module
-    finally:
-        del sys.modules[spec.name]
+BENCH = "tracking_truth"    # the conftest's bench fixture loads bench/tracking_truth.py
 
 
 def test_in_sight_means_a_lidar_beam_ends_on_the_obstacle():
