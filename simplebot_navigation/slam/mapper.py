@@ -68,6 +68,7 @@ class Mapper:
         self.params = params
         self.graph = PoseGraph()
         self.scans: list[ScanPoints] = []
+        self._buffer_surfaces: dict[ScanPoints, np.ndarray] = {}
         self.odometry: list[tuple[float, float, float]] = []   # each node's odometry pose
         self.travel: list[float] = []                          # the trajectory's length up to each node
         self.grid = LogOddsGrid(params.resolution, *BEAM_MODEL)
@@ -185,9 +186,12 @@ class Mapper:
         return np.concatenate([self.scans[i].in_frame(tuple(poses[i]))[1][self.scans[i].hits] for i in nodes])
 
     def _surfaces(self, nodes) -> np.ndarray:
-        """The nodes' surfaces (ScanPoints.surfaces) in the map frame."""
-        res = self.params.correlation_search_space_resolution
-        return np.concatenate([transform_points(tuple(self.graph.poses[i]), self.scans[i].surfaces(SURFACE_GAP, res))
+        """The nodes' surfaces (ScanPoints.surfaces) in the map frame. Those of the buffer's scans are kept from one
+        node to the next (by scan: a loaded session brings other scans), and only theirs."""
+        res, kept = self.params.correlation_search_space_resolution, self._buffer_surfaces
+        self._buffer_surfaces = {scan: kept[scan] if scan in kept else scan.surfaces(SURFACE_GAP, res)
+                                 for scan in (self.scans[i] for i in nodes)}
+        return np.concatenate([transform_points(tuple(self.graph.poses[i]), self._buffer_surfaces[self.scans[i]])
                                for i in nodes])
 
     def _match_buffer(self, scan: ScanPoints, prior) -> Match:

@@ -40,7 +40,6 @@ class ScanPoints:
             raise ValueError("ScanPoints.hits: expected a 1-D bool array")
         if n > MAX_BEAMS:
             raise ValueError(f"ScanPoints: at most {MAX_BEAMS} beams, got {n}")
-        object.__setattr__(self, "_surfaces", {})      # surfaces() by its arguments: a node's is asked for often
 
     def __len__(self) -> int:
         return len(self.hits)
@@ -62,12 +61,6 @@ class ScanPoints:
         whose returns lie at most ``max_gap`` apart (one surface, not a wall and what lies behind its edge), points
         at most ``spacing`` apart. A wall seen at a grazing angle is a row of returns far apart; a matcher's field
         drawn from them alone has gaps, and a scan moved to where the field is denser scores better."""
-        key = (max_gap, spacing)
-        if key not in self._surfaces:
-            self._surfaces[key] = self._filled(max_gap, spacing)
-        return self._surfaces[key]
-
-    def _filled(self, max_gap: float, spacing: float) -> np.ndarray:
         ends, hits, origins = self.ends, self.hits, self.origins
         pair = hits[:-1] & hits[1:] & (origins[:-1] == origins[1:]).all(axis=1)
         gaps = np.hypot(*(ends[1:] - ends[:-1]).T)
