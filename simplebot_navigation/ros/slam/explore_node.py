@@ -35,7 +35,7 @@ from simplebot_navigation.maps.map_io import OccupancyMap
 from simplebot_navigation.parameters import ParameterError, fields_of
 from simplebot_navigation.ros.conversions import checked_occupancy_map, quaternion_msg, transform_to_xyyaw
 from simplebot_navigation.ros.node_main import SetUpNode, run_node
-from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree
+from simplebot_navigation.ros.params import declare_defaults, given_parameter_tree, take_live_changes
 from simplebot_navigation.ros.publishers import create_publisher
 from simplebot_navigation.ros.qos import LATCHED, SERVICE_QOS
 from simplebot_navigation.ros.tf import Buffer, TransformException, TransformListener, strip_frame
@@ -88,8 +88,26 @@ class ExploreNode(SetUpNode):
         self.create_subscription(OccupancyGrid, p.costmap_topic, self._on_map, LATCHED)
         self.create_service(Empty, "~/resume", self._on_resume, qos_profile=SERVICE_QOS)
         self.create_service(Empty, "~/stop", self._on_stop, qos_profile=SERVICE_QOS)
-        self.create_timer(1.0 / p.planner_frequency, self._plan)
+        self._timer = self.create_timer(1.0 / p.planner_frequency, self._plan)
+        take_live_changes(self, specs, "explore", self._take_parameters)
         self.get_logger().info(f"exploring the frontiers of {self.resolve_topic_name(p.costmap_topic)}")
+
+    def _take_parameters(self, changes: dict) -> None:
+        """A live change (already checked against its spec): the Explorer is rebuilt with the new values and keeps
+        the goals given up; a new planner_frequency restarts the search's timer. A parameter without effect here
+        warns, as at start-up."""
+        specs = fields_of(ExploreParams)
+        new = ExploreParams.from_params({**{name: getattr(self.params, name) for name in specs}, **changes})
+        for name in changes:
+            if not specs[name].implemented:
+                self.get_logger().warn(specs[name].warning(f"explore/{name}"))
+        old, self.params = self.params, new
+        self.explorer = self._new_explorer(self.explorer.blacklist)
+        if new.planner_frequency != old.planner_frequency:
+            self._timer.cancel()
+            self.destroy_timer(self._timer)
+            self._timer = self.create_timer(1.0 / new.planner_frequency, self._plan)
+        self.get_logger().info("parameters changed: " + ", ".join(f"{k}={v!r}" for k, v in changes.items()))
 
     def _on_map(self, msg: OccupancyGrid) -> None:
         try:
@@ -236,7 +254,7 @@ class ExploreNode(SetUpNode):
             return
         self.finished, self.goal = True, None
         self.get_logger().info("exploration done: no frontier left")
-        name = str(self.get_parameter("save_map").value)      # as set now (ros2 param set), not only at start
+        name = self.params.save_map         # as set now (ros2 param set), not only at start
         if not name:
             return
         if not self.save_client.service_is_ready():
