@@ -59,6 +59,7 @@ class MppiController:
         self.guide = SpaceTimeGuide(cfg)
         #: the space-time guide as (G, 3) rows t, x, y from when it was planned, and the time since (s)
         self._guide, self._guide_age = np.zeros((0, 3)), math.inf
+        self._lethal_distance = LethalDistance()
         self.set_costmap_footprint(costmap_footprint)
         self.plan = np.zeros((0, 3))
         self._index = 0
@@ -238,7 +239,7 @@ class MppiController:
             target = np.array([np.interp(horizon, guide[:, 0], guide[:, 1]),
                                np.interp(horizon, guide[:, 0], guide[:, 2])])
         return Scene(state, path, target, self.plan[-1].copy(), remaining <= cfg.critics.threshold_to_consider,
-                     costmap.costmap, lethal_distance(costmap),
+                     costmap.costmap, self._lethal_distance(costmap),
                      (costmap.origin_x, costmap.origin_y, costmap.resolution),
                      self._outline(costmap.resolution), self.circles, np.ascontiguousarray(rows), prediction,
                      guide)
@@ -282,12 +283,22 @@ class MppiController:
         return path, target, float(arc[-1] - here)
 
 
-def lethal_distance(costmap) -> np.ndarray:
-    """Each cell's distance (m) to the nearest lethal cell of the costmap (inf without any)."""
-    free = costmap.costmap != kernels.LETHAL
-    if free.all():
-        return np.full(free.shape, np.inf)
-    return distance_transform_edt(free) * costmap.resolution
+class LethalDistance:
+    """Each cell's distance (m) to the nearest lethal cell of the costmap (inf without any), computed again only
+    when the lethal cells or the window moved: the costmap updates a few times a second, the controller runs at
+    20 Hz, and the transform is a millisecond of a cycle."""
+
+    def __init__(self):
+        self._key, self._lethal, self._distance = None, None, None
+
+    def __call__(self, costmap) -> np.ndarray:
+        lethal = costmap.costmap == kernels.LETHAL
+        key = (costmap.origin_x, costmap.origin_y, costmap.resolution)
+        if key != self._key or not np.array_equal(lethal, self._lethal):
+            distance = np.full(lethal.shape, np.inf) if not lethal.any() else \
+                distance_transform_edt(~lethal) * costmap.resolution
+            self._key, self._lethal, self._distance = key, lethal, distance
+        return self._distance
 
 
 def warm_up() -> None:

@@ -89,8 +89,7 @@ def way_left(plan_xy: np.ndarray):
     after = arc[-1] - along
 
     def cost(xy: np.ndarray) -> np.ndarray:
-        return (np.hypot(xy[:, None, 0] - points[None, :, 0], xy[:, None, 1] - points[None, :, 1])
-                + after[None]).min(axis=1)
+        return kernels.way_left(np.ascontiguousarray(xy, dtype=float), points, after)
     return cost
 
 

@@ -132,7 +132,11 @@ def moving_terms(start, poses, dt, obstacles, circles, margin, closing, clearanc
     perception/prediction.py) where they will be: the index of the first pose within ``margin`` of a keep-out
     circle (T: none), or ``closing`` nearer than the body at ``start`` (x, y, yaw at time 0) is to it, if that is
     less (one that cut in close can still be left); and the mean shortfall of the clearance below ``clearance``
-    over the poses before it."""
+    over the poses before it.
+
+    Only the obstacles that can come within ``clearance`` of some rollout at step t are looked at then: those near
+    the box round all the rollouts' poses of that step (most of a crowd is out of reach for most of the
+    horizon), and of those only the ones whose bounding circle comes that near the pose."""
     n_batch, n_steps, n_obst = poses.shape[0], poses.shape[1], obstacles.shape[0]
     first = np.full(n_batch, n_steps, dtype=np.int64)
     shortfall = np.zeros(n_batch)
@@ -141,32 +145,50 @@ def moving_terms(start, poses, dt, obstacles, circles, margin, closing, clearanc
     reach = 0.0
     for i in range(circles.shape[0]):
         reach = max(reach, math.hypot(circles[i, 0], circles[i, 1]) + circles[i, 2])
-    radius = np.empty((n_steps, n_obst))
+    far = max(clearance, margin)
+    # per step: where each obstacle is, its keep-out radius, and which obstacles may matter to any rollout
+    ox, oy, radius = np.empty((n_steps, n_obst)), np.empty((n_steps, n_obst)), np.empty((n_steps, n_obst))
+    near2 = np.empty((n_steps, n_obst))
+    candidates, counts = np.empty((n_steps, n_obst), dtype=np.int64), np.zeros(n_steps, dtype=np.int64)
     for t in range(n_steps):
+        x_lo = x_hi = poses[0, t, 0]
+        y_lo = y_hi = poses[0, t, 1]
+        for b in range(1, n_batch):
+            x_lo, x_hi = min(x_lo, poses[b, t, 0]), max(x_hi, poses[b, t, 0])
+            y_lo, y_hi = min(y_lo, poses[b, t, 1]), max(y_hi, poses[b, t, 1])
         for k in range(n_obst):
+            ox[t, k] = obstacles[k, 0] + (t + 1) * dt * obstacles[k, 2]
+            oy[t, k] = obstacles[k, 1] + (t + 1) * dt * obstacles[k, 3]
             radius[t, k] = keep_out_radius(obstacles[k], (t + 1) * dt, horizon, max_uncertainty, radius_growth)
+            within = far + reach + radius[t, k]
+            near2[t, k] = within * within if within > 0.0 else -1.0
+            gap_x = max(x_lo - ox[t, k], ox[t, k] - x_hi, 0.0)
+            gap_y = max(y_lo - oy[t, k], oy[t, k] - y_hi, 0.0)
+            if gap_x * gap_x + gap_y * gap_y < near2[t, k]:
+                candidates[t, counts[t]] = k
+                counts[t] += 1
     limit = np.empty(n_obst)
     c0, s0 = math.cos(start[2]), math.sin(start[2])
     for k in range(n_obst):
         now = body_clearance(start[0], start[1], c0, s0, obstacles[k, 0], obstacles[k, 1], circles) \
             - keep_out_radius(obstacles[k], 0.0, horizon, max_uncertainty, radius_growth)
         limit[k] = min(margin, now - closing)
-    far = max(clearance, margin)
     for b in range(n_batch):
         total = 0.0
         for t in range(n_steps):
             x, y, th = poses[b, t, 0], poses[b, t, 1], poses[b, t, 2]
-            c, s = math.cos(th), math.sin(th)
             hit, nearest = False, far
-            for k in range(n_obst):
-                ox = obstacles[k, 0] + (t + 1) * dt * obstacles[k, 2]
-                oy = obstacles[k, 1] + (t + 1) * dt * obstacles[k, 3]
-                if math.hypot(ox - x, oy - y) - reach - radius[t, k] >= far:
-                    continue
-                d = body_clearance(x, y, c, s, ox, oy, circles) - radius[t, k]
-                nearest = min(nearest, d)
-                if d < limit[k]:
-                    hit = True
+            if counts[t]:
+                c, s = math.cos(th), math.sin(th)
+                for j in range(counts[t]):
+                    k = candidates[t, j]
+                    dx, dy = ox[t, k] - x, oy[t, k] - y
+                    if dx * dx + dy * dy >= near2[t, k]:
+                        continue
+                    d = body_clearance(x, y, c, s, ox[t, k], oy[t, k], circles) - radius[t, k]
+                    nearest = min(nearest, d)
+                    if d < limit[k]:
+                        hit = True
             if hit:
                 first[b] = t
                 break
@@ -227,6 +249,19 @@ def guide_terms(poses, dt, guide):
             t = i * STRIDE
             total += math.hypot(poses[b, t, 0] - gx[i], poses[b, t, 1] - gy[i])
         out[b] = total / n_strided
+    return out
+
+
+@njit(cache=True, nogil=True)
+def way_left(xy, points, after):
+    """Per point of ``xy`` (n, 2): the least, over the plan's ``points`` (P, 2), of the straight line to one plus
+    the plan's length ``after`` it (P,): the way left to the plan's end (the guide's cost to go)."""
+    out = np.empty(xy.shape[0])
+    for i in range(xy.shape[0]):
+        best = np.inf
+        for m in range(points.shape[0]):
+            best = min(best, math.hypot(points[m, 0] - xy[i, 0], points[m, 1] - xy[i, 1]) + after[m])
+        out[i] = best
     return out
 
 

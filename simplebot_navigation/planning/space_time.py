@@ -23,15 +23,13 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
-from scipy import ndimage
-
-from simplebot_navigation.planning.space_time_kernels import mark_discs
+from simplebot_navigation.planning.space_time_kernels import grown_within, mark_discs
 
 #: cells the robot's centre moves per time step (the dilation's radius)
 STEP_CELLS = 2
 _DISC = (np.hypot(*np.mgrid[-STEP_CELLS:STEP_CELLS + 1, -STEP_CELLS:STEP_CELLS + 1]) <= STEP_CELLS + 1e-9)
 #: the same disc as (row, col) offsets
-_OFFSETS = np.argwhere(_DISC) - STEP_CELLS
+_OFFSETS = np.ascontiguousarray(np.argwhere(_DISC) - STEP_CELLS)
 
 
 @dataclass(frozen=True)
@@ -161,7 +159,7 @@ class SpaceTimeSearch:
             yield reach
             if not reach.any() or k == steps:
                 return
-            reach = _grown(reach) & clear_at(t0 + (k + 1) * dt)
+            reach = grown_within(reach, clear_at(t0 + (k + 1) * dt), _OFFSETS)
 
 
 @dataclass(frozen=True)
@@ -182,13 +180,3 @@ def _checked_speed(speed: float) -> float:
     if not speed > 0:
         raise ValueError(f"speed must be > 0, got {speed}")
     return speed
-
-
-def _grown(reach: np.ndarray) -> np.ndarray:
-    """``reach`` dilated by one step of travel, computed on the window around it only (the set starts as a cell)."""
-    rows, cols = np.flatnonzero(reach.any(axis=1)), np.flatnonzero(reach.any(axis=0))
-    r0, r1 = max(rows[0] - STEP_CELLS, 0), min(rows[-1] + STEP_CELLS + 1, reach.shape[0])
-    c0, c1 = max(cols[0] - STEP_CELLS, 0), min(cols[-1] + STEP_CELLS + 1, reach.shape[1])
-    out = np.zeros_like(reach)
-    out[r0:r1, c0:c1] = ndimage.binary_dilation(reach[r0:r1, c0:c1], structure=_DISC)
-    return out

@@ -11,6 +11,7 @@ from simplebot_navigation.costmap.cost_values import INSCRIBED_INFLATED_OBSTACLE
 from simplebot_navigation.costmap.costmap_2d import Costmap2D
 from simplebot_navigation.costmap.footprint import footprint_from_radius
 from simplebot_navigation.mppi import MppiConfig, MppiController
+from simplebot_navigation.mppi.controller import LethalDistance
 from simplebot_navigation.mppi.plugin import speed_parameters
 
 RADIUS = 0.25
@@ -77,3 +78,19 @@ def test_a_crossing_obstacle_is_let_past_or_passed_behind():
     closest = min(row[6] for row in trace)
     assert closest > 0.0, f"contact: the gap came down to {closest:.3f} m"
     assert trace[-1][1] > 4.0, f"stuck at x = {trace[-1][1]:.2f} m"
+
+
+def test_the_distance_to_lethal_cells_follows_the_costmap_in_place_and_its_window():
+    """The controller keeps the distance field between cycles; a costmap changed in place, or rolled, is seen."""
+    distance = LethalDistance()
+    costmap = Costmap2D(40, 40, RESOLUTION, -0.5, -0.5)
+    assert np.isinf(distance(costmap)).all()
+    costmap.costmap[20, 30] = LETHAL_OBSTACLE
+    first = distance(costmap)
+    np.testing.assert_allclose(first, distance_transform_edt(costmap.costmap != LETHAL_OBSTACLE) * RESOLUTION)
+    assert distance(costmap) is first                                    # nothing changed: kept
+    costmap.costmap[5, 5] = LETHAL_OBSTACLE
+    second = distance(costmap)
+    assert second is not first and second[5, 5] == 0.0 and second[6, 5] == RESOLUTION
+    costmap.origin_x += RESOLUTION                                       # the window rolled, the cells alike
+    assert distance(costmap) is not second and distance(costmap)[5, 5] == 0.0

@@ -6,8 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy import ndimage
 
-from simplebot_navigation.planning.space_time import MovingDiscs, SpaceTimeSearch
+from simplebot_navigation.planning.space_time import _DISC, _OFFSETS, MovingDiscs, SpaceTimeSearch
+from simplebot_navigation.planning.space_time_kernels import grown_within
 
 RES = 0.05
 ROBOT = 0.25
@@ -131,3 +133,15 @@ def test_a_robot_caught_in_a_dead_end_gets_a_path_only_until_it_is_caught():
     search, discs = corridor(), disc_at(3.0, 0.0, 0.5, vx=-1.0)
     path = search.path((0.0, 0.0), way_to(5.0), 1.0, discs, 0.0, 10.0)
     assert path is not None and not path.full and path.times[-1] < 3.0
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_compiled_growth_is_a_dilation_by_a_step_masked_by_the_free_cells(seed):
+    """grown_within against scipy's binary dilation by the step's disc, on sets touching the grid's edges."""
+    rng = np.random.default_rng(seed)
+    reach = rng.random((40, 60)) < 0.02
+    reach[0, 5] = reach[39, 59] = True
+    allowed = rng.random((40, 60)) < 0.8
+    want = ndimage.binary_dilation(reach, structure=_DISC) & allowed
+    np.testing.assert_array_equal(grown_within(reach, allowed, _OFFSETS), want)
+    assert not grown_within(np.zeros_like(reach), allowed, _OFFSETS).any()
