@@ -81,8 +81,8 @@ class SpaceTimeGuide:
 
 
 def way_left(plan_xy: np.ndarray):
-    """The way left from points (n, 2) to the plan's end: over the nearest (straight line plus the plan's length
-    after it) of the plan's points every PLAN_SPACING_M."""
+    """The way left from points (n, 2) to the plan's end: the straight line to the nearest of the plan's points
+    every PLAN_SPACING_M, plus the plan's length after that point."""
     arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(plan_xy, axis=0).T))])
     along = np.append(np.arange(0.0, arc[-1], PLAN_SPACING_M), arc[-1])
     points = np.column_stack([np.interp(along, arc, plan_xy[:, 0]), np.interp(along, arc, plan_xy[:, 1])])

@@ -254,14 +254,17 @@ def guide_terms(poses, dt, guide):
 
 @njit(cache=True, nogil=True)
 def way_left(xy, points, after):
-    """Per point of ``xy`` (n, 2): the least, over the plan's ``points`` (P, 2), of the straight line to one plus
-    the plan's length ``after`` it (P,): the way left to the plan's end (the guide's cost to go)."""
+    """Per point of ``xy`` (n, 2): the straight line to the nearest of the plan's ``points`` (P, 2), plus the plan's
+    length ``after`` that point (P,): the way left to the plan's end (the guide's cost to go). (The least of line
+    plus length over all points would always be the line to the plan's end: the plan is never shorter than it.)"""
     out = np.empty(xy.shape[0])
     for i in range(xy.shape[0]):
-        best = np.inf
+        best, nearest = np.inf, 0
         for m in range(points.shape[0]):
-            best = min(best, math.hypot(points[m, 0] - xy[i, 0], points[m, 1] - xy[i, 1]) + after[m])
-        out[i] = best
+            d2 = (points[m, 0] - xy[i, 0]) ** 2 + (points[m, 1] - xy[i, 1]) ** 2
+            if d2 < best:
+                best, nearest = d2, m
+        out[i] = math.sqrt(best) + after[nearest]
     return out
 
 

@@ -115,4 +115,6 @@ def guide_terms(poses, dt, guide):
 
 def way_left(xy, points, after):
     """kernels.way_left: every point against every plan point at once."""
-    return (np.hypot(xy[:, None, 0] - points[None, :, 0], xy[:, None, 1] - points[None, :, 1]) + after[None]).min(axis=1)
+    distance = np.hypot(xy[:, None, 0] - points[None, :, 0], xy[:, None, 1] - points[None, :, 1])
+    nearest = distance.argmin(axis=1)
+    return distance[np.arange(len(xy)), nearest] + after[nearest]
