@@ -160,8 +160,7 @@ def moving_terms(start, poses, dt, obstacles, circles, margin, closing, clearanc
             ox[t, k] = obstacles[k, 0] + (t + 1) * dt * obstacles[k, 2]
             oy[t, k] = obstacles[k, 1] + (t + 1) * dt * obstacles[k, 3]
             radius[t, k] = keep_out_radius(obstacles[k], (t + 1) * dt, horizon, max_uncertainty, radius_growth)
-            within = far + reach + radius[t, k]
-            near2[t, k] = within * within if within > 0.0 else -1.0
+            near2[t, k] = (far + reach + radius[t, k]) ** 2
             gap_x = max(x_lo - ox[t, k], ox[t, k] - x_hi, 0.0)
             gap_y = max(y_lo - oy[t, k], oy[t, k] - y_hi, 0.0)
             if gap_x * gap_x + gap_y * gap_y < near2[t, k]:
