@@ -252,22 +252,6 @@ def guide_terms(poses, dt, guide):
 
 
 @njit(cache=True, nogil=True)
-def way_left(xy, points, after):
-    """Per point of ``xy`` (n, 2): the straight line to the nearest of the plan's ``points`` (P, 2), plus the plan's
-    length ``after`` that point (P,): the way left to the plan's end (the guide's cost to go). (The least of line
-    plus length over all points would always be the line to the plan's end: the plan is never shorter than it.)"""
-    out = np.empty(xy.shape[0])
-    for i in range(xy.shape[0]):
-        best, nearest = np.inf, 0
-        for m in range(points.shape[0]):
-            d2 = (points[m, 0] - xy[i, 0]) ** 2 + (points[m, 1] - xy[i, 1]) ** 2
-            if d2 < best:
-                best, nearest = d2, m
-        out[i] = math.sqrt(best) + after[nearest]
-    return out
-
-
-@njit(cache=True, nogil=True)
 def unseen_first(poses, controls, dt, distance, origin_x, origin_y, resolution, circles, speed, closing):
     """Per manoeuvre (B, T): the index of the first pose, while the robot still moves, at which a lethal cell could
     reach the body if it were an obstacle the tracker has not seen, walking towards it at ``speed`` from time 0

@@ -112,9 +112,3 @@ def guide_terms(poses, dt, guide):
     at = np.column_stack([np.interp(times, guide[:, 0], guide[:, 1]), np.interp(times, guide[:, 0], guide[:, 2])])
     return np.hypot(*(strided[..., :2] - at[None]).transpose(2, 0, 1)).mean(1)
 
-
-def way_left(xy, points, after):
-    """kernels.way_left: every point against every plan point at once."""
-    distance = np.hypot(xy[:, None, 0] - points[None, :, 0], xy[:, None, 1] - points[None, :, 1])
-    nearest = distance.argmin(axis=1)
-    return distance[np.arange(len(xy)), nearest] + after[nearest]

@@ -7,7 +7,6 @@ import pytest
 
 from simplebot_navigation.costmap.footprint import footprint_from_radius
 from simplebot_navigation.mppi import MppiConfig, MppiController
-from simplebot_navigation.mppi.guide import PLAN_SPACING_M, way_left
 from simplebot_navigation.mppi.plugin import speed_parameters
 from tests.mppi.test_passive_safety import costmap_with, drive
 
@@ -49,15 +48,3 @@ def test_an_obstacle_beyond_the_bounds_is_dropped_and_the_commands_stay_finite(r
     after = controller.compute_velocity_commands((0.0, 0.0, 0.0), (0.5, 0.0), costmap)
     assert first.ok and after.ok and np.isfinite([first.v, first.omega, after.v, after.omega]).all()
 
-
-def test_the_way_left_follows_a_plan_that_bends_back():
-    """A U-shaped plan (4 m east, 2 m north, 4 m west): a place beside its start, straight across from its end, has
-    nearly all of it left to go; the U's far side has the last half. A straight line to the end would rank the start
-    first, and the guide would choose to stay there."""
-    plan = np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 2.0], [0.0, 2.0]])
-    cost = way_left(plan)
-    beside_start, far_side, near_end = cost(np.array([[0.0, 0.3], [4.0, 1.0], [0.5, 2.0]]))
-    # (to within the spacing of the plan's points)
-    assert beside_start == pytest.approx(0.3 + 10.0, abs=PLAN_SPACING_M)
-    assert far_side == pytest.approx(5.0, abs=PLAN_SPACING_M)
-    assert near_end == pytest.approx(0.5, abs=PLAN_SPACING_M)

@@ -107,19 +107,6 @@ def test_guide_terms_match_the_reference(seed):
     assert terms.min() < terms.max()
 
 
-@pytest.mark.parametrize("seed", range(4))
-def test_way_left_matches_the_reference(seed):
-    """The guide's cost to go over a bent plan, for points near it, beyond its end and far off it."""
-    rng = np.random.default_rng(seed)
-    points = np.column_stack([np.linspace(0, 4, 21), np.where(np.linspace(0, 4, 21) > 2, np.linspace(0, 4, 21) - 2, 0)])
-    after = np.cumsum(np.hypot(*np.diff(points, axis=0).T))[::-1]
-    after = np.append(after, 0.0)
-    xy = rng.uniform(-3.0, 7.0, (500, 2))
-    got = kernels.way_left(xy, points, after)
-    np.testing.assert_allclose(got, reference.way_left(xy, points, after), atol=TOLERANCE, rtol=0)
-    assert got.min() >= 0.0 and got.max() > after[0]
-
-
 def test_the_body_is_covered_by_its_circles():
     """Every point of the footprint lies in one of the circles; the round body is one circle of its radius."""
     for footprint in (BOX, ROUND):
