@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
+
 from simplebot_navigation.planning.space_time_kernels import grown_within, mark_discs
 
 #: cells the robot's centre moves per time step (the dilation's radius)
