@@ -21,22 +21,25 @@ import sys
 import time
 
 import numpy as np
+from costmap_converter_msgs.msg import ObstacleArrayMsg
 from geometry_msgs.msg import Twist
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.parameter import Parameter
-from rclpy.qos import qos_profile_sensor_data
+from rclpy.qos import QoSProfile, qos_profile_sensor_data
 from rclpy.time import Time
 from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
 
-from simplebot_navigation.geometry import quaternion_to_rotation_matrix
+from simplebot_navigation.geometry import quaternion_to_rotation_matrix, transform_points
 from simplebot_navigation.parameters.spec import Param, ParameterError
 from simplebot_navigation.ros.node_main import SetUpNode, run_node
 from simplebot_navigation.ros.params import descriptor, refuse_unknown_parameters
 from simplebot_navigation.ros.publishers import create_publisher, drop_event_handlers_of_best_effort_subscriptions
-from simplebot_navigation.ros.tf import TF_STATIC_LISTENER_QOS, Buffer, TransformException
+from simplebot_navigation.ros.move_base.obstacle_msgs import RefusedMessage, read_obstacle_array
+from simplebot_navigation.ros.conversions import transform_to_xyyaw
+from simplebot_navigation.ros.tf import TF_QOS, TF_STATIC_LISTENER_QOS, Buffer, TransformException, strip_frame
 from simplebot_navigation.safety.collision_monitor import (PARAMETERS, Action, CollisionMonitor,
-                                                           CollisionMonitorConfig, moved_by)
+                                                           CollisionMonitorConfig, moved_by, track_velocities)
 from simplebot_navigation.safety.command_limits import Ramp, RateLimit, brakes, clamp
 
 #: read at start-up only: the topics, the frame the scans are turned into, the wall-clock guard
@@ -48,6 +51,9 @@ AT_START = {
     "cmd_vel_out_topic": Param(str, "simplebot_controller/cmd_vel", "", "the base's commands", dynamic=False),
     "scan_topics": Param(list, ["front_laser/front_scan", "back_laser/back_scan"], "",
                          "the LaserScan topics to watch (at most 8)", dynamic=False),
+    "obstacle_tracks_topic": Param(str, "move_base/obstacle_tracks", "", "move_base's moving tracks: their "
+                                   "returns are judged as moving (empty: every return stands still)",
+                                   dynamic=False),
     "scan_silence_timeout": Param(float, 1.0, "s", "wall time without any scan, while commands come, that stops "
                                   "the robot (0: off, as in lockstep, where wall time means nothing)",
                                   low=0.0, high=60.0, dynamic=False),
@@ -87,6 +93,7 @@ class CollisionMonitorNode(SetUpNode):
         self.scan_silence_timeout = values.pop("scan_silence_timeout")
         cmd_in, cmd_out = values.pop("cmd_vel_in_topic"), values.pop("cmd_vel_out_topic")
         teleop = values.pop("cmd_vel_teleop_topic")
+        tracks_topic = values.pop("obstacle_tracks_topic")
         self.monitor = CollisionMonitor(CollisionMonitorConfig(**values))
         self.body = self.monitor          # the body it started with: a live footprint must hold it
         if not self.monitor.config.enabled:
@@ -106,6 +113,12 @@ class CollisionMonitorNode(SetUpNode):
         self.sources = [_Source(topic) for topic in topics]
         self.cmd_pub = create_publisher(self, Twist, cmd_out, 1)
         self.create_subscription(TFMessage, "/tf_static", self._on_tf_static, TF_STATIC_LISTENER_QOS)
+        self._tracks = None                # (frame, stamp, rows [x, y, vx, vy, radius]) of the last message
+        self._tracks_topic = self.resolve_topic_name(tracks_topic) if tracks_topic else ""
+        self._tracks_trusted = True        # no node but move_base publishes them (_check_publishers)
+        if tracks_topic:
+            self.create_subscription(TFMessage, "/tf", self._on_tf, TF_QOS)
+            self.create_subscription(ObstacleArrayMsg, tracks_topic, self._on_tracks, QoSProfile(depth=1), raw=True)
         for source in self.sources:
             self.create_subscription(LaserScan, source.topic, lambda msg, s=source: self._on_scan(s, msg),
                                      qos_profile_sensor_data)
@@ -165,6 +178,46 @@ class CollisionMonitorNode(SetUpNode):
                 self._warn("tf_static", f"/tf_static: transform dropped: {err}")
         for source in self.sources:
             source.sensor.clear()     # looked up again with what is known now
+
+    def _on_tf(self, msg: TFMessage) -> None:
+        """The robot's pose in the tracks' frame (only needed with obstacle_tracks_topic)."""
+        for tf in msg.transforms:
+            try:
+                self.tf.set_transform(tf, "/tf")
+            except Exception as err:   # noqa: BLE001 -- a hostile transform is dropped, with its reason
+                self._warn("tf", f"/tf: transform dropped: {err}")
+
+    def _on_tracks(self, raw: bytes) -> None:
+        """move_base's moving tracks; refused whole (with the reason) when beyond the caps or malformed."""
+        try:
+            msg = read_obstacle_array(raw)
+        except RefusedMessage as refused:
+            self._warn("tracks", f"{self._tracks_topic}: message of {len(raw)} bytes refused: {refused}")
+            return
+        for _field, problem in msg.problems:
+            self._warn("tracked obstacle", f"{self._tracks_topic}: obstacle dropped: {problem}")
+        self._tracks = (strip_frame(msg.frame), msg.sec + msg.nanosec * 1e-9, msg.rows)
+
+    def _tracks_now(self, now: float) -> np.ndarray:
+        """(M, 5) the tracks at ``now`` in the robot frame: x, y, radius, vx, vy; none when they are older (or
+        newer) than source_timeout or cannot be placed, and then every return stands still."""
+        if self._tracks is None or not len(self._tracks[2]) or not self._tracks_trusted:
+            return np.empty((0, 5))
+        frame, stamp, rows = self._tracks
+        age = now - stamp
+        if not abs(age) <= self.monitor.config.source_timeout:
+            self._warn("stale tracks", f"{self._tracks_topic}: the last tracks are {age:.2f} s old: every return is "
+                                 "judged standing")
+            return np.empty((0, 5))
+        try:
+            pose = transform_to_xyyaw(self.tf.lookup_transform(self.base_frame, frame, Time()))
+        except (TransformException, ValueError) as err:
+            self._warn("tracks frame", f"{self._tracks_topic}: no transform {self.base_frame} <- '{frame}' ({err}): "
+                                 "every return is judged standing")
+            return np.empty((0, 5))
+        centres = transform_points(pose, rows[:, :2] + age * rows[:, 2:4])
+        velocities = transform_points((0.0, 0.0, pose[2]), rows[:, 2:4])
+        return np.column_stack([centres, rows[:, 4], velocities])
 
     def _sensor(self, source: _Source, frame: str) -> np.ndarray | None:
         """The laser's (2, 3) map into the robot frame, from the static transforms."""
@@ -237,7 +290,8 @@ class CollisionMonitorNode(SetUpNode):
         if stale:
             self._publish(0.0, 0.0, f"stop: {stale}")
             return
-        verdict = self.monitor.limit(v, w, points)
+        tracks = self._tracks_now(now)
+        verdict = self.monitor.limit(v, w, points, track_velocities(points, tracks) if len(tracks) else None)
         self._publish(verdict.v, verdict.w, "" if verdict.action is Action.PASS else
                       f"{verdict.action.value}: {verdict.why}")
 
@@ -291,13 +345,26 @@ class CollisionMonitorNode(SetUpNode):
         self._state = state
 
     def _check_publishers(self) -> None:
-        """Warn once about each other node publishing on the base's input: its commands bypass the monitor."""
+        """Warn once about each other node publishing on the base's input: its commands bypass the monitor. The
+        tracks are believed only while move_base (of this namespace) alone publishes them: another node's
+        velocities could make a wall walk away."""
         for info in self.get_publishers_info_by_topic(self._cmd_out):
             name = f"{info.node_namespace.rstrip('/')}/{info.node_name}"
             if name != self.get_fully_qualified_name() and name not in self._bypass:
                 self._bypass.add(name)
                 self.get_logger().warn(f"{name} publishes on {self._cmd_out}: its commands bypass the collision "
                                        f"monitor; publish them on {self._topics[True]} instead")
+        if self._tracks_topic:
+            move_base = f"{self.get_namespace().rstrip('/')}/move_base"
+            others = sorted({f"{i.node_namespace.rstrip('/')}/{i.node_name}"
+                             for i in self.get_publishers_info_by_topic(self._tracks_topic)} - {move_base})
+            if others and self._tracks_trusted:
+                self.get_logger().warn(f"{', '.join(others)} publish(es) on {self._tracks_topic}: the tracks are "
+                                       f"not believed (every return is judged standing) while any node but "
+                                       f"{move_base} does")
+            elif not others and not self._tracks_trusted:
+                self.get_logger().info(f"only {move_base} publishes on {self._tracks_topic}: its tracks are believed")
+            self._tracks_trusted = not others
 
     def _due(self, kind: str) -> bool:
         now = time.monotonic()

@@ -27,13 +27,19 @@ def inside_body(qx, qy, vertices, radius):
 
 
 @njit(cache=True, nogil=True)
-def first_contact_step(points, v, w, dt, steps, vertices, radius, reach, min_points):
+def first_contact_step(points, velocities, moving_until, v, w, dt, steps, vertices, radius, reach, min_points):
     """The first of ``steps`` future poses (k * dt at the constant command v, w) at which at least
-    ``min_points`` points that are outside the body now are inside it; -1 if none is."""
+    ``min_points`` points that are outside the body now are inside it; -1 if none is.
+
+    Point p moves on at ``velocities[p]`` (per unit of dt, in the frame of the robot's pose now) and counts only
+    while k * dt < ``moving_until`` if it moves: a contact the robot would suffer standing still at that time is
+    not one its command causes."""
     n = points.shape[0]
     outside = np.empty(n, dtype=np.bool_)
+    moving = np.empty(n, dtype=np.bool_)
     for p in range(n):
         outside[p] = not inside_body(points[p, 0], points[p, 1], vertices, radius)
+        moving[p] = velocities[p, 0] != 0.0 or velocities[p, 1] != 0.0
     reach2 = reach * reach
     for k in range(1, steps + 1):
         t = k * dt
@@ -47,9 +53,10 @@ def first_contact_step(points, v, w, dt, steps, vertices, radius, reach, min_poi
         c, s = math.cos(th), math.sin(th)
         hits = 0
         for p in range(n):
-            if not outside[p]:
+            if not outside[p] or (moving[p] and t >= moving_until):
                 continue
-            dx, dy = points[p, 0] - x, points[p, 1] - y
+            dx = points[p, 0] + velocities[p, 0] * t - x
+            dy = points[p, 1] + velocities[p, 1] * t - y
             if dx * dx + dy * dy > reach2:
                 continue
             if inside_body(c * dx + s * dy, -s * dx + c * dy, vertices, radius):

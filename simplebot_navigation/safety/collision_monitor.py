@@ -59,6 +59,13 @@ BODY_TOLERANCE = 0.001
 OUTLINE_STEP = 0.005
 #: an acceleration limit below this is not a drive's (m/s^2)
 MIN_ACCEL = 0.5
+#: a lidar return this far outside a track's circle still belongs to it (m): the tracker's error in centre and
+#: radius
+TRACK_MARGIN = 0.1
+#: a track wider than this is not a person or a robot, and its returns stand still for the monitor (m)
+MAX_TRACK_RADIUS = 1.0
+#: a track slower than this stands still for the monitor (m/s): the tracker's noise on a standing obstacle
+MIN_TRACK_SPEED = 0.1
 
 
 @dataclass(frozen=True)
@@ -166,6 +173,21 @@ def moved_by(points: np.ndarray, v: float, w: float, dt: float) -> np.ndarray:
     return inverse_transform_points((dx, dy, th), points)
 
 
+def track_velocities(points: np.ndarray, tracks: np.ndarray) -> np.ndarray:
+    """(N, 2) velocity of each point: that of the track whose circle, widened by TRACK_MARGIN, holds it (the
+    nearest centre if several do), zero for the rest. ``tracks`` (M, 5): x, y, radius, vx, vy in the robot frame
+    as of now; a track wider than MAX_TRACK_RADIUS or slower than MIN_TRACK_SPEED moves nothing."""
+    velocities = np.zeros((len(points), 2))
+    tracks = tracks[(tracks[:, 2] <= MAX_TRACK_RADIUS) & (np.hypot(tracks[:, 3], tracks[:, 4]) >= MIN_TRACK_SPEED)]
+    if not len(points) or not len(tracks):
+        return velocities
+    distance = np.hypot(points[:, None, 0] - tracks[None, :, 0], points[:, None, 1] - tracks[None, :, 1])
+    nearest = distance.argmin(axis=1)
+    held = distance[np.arange(len(points)), nearest] <= tracks[nearest, 2] + TRACK_MARGIN
+    velocities[held] = tracks[nearest[held], 3:5]
+    return velocities
+
+
 class CollisionMonitor:
     """``limit(v, w, points)``: the command that may reach the wheels."""
 
@@ -235,43 +257,67 @@ class CollisionMonitor:
         r = np.where((r > 0) & (u >= 0) & (u <= 1), r, np.inf).min(axis=1)
         return np.where(np.isfinite(r), r, 0.0)
 
-    def limit(self, v: float, w: float, points: np.ndarray) -> Verdict:
-        """``points`` (N, 2) in the robot frame, as of now."""
+    def limit(self, v: float, w: float, points: np.ndarray, velocities: np.ndarray | None = None) -> Verdict:
+        """``points`` (N, 2) in the robot frame, as of now; ``velocities`` (N, 2) how each moves in that frame
+        (m/s; None: all stand, as without tracks, see ``track_velocities``).
+
+        A moving point's contact counts against the command only if it comes sooner than the robot standing
+        still would suffer it (and within ``time_before_collision``): the monitor stops the robot driving into
+        a person, never the motion that takes it out of a person's way."""
         c = self.config
         if not c.enabled or (abs(v) < STANDING_SPEED and abs(w) < STANDING_TURN_RATE):
             return Verdict(v, w, Action.PASS)
+        if velocities is None or not len(points):
+            velocities = np.zeros((len(points), 2))
         reach = self.circumradius + max(c.slowdown_distance, abs(v) * c.time_before_collision)
-        near = points[np.einsum("ij,ij->i", points, points) <= reach * reach] if len(points) else points
+        speed = np.hypot(velocities[:, 0], velocities[:, 1])
+        keep = np.hypot(points[:, 0], points[:, 1]) <= reach + speed * c.time_before_collision
+        near, moves = points[keep], velocities[keep]
+        until = self._standing_contact(near, moves)
         ratio, action, why = 1.0, Action.PASS, ""
         if abs(v) >= STANDING_SPEED and len(near):
-            travel = self._travel_to_contact(v, w, near)
+            travel = self._travel_to_contact(v, w, near, moves, until)
             where = f"contact after {travel:.2f} m {'ahead' if v > 0 else 'reversing'} along the commanded arc"
             if travel <= c.stop_distance:     # no nearer; turning on the spot stays open where it is free
-                turn, _ = self._approach(0.0, w, near)
+                turn, _ = self._approach(0.0, w, near, moves, until)
                 return Verdict(0.0, w * turn, Action.STOP, where)
             if travel <= c.slowdown_distance:
                 ratio, action, why = c.slowdown_ratio, Action.SLOWDOWN, where
-        approach, contact = self._approach(v, w, near)
+        approach, contact = self._approach(v, w, near, moves, until)
         if approach < ratio:
             ratio, action, why = approach, Action.APPROACH, f"contact in {contact:.2f} s at the commanded velocity"
         return Verdict(v * ratio, w * ratio, action, why)
 
-    def _travel_to_contact(self, v: float, w: float, near: np.ndarray) -> float:
+    def _standing_contact(self, near: np.ndarray, moves: np.ndarray) -> float:
+        """Seconds until moving points reach the robot standing still, at most time_before_collision: how long
+        moving points count against a command."""
+        c = self.config
+        steps = math.ceil(c.time_before_collision / c.simulation_time_step - 1e-9)
+        beyond = c.time_before_collision + 0.5 * c.simulation_time_step     # the horizon's last step included
+        if not moves.any():
+            return beyond
+        k = kernels.first_contact_step(near, moves, math.inf, 0.0, 0.0, c.simulation_time_step, steps,
+                                       self.vertices, self.radius, self.circumradius, c.min_points)
+        return beyond if k < 0 else k * c.simulation_time_step
+
+    def _travel_to_contact(self, v: float, w: float, near: np.ndarray, moves: np.ndarray, until: float) -> float:
         """Metres the body can drive along the command's arc before it holds min_points points; inf beyond
-        the slowdown zone. The arc is walked in ZONE_STEP steps of its length (at 1 m/s, turning w / |v|)."""
+        the slowdown zone. The arc is walked in ZONE_STEP steps of its length (at 1 m/s, turning w / |v|), so
+        moving points move by their velocity / |v| per metre, and count for ``until`` seconds of it."""
         c = self.config
         steps = max(1, math.ceil(c.slowdown_distance / ZONE_STEP - 1e-9))
-        k = kernels.first_contact_step(near, math.copysign(1.0, v), w / abs(v), ZONE_STEP, steps, self.vertices,
-                                       self.radius, self.circumradius, c.min_points)
+        k = kernels.first_contact_step(near, moves / abs(v), until * abs(v), math.copysign(1.0, v), w / abs(v),
+                                       ZONE_STEP, steps, self.vertices, self.radius, self.circumradius, c.min_points)
         return math.inf if k < 0 else (k - 1) * ZONE_STEP
 
-    def _approach(self, v: float, w: float, near: np.ndarray) -> tuple[float, float]:
+    def _approach(self, v: float, w: float, near: np.ndarray, moves: np.ndarray,
+                  until: float) -> tuple[float, float]:
         """(the factor on the command, the time of the last free pose) of the approach check."""
         c = self.config
         steps = math.ceil(c.time_before_collision / c.simulation_time_step - 1e-9)
         if steps == 0 or not len(near) or (abs(v) < STANDING_SPEED and abs(w) < STANDING_TURN_RATE):
             return 1.0, math.inf
-        k = kernels.first_contact_step(near, float(v), float(w), c.simulation_time_step, steps,
+        k = kernels.first_contact_step(near, moves, until, float(v), float(w), c.simulation_time_step, steps,
                                        self.vertices, self.radius, self.circumradius, c.min_points)
         if k < 0:
             return 1.0, math.inf

@@ -8,11 +8,14 @@ import dataclasses
 import math
 import time
 
+import numpy as np
 import pytest
-from geometry_msgs.msg import TransformStamped, Twist
+from costmap_converter_msgs.msg import ObstacleArrayMsg, ObstacleMsg
+from geometry_msgs.msg import Point32, TransformStamped, Twist
 from rclpy.exceptions import ParameterNotDeclaredException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rclpy.serialization import serialize_message
 from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
 
@@ -336,4 +339,86 @@ def test_time_going_back_starts_every_source_again(bare_monitor):
     monitor._on_scan(monitor.sources[0], scan_message("front_laser_link", 2.0))   # a restarted simulation
     assert command(0.4) == 0.0                   # the back lidar has not spoken on the new timeline
     scans(2.1)
+    assert command(0.4) == pytest.approx(0.4)
+
+
+def person_scan(frame: str, stamp: float, centre: float, radius: float = 0.25) -> LaserScan:
+    """A scan of scan_message's geometry from a laser with a person (a circle ``centre`` m ahead of it)."""
+    msg = scan_message(frame, stamp)
+    angles = msg.angle_min + msg.angle_increment * np.arange(len(msg.ranges))
+    reach = radius ** 2 - (centre * np.sin(angles)) ** 2
+    hit = (reach >= 0) & (np.cos(angles) > 0)
+    msg.ranges = np.where(hit, centre * np.cos(angles) - np.sqrt(np.maximum(reach, 0.0)), 3.0).tolist()
+    return msg
+
+
+def tracks_message(stamp: float, rows) -> bytes:
+    """An ObstacleArrayMsg in odom of (x, y, radius, vx, vy) rows, serialized as the subscription takes it."""
+    msg = ObstacleArrayMsg()
+    msg.header.frame_id = "odom"
+    msg.header.stamp.sec, msg.header.stamp.nanosec = int(stamp), int(round((stamp % 1) * 1e9))
+    for x, y, radius, vx, vy in rows:
+        obstacle = ObstacleMsg()
+        obstacle.polygon.points = [Point32(x=float(x), y=float(y))]
+        obstacle.radius = float(radius)
+        obstacle.velocities.twist.linear.x, obstacle.velocities.twist.linear.y = float(vx), float(vy)
+        msg.obstacles.append(obstacle)
+    return serialize_message(msg)
+
+
+def test_a_person_walking_away_on_the_tracks_topic_does_not_stop_the_robot(bare_monitor, capfd):
+    """The person's returns 1.5 cm ahead of the face: standing, they stop a command; tracked walking away at
+    1 m/s (move_base's obstacle_tracks, placed by /tf), they do not. Stale, too wide or malformed tracks leave
+    the returns standing."""
+    monitor, _, command = bare_monitor
+    odom = TransformStamped()
+    odom.header.frame_id, odom.child_frame_id = "odom", "base_link"
+    odom.header.stamp.sec, odom.transform.translation.x, odom.transform.rotation.w = 5, 1.0, 1.0
+    monitor._on_tf(TFMessage(transforms=[odom]))
+
+    def scans(stamp: float) -> None:
+        monitor._on_scan(monitor.sources[0], person_scan("front_laser_link", stamp, 0.3 + 0.015 + 0.25 - 0.2))
+        monitor._on_scan(monitor.sources[1], scan_message("back_laser_link", stamp))
+
+    scans(5.0)
+    assert command(0.4) == 0.0
+    monitor._on_tracks(tracks_message(5.0, [(1.565, 0.0, 0.25, 1.0, 0.0)]))    # odom: the robot is at x = 1
+    scans(5.05)                                  # (a new scan: the drive's ramp counts scan time)
+    assert command(0.4) == pytest.approx(0.4)
+    monitor._on_tracks(b"\x00\x01\x00\x00" + b"\xff" * 12)                   # malformed: refused, kept
+    assert "obstacle_tracks: message of 16 bytes refused" in capfd.readouterr().err
+    scans(5.1)
+    assert command(0.4) == pytest.approx(0.4)
+    monitor._on_tracks(tracks_message(5.1, [(1.565, 0.0, 2.0, 1.0, 0.0)]))     # a wall, not a person
+    scans(5.15)
+    assert command(0.4) == 0.0
+    monitor._on_tracks(tracks_message(4.0, [(0.565, 0.0, 0.25, 1.0, 0.0)]))    # as of a second ago
+    scans(5.2)
+    assert command(0.4) == 0.0
+    assert "the last tracks are 1.20 s old: every return is judged standing" in capfd.readouterr().err
+
+
+def test_tracks_are_not_believed_while_another_node_publishes_them(bare_monitor, context, capfd):
+    """A node that is not move_base could make a wall walk away: while one publishes on the tracks topic, every
+    return stands."""
+    monitor, _, command = bare_monitor
+    odom = TransformStamped()
+    odom.header.frame_id, odom.child_frame_id = "odom", "base_link"
+    odom.header.stamp.sec, odom.transform.rotation.w = 5, 1.0
+    monitor._on_tf(TFMessage(transforms=[odom]))
+    rogue = Node("rogue_tracker", context=context)
+    rogue.create_publisher(ObstacleArrayMsg, "/move_base/obstacle_tracks", 1)
+    for stamp in (5.0, 5.05):
+        monitor._on_scan(monitor.sources[0], person_scan("front_laser_link", stamp, 0.3 + 0.015 + 0.25 - 0.2))
+        monitor._on_scan(monitor.sources[1], scan_message("back_laser_link", stamp))
+        monitor._on_tracks(tracks_message(stamp, [(0.565, 0.0, 0.25, 1.0, 0.0)]))
+        monitor._check_publishers()
+    assert command(0.4) == 0.0
+    assert "/rogue_tracker publish(es) on /move_base/obstacle_tracks: the tracks are not believed" \
+        in capfd.readouterr().err
+    rogue.destroy_node()
+    monitor._check_publishers()
+    monitor._on_scan(monitor.sources[0], person_scan("front_laser_link", 5.1, 0.3 + 0.015 + 0.25 - 0.2))
+    monitor._on_scan(monitor.sources[1], scan_message("back_laser_link", 5.1))
+    monitor._on_tracks(tracks_message(5.1, [(0.565, 0.0, 0.25, 1.0, 0.0)]))
     assert command(0.4) == pytest.approx(0.4)

@@ -6,8 +6,10 @@ import numpy as np
 import pytest
 
 from simplebot_navigation.parameters.spec import ParameterError
-from simplebot_navigation.safety.collision_monitor import (PARAMETERS, Action, CollisionMonitor,
-                                                           CollisionMonitorConfig, moved_by)
+from simplebot_navigation.safety import collision_kernels
+from simplebot_navigation.safety.collision_monitor import (MAX_TRACK_RADIUS, MIN_TRACK_SPEED, PARAMETERS, Action,
+                                                           CollisionMonitor, CollisionMonitorConfig, moved_by,
+                                                           track_velocities)
 
 BOX = [[0.45, 0.3], [0.45, -0.3], [-0.45, -0.3], [-0.45, 0.3]]
 
@@ -89,6 +91,77 @@ def test_a_door_post_beside_the_body_does_not_stop_driving_through(monitor):
 def test_fewer_than_min_points_do_not_act(monitor):
     speck = np.array([[front(monitor) + 0.02, 0.0]] * 2)
     assert monitor.limit(0.5, 0.0, speck).action is Action.PASS
+
+
+def person(monitor: CollisionMonitor, gap: float, radius: float = 0.25) -> tuple[np.ndarray, np.ndarray]:
+    """(the lidar returns of a person ``gap`` ahead of the face, their track (1, 5) standing), robot frame."""
+    centre = front(monitor) + gap + radius
+    angles = np.linspace(math.pi * 0.6, math.pi * 1.4, 40)
+    points = np.column_stack([centre + radius * np.cos(angles), radius * np.sin(angles)])
+    return points, np.array([[centre, 0.0, radius, 0.0, 0.0]])
+
+
+def walking(track: np.ndarray, vx: float, vy: float = 0.0) -> np.ndarray:
+    out = track.copy()
+    out[:, 3:5] = vx, vy
+    return out
+
+
+def test_a_person_walking_away_does_not_stop_the_robot_that_follows(monitor):
+    """Issue 40: the monitor judged a person's returns as standing, and stopped the robot that followed one
+    a centre-metre behind; the person moves on faster than the robot follows."""
+    points, track = person(monitor, 0.015)
+    assert monitor.limit(0.5, 0.0, points).action is Action.STOP
+    verdict = monitor.limit(0.5, 0.0, points, track_velocities(points, walking(track, 1.0)))
+    assert (verdict.v, verdict.action) == (0.5, Action.PASS)
+    catching_up = monitor.limit(1.0, 0.0, points, track_velocities(points, walking(track, 0.3)))
+    assert catching_up.action is not Action.PASS and catching_up.v < 1.0   # faster than the person: judged
+
+
+def test_a_person_walking_into_the_robot_stops_the_command_towards_them_not_the_one_away(monitor):
+    """Standing, the robot is reached in 0.3 s: driving towards the person is stopped short, backing away (the
+    contact comes later, if at all) passes whole."""
+    points, track = person(monitor, 0.3)
+    velocities = track_velocities(points, walking(track, -1.0))
+    towards = monitor.limit(0.8, 0.0, points, velocities)
+    assert towards.action is not Action.PASS and towards.v < 0.4
+    away = monitor.limit(-0.3, 0.0, points, velocities)
+    assert (away.v, away.action) == (-0.3, Action.PASS)
+    assert monitor.limit(-0.3, 0.0, points).action is Action.PASS          # the same when they stand
+
+
+def test_a_post_beside_a_person_walking_away_still_stops_the_robot(monitor):
+    points, track = person(monitor, 0.015)
+    corner = (0.46, 0.29) if monitor.radius == 0 else 0.31 * np.array([1.0, 1.0]) / math.sqrt(2)
+    post = np.array([corner] * 3)                    # a centimetre off the front-left, outside the person's circle
+    everything = np.concatenate([points, post])
+    assert not track_velocities(post, walking(track, 1.0)).any()
+    verdict = monitor.limit(0.5, 0.0, everything, track_velocities(everything, walking(track, 1.0)))
+    assert verdict.action is Action.STOP
+
+
+def test_returns_move_with_the_track_whose_circle_holds_them():
+    points = np.array([[1.3, 0.0], [1.0, 0.2], [3.0, 0.0], [0.0, 1.0]])
+    tracks = np.array([[1.0, 0.0, 0.25, 1.0, 0.5],                      # holds the first two (margin 0.1 m)
+                       [0.0, 1.0, MAX_TRACK_RADIUS + 0.5, 1.0, 0.0],     # too wide: a wall, not a person
+                       [3.0, 0.0, 0.25, MIN_TRACK_SPEED / 2, 0.0]])      # too slow: standing
+    assert track_velocities(points, tracks).tolist() == [[1.0, 0.5], [1.0, 0.5], [0.0, 0.0], [0.0, 0.0]]
+    assert track_velocities(points, np.empty((0, 5))).tolist() == [[0.0, 0.0]] * 4
+
+
+@pytest.mark.parametrize("radius", [0.3, 0.0])
+def test_a_moving_point_enters_the_standing_body_when_it_reaches_it(radius):
+    """The kernel's moving points against the closed form: 3 points 0.5 m from a circle (or the box), coming at
+    1 m/s, enter at 0.5 s; with moving_until 0.5 s they are not counted."""
+    vertices = np.array(BOX, dtype=float) if radius == 0.0 else np.empty((0, 2))
+    face = 0.45 if radius == 0.0 else 0.3
+    points = np.array([[face + 0.5, -0.01], [face + 0.5, 0.0], [face + 0.5, 0.01]])
+    velocities = np.tile([-1.0, 0.0], (3, 1))
+    k = collision_kernels.first_contact_step(points, velocities, math.inf, 0.0, 0.0, 0.01, 100, vertices, radius,
+                                             0.6, 3)
+    assert k * 0.01 == pytest.approx(0.51, abs=0.011)
+    assert collision_kernels.first_contact_step(points, velocities, 0.5, 0.0, 0.0, 0.01, 100, vertices, radius,
+                                                0.6, 3) == -1
 
 
 def test_disabled_passes_everything():
