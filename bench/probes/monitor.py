@@ -4,7 +4,8 @@ Each hostile parameter that used to switch the monitor off without a trace is se
 at 0.3 m/s on /cmd_vel_nav at the wall ahead of it for long enough to hit it: it must stop short, with no new
 collision. Then ±1 and ±100 m/s alternating at 1 kHz on /cmd_vel_nav for 3 s must barely move the robot, a teleop
 on /cmd_vel_teleop must hold the output over the planner and be guarded like it, and a publisher on the base's
-input must be named in the monitor's log. The robot is left standing, the monitor the process it was.
+input must be named in the monitor's log, and another node's tracks on move_base's topic must not make the wall
+ahead walk away. The robot is left standing, the monitor the process it was.
 """
 
 from __future__ import annotations
@@ -42,15 +43,15 @@ def moved(a, b) -> float:
 
 
 def drive(session, sources: list[tuple], seconds: float, rate: float = 20.0) -> tuple[float, float]:
-    """Publish each (publisher, v, w) at ``rate`` for wall seconds: (metres driven, metres in the last second)."""
+    """Publish each (publisher, v, w) or (publisher, message) at ``rate`` for wall seconds: (metres driven, metres in the last second)."""
     start, period, next_at = session.pose(), 1.0 / rate, [0.0]
     began = time.monotonic()
 
     def send() -> bool:
         now = time.monotonic()
         if now >= next_at[0]:
-            for publisher, v, w in sources:
-                publisher.publish(twist(v, w))
+            for publisher, *what in sources:        # (publisher, v, w), or (publisher, message)
+                publisher.publish(twist(*what) if len(what) == 2 else what[0])
             next_at[0] = now + period
         return False
 
@@ -138,6 +139,31 @@ def bypass(session) -> tuple[str, str, str, bool]:
             "named in the monitor's log" if found else "no warning within 10 s", found)
 
 
+def rogue_tracks(session, nav) -> tuple[str, str, str, bool]:
+    """Another node's tracks on move_base's topic, claiming the wall ahead walks away at 10 m/s: not believed
+    (docs/reference.md §5.1), so 0.3 m/s at the wall still stops short of it."""
+    from costmap_converter_msgs.msg import ObstacleArrayMsg, ObstacleMsg
+    from geometry_msgs.msg import Point32
+
+    msg = ObstacleArrayMsg()
+    msg.header.frame_id = "base_link"                 # wherever the robot is: the wall ahead
+    obstacle = ObstacleMsg()
+    obstacle.polygon.points = [Point32(x=0.9, y=0.0)]
+    obstacle.radius, obstacle.velocities.twist.linear.x = 0.9, 10.0
+    msg.obstacles = [obstacle]
+    tracks = session.client.create_publisher(ObstacleArrayMsg, "/move_base/obstacle_tracks", 10)
+    drive(session, [(nav, -SPEED, 0.0)], BACK_OFF_S)
+    collisions = session.client.collisions
+    try:
+        driven, last = drive(session, [(nav, SPEED, 0.0), (tracks, msg)], AT_WALL_S)
+    finally:
+        session.client.destroy_publisher(tracks)
+    new = session.client.collisions - collisions
+    return ("rogue /move_base/obstacle_tracks, then 0.3 m/s at a wall", "the wall walking away at 10 m/s",
+            f"drove {driven:.2f} m, {last:.3f} m in the last second, {new} collisions",
+            new == 0 and last < STANDING)
+
+
 def run(session) -> list[tuple[str, str, str, bool]]:
     from geometry_msgs.msg import Twist
     from rclpy.parameter_client import AsyncParameterClient
@@ -151,6 +177,7 @@ def run(session) -> list[tuple[str, str, str, bool]]:
         rows.append(flood(session, nav))
         rows.extend(teleop(session, keys=keys, nav=nav))
         rows.append(bypass(session))
+        rows.append(rogue_tracks(session, nav))
     finally:
         stand(session, nav)
         session.client.destroy_publisher(nav)

@@ -59,6 +59,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--no-moving-obstacles", action="store_true",
                    help="track and predict nothing (the launch files' moving_obstacles:=false): every obstacle is a "
                         "costmap mark")
+    p.add_argument("--true-obstacles", action="store_true",
+                   help="move_base gets the simulator's true moving obstacles within the lidars' range instead of its "
+                        "tracker's (perception's limit; in-process runs only)")
     p.add_argument("--no-collision-monitor", action="store_true",
                    help="run without the collision monitor: move_base drives the base directly")
     p.add_argument("--map", metavar="MAP",
@@ -99,6 +102,10 @@ def _check(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Scenari
         parser.error(str(err))
     for warning in world.warnings:
         print(f"scenario: warning: {warning}", file=sys.stderr)
+    if args.true_obstacles and args.processes:
+        parser.error("--true-obstacles: the simulator's obstacles reach move_base only in-process (not with --processes)")
+    if args.true_obstacles and args.no_moving_obstacles:
+        parser.error("--true-obstacles replaces the tracker: not with --no-moving-obstacles")
     if args.max_speed is not None and check_speed(args.max_speed):
         parser.error(check_speed(args.max_speed))
     return ScenarioOptions(world=args.world, robot=args.robot, radius=args.radius, goals=args.goals, rtf=args.rtf,
@@ -107,7 +114,8 @@ def _check(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Scenari
                            wall_timeout_s=args.wall_timeout, overrides=tuple(args.set),
                            foxglove_port=args.foxglove_port if args.foxglove else None,
                            collision_monitor=not args.no_collision_monitor, map_name=args.map or "",
-                           max_speed=args.max_speed, moving_obstacles=not args.no_moving_obstacles)
+                           max_speed=args.max_speed, moving_obstacles=not args.no_moving_obstacles,
+                           true_obstacles=args.true_obstacles)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -98,6 +98,7 @@ class ScenarioOptions:
     map_name: str = ""             # navigate on this map (a map YAML; "world": the run's world's), amcl localizing
     max_speed: float | None = None  # the one speed setting (docs/reference.md §10); None: the parameter files'
     moving_obstacles: bool = True   # False: nothing tracked or predicted, every obstacle a costmap mark
+    true_obstacles: bool = False    # the simulator's moving obstacles instead of the tracker's (true_obstacles.py)
 
 
 # -- goals -----------------------------------------------------------------------------------------
@@ -358,13 +359,14 @@ def run_scenarios(options: ScenarioOptions, progress: Callable[[str], None] = pr
     for index in range(options.repeat):
         seed = options.seed + index
         session_class = ProcessSession if options.processes else NavigationSession
+        truth = {"true_obstacles": True} if options.true_obstacles else {}    # ProcessSession refuses it
         with tempfile.TemporaryDirectory(prefix="simplebot_scenarios_") as folder:
             world = world_for_run(options.world, seed, folder)
             with session_class(world, options.robot, options.radius, options.rtf, seed, options.range_noise,
                                tight=options.tight, overrides=options.overrides, foxglove_port=options.foxglove_port,
                                collision_monitor=options.collision_monitor,
                                map_name=map_for_run(options.map_name, world), max_speed=options.max_speed,
-                               moving_obstacles=options.moving_obstacles) as session:
+                               moving_obstacles=options.moving_obstacles, **truth) as session:
                 worlds.append(session.world)
                 results += _run_goals(session, options, index, seed, progress)
     return results, worlds

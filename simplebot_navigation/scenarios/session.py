@@ -45,6 +45,7 @@ from simplebot_navigation.ros.conversions import quaternion_msg, yaw_of
 from simplebot_navigation.ros.qos import LATCHED, SERVICE_QOS
 from simplebot_navigation.ros.simulator.lockstep import LockstepDriver
 from simplebot_navigation.ros.simulator.simulator_node import SimulatorNode
+from simplebot_navigation.scenarios.true_obstacles import TrueObstacles
 from simplebot_navigation.sim.world import Pose2D, World
 from simplebot_navigation.sim.world_loader import load_world
 
@@ -308,7 +309,7 @@ class NavigationSession(_Session):
                  seed: int = 0, range_noise: float = 0.0, launch_file: str = "navigation", tight: bool = False,
                  overrides: tuple[str, ...] = (), foxglove_port: int | None = None, collision_monitor: bool = True,
                  map_name: str = "", max_speed: float | None = None, moving_obstacles: bool = True,
-                 slam: bool = False, explore: bool = False):
+                 slam: bool = False, explore: bool = False, true_obstacles: bool = False):
         if not (math.isfinite(rtf) and rtf >= 0):
             raise ValueError(f"rtf must be >= 0 (0: lockstep), got {rtf!r}")
         self.description = robot_description(robot, radius)
@@ -346,6 +347,8 @@ class NavigationSession(_Session):
                                           use_global_arguments=False, context=self.context))
             self.sim = next(n for n in self.nodes if isinstance(n, SimulatorNode))
             self.move_base = next(n for n in self.nodes if n.get_name() == "move_base")
+            if true_obstacles:
+                self._use_true_obstacles()
             self.client = ScenarioClient(self.context)
             others = [n for n in self.nodes if n is not self.sim] + [self.client]
             if rtf == 0:
@@ -357,6 +360,15 @@ class NavigationSession(_Session):
         except BaseException:
             self.close()
             raise
+
+    def _use_true_obstacles(self) -> None:
+        """The simulator's moving obstacles take the tracker's place in move_base's obstacle feed."""
+        move_base = self.move_base
+        if not move_base.obstacle_tracking.params.enabled:
+            raise ValueError("true_obstacles needs moving obstacles on (it replaces what the tracker hands on)")
+        feed = move_base.obstacle_feed
+        truth = TrueObstacles(self.sim.sim, move_base.local_costmap.global_frame)
+        feed.sources = [truth if source is move_base.obstacle_tracking else source for source in feed.sources]
 
     @property
     def time(self) -> float:

@@ -130,7 +130,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--set", action="append", metavar="'K=V [K=V ...]'",
                    help="a parameter set: K=V overrides and/or 'tight' (the shipped narrow-passage set) and/or "
                         "'no_collision_monitor' (move_base drives the base directly) and/or 'no_moving_obstacles' "
-                        "(nothing tracked or predicted); "
+                        "(nothing tracked or predicted) and/or 'true_obstacles' (the simulator's moving obstacles instead "
+                        "of the tracker's); "
                         "repeat for more sets, 'default' for none (default: none)")
     p.add_argument("--time-budget", type=float, metavar="S",
                    help="sim seconds per goal for every world (the BARN challenge's 100); default: from the shortest "

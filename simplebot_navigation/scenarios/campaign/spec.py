@@ -29,7 +29,7 @@ from simplebot_navigation.scenarios.session import launch_args
 
 ROBOT_BODY = re.compile(r"^(?P<name>box|round)(?::(?P<radius>\d+(?:\.\d+)?))?$")
 ROUND_RADIUS_RANGE = (0.1, 1.0)
-SHIPPED_SETS = ("tight", "no_collision_monitor", "no_moving_obstacles")   # launch arguments of the navigation launch (tight: config/tight/)
+SHIPPED_SETS = ("tight", "no_collision_monitor", "no_moving_obstacles", "true_obstacles")   # launch arguments of the navigation launch (tight: config/tight/); true_obstacles: scenarios/true_obstacles.py
 SPEC_KEYS = ("worlds", "seeds", "robots", "params", "goals", "run_timeout", "time_budget")
 SPEED_KEY = "max_speed"
 #: a time_budget (sim seconds per goal) is at most this
@@ -279,6 +279,9 @@ def plan(spec: CampaignSpec) -> list[Run]:
     """Every run of the campaign, worlds outermost; each world is loaded once here to check it and its goals."""
     for params in spec.params:     # each parameter set checked as move_base would take it
         shipped, overrides = split_parameter_set(params)
+        if "true_obstacles" in shipped and "no_moving_obstacles" in shipped:
+            raise SpecError(f"params: {params_label(params)!r}: true_obstacles replaces the tracker, which "
+                            "no_moving_obstacles turns off")
         try:
             args = launch_args("lab", "box", 0.3, 0.0, "tight" in shipped,
                                collision_monitor="no_collision_monitor" not in shipped, max_speed=speed_of(params),

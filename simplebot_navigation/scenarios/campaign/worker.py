@@ -29,6 +29,7 @@ def execute(run: Run) -> dict:
                               tight="tight" in shipped, overrides=overrides,
                               collision_monitor="no_collision_monitor" not in shipped,
                               moving_obstacles="no_moving_obstacles" not in shipped,
+                              true_obstacles="true_obstacles" in shipped,
                               max_speed=speed_of(run.params)) as session:
         (goal,) = parse_goals(run.goal, session.world)
         session.wait_ready(wall_timeout_s=READY_TIMEOUT_S)
