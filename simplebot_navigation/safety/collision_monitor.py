@@ -15,7 +15,9 @@ body's own outline (the footprint, or a circle of robot_radius):
 The zones are swept along the commanded motion, not fixed around the body, so a robot nose to a wall may
 back off and turn away, and one that turns past a door post a centimetre off is not stopped by it: only
 motion into a point is.
-Each check needs ``min_points`` points, so one speck of noise does not stop the robot. No rclpy here.
+Each check needs ``min_points`` points, so one speck of noise does not stop the robot. Returns of a person the
+tracker follows move with the person (``track_velocities``), and count against a command only where it meets them
+sooner than standing still would. No rclpy here.
 """
 
 from __future__ import annotations
@@ -189,7 +191,7 @@ def track_velocities(points: np.ndarray, tracks: np.ndarray) -> np.ndarray:
 
 
 class CollisionMonitor:
-    """``limit(v, w, points)``: the command that may reach the wheels."""
+    """``limit(v, w, points, velocities)``: the command that may reach the wheels."""
 
     def __init__(self, config: CollisionMonitorConfig):
         self.config = config
