@@ -15,6 +15,7 @@ decides (``scan_silence_timeout``).
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import math
 import sys
@@ -26,6 +27,7 @@ from geometry_msgs.msg import Twist
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, qos_profile_sensor_data
+from rclpy.serialization import deserialize_message
 from rclpy.time import Time
 from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
@@ -65,6 +67,10 @@ MAX_COMMAND = 100.0
 TIME_JUMP_BACK_S = 1.0
 #: one line per kind of trouble (a source's scans, the commands, a zone) this often at most
 LOG_PERIOD_S = 2.0
+#: /tf messages kept unread between two looks (1 s of the simulator's 50 Hz odometry transforms)
+TF_PENDING = 50
+#: a /tf message longer than this is not kept (about 600 transforms)
+TF_MAX_BYTES = 65536
 
 
 @dataclasses.dataclass
@@ -116,8 +122,9 @@ class CollisionMonitorNode(SetUpNode):
         self._tracks = None                # (frame, stamp, rows [x, y, vx, vy, radius]) of the last message
         self._tracks_topic = self.resolve_topic_name(tracks_topic) if tracks_topic else ""
         self._tracks_trusted = True        # no node but move_base publishes them (_check_publishers)
+        self._tf_pending: collections.deque[bytes] = collections.deque(maxlen=TF_PENDING)   # /tf, not yet read
         if tracks_topic:
-            self.create_subscription(TFMessage, "/tf", self._on_tf, TF_QOS)
+            self.create_subscription(TFMessage, "/tf", self._on_tf_raw, TF_QOS, raw=True)
             self.create_subscription(ObstacleArrayMsg, tracks_topic, self._on_tracks, QoSProfile(depth=1), raw=True)
         for source in self.sources:
             self.create_subscription(LaserScan, source.topic, lambda msg, s=source: self._on_scan(s, msg),
@@ -179,6 +186,24 @@ class CollisionMonitorNode(SetUpNode):
         for source in self.sources:
             source.sensor.clear()     # looked up again with what is known now
 
+    def _on_tf_raw(self, raw: bytes) -> None:
+        if len(raw) > TF_MAX_BYTES:
+            self._warn("tf size", f"/tf: message of {len(raw)} bytes dropped: more than {TF_MAX_BYTES}")
+            return
+        self._tf_pending.append(raw)
+
+    def _take_tf(self) -> None:
+        """Read the /tf messages that came since the last look: only when tracks are to be placed, so the 50 Hz of
+        odometry transforms cost the monitor a byte copy each the rest of the time."""
+        while self._tf_pending:
+            raw = self._tf_pending.popleft()
+            try:
+                msg = deserialize_message(raw, TFMessage)
+            except Exception as err:   # noqa: BLE001 -- malformed bytes are dropped, with the reason
+                self._warn("tf", f"/tf: message of {len(raw)} bytes dropped: {err}")
+                continue
+            self._on_tf(msg)
+
     def _on_tf(self, msg: TFMessage) -> None:
         """The robot's pose in the tracks' frame (only needed with obstacle_tracks_topic)."""
         for tf in msg.transforms:
@@ -206,14 +231,15 @@ class CollisionMonitorNode(SetUpNode):
         frame, stamp, rows = self._tracks
         age = now - stamp
         if not abs(age) <= self.monitor.config.source_timeout:
-            self._warn("stale tracks", f"{self._tracks_topic}: the last tracks are {age:.2f} s old: every return is "
-                                 "judged standing")
+            self._warn("stale tracks", f"{self._tracks_topic}: the last tracks are {age:.2f} s old: every return "
+                                       "is judged standing")
             return np.empty((0, 5))
+        self._take_tf()
         try:
             pose = transform_to_xyyaw(self.tf.lookup_transform(self.base_frame, frame, Time()))
         except (TransformException, ValueError) as err:
-            self._warn("tracks frame", f"{self._tracks_topic}: no transform {self.base_frame} <- '{frame}' ({err}): "
-                                 "every return is judged standing")
+            self._warn("tracks frame", f"{self._tracks_topic}: no transform {self.base_frame} <- '{frame}' "
+                                       f"({err}): every return is judged standing")
             return np.empty((0, 5))
         centres = transform_points(pose, rows[:, :2] + age * rows[:, 2:4])
         velocities = transform_points((0.0, 0.0, pose[2]), rows[:, 2:4])

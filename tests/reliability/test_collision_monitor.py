@@ -374,7 +374,8 @@ def test_a_person_walking_away_on_the_tracks_topic_does_not_stop_the_robot(bare_
     odom = TransformStamped()
     odom.header.frame_id, odom.child_frame_id = "odom", "base_link"
     odom.header.stamp.sec, odom.transform.translation.x, odom.transform.rotation.w = 5, 1.0, 1.0
-    monitor._on_tf(TFMessage(transforms=[odom]))
+    for raw in (b"\x00\x01\x00\x00" + b"\xff" * 8, b"\x00" * 100_000, serialize_message(TFMessage(transforms=[odom]))):
+        monitor._on_tf_raw(raw)
 
     def scans(stamp: float) -> None:
         monitor._on_scan(monitor.sources[0], person_scan("front_laser_link", stamp, 0.3 + 0.015 + 0.25 - 0.2))
@@ -386,7 +387,9 @@ def test_a_person_walking_away_on_the_tracks_topic_does_not_stop_the_robot(bare_
     scans(5.05)                                  # (a new scan: the drive's ramp counts scan time)
     assert command(0.4) == pytest.approx(0.4)
     monitor._on_tracks(b"\x00\x01\x00\x00" + b"\xff" * 12)                   # malformed: refused, kept
-    assert "obstacle_tracks: message of 16 bytes refused" in capfd.readouterr().err
+    err = capfd.readouterr().err
+    assert "obstacle_tracks: message of 16 bytes refused" in err and "/tf: message of 12 bytes dropped" in err
+    assert "/tf: message of 100000 bytes dropped: more than 65536" in err
     scans(5.1)
     assert command(0.4) == pytest.approx(0.4)
     monitor._on_tracks(tracks_message(5.1, [(1.565, 0.0, 2.0, 1.0, 0.0)]))     # a wall, not a person
