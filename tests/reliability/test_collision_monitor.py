@@ -374,7 +374,7 @@ def test_a_person_walking_away_on_the_tracks_topic_does_not_stop_the_robot(bare_
     odom = TransformStamped()
     odom.header.frame_id, odom.child_frame_id = "odom", "base_link"
     odom.header.stamp.sec, odom.transform.translation.x, odom.transform.rotation.w = 5, 1.0, 1.0
-    for raw in (b"\x00\x01\x00\x00" + b"\xff" * 8, b"\x00" * 100_000, serialize_message(TFMessage(transforms=[odom]))):
+    for raw in (serialize_message(TFMessage(transforms=[odom])), b"\x00" * 100_000, b"\x00\x01\x00\x00" + b"\xff" * 8):
         monitor._on_tf_raw(raw)
 
     def scans(stamp: float) -> None:
