@@ -3,7 +3,8 @@
 It takes the planner's commands on ``cmd_vel_nav``, a teleop's on ``cmd_vel_teleop`` (which, as in twist_mux,
 hold the output while they are fresher than ``teleop_timeout``) and the raw scans, and publishes what may reach
 the wheels on ``simplebot_controller/cmd_vel`` (all relative, so they follow the namespace): within the drive's
-top speeds and accelerations, at a bounded rate. Its only transforms are the lasers' static ones. It cannot
+top speeds and accelerations, at a bounded rate. Its only transforms are the lasers' static ones; move_base's
+tracks in the robot's frame say which returns move. It cannot
 be switched off, nor its body shrunk, while it runs; every accepted live change is logged at WARN.
 
 Its clock is its scans' stamps (the newest seen): simulated time under a simulator, wall time on a robot,
@@ -15,7 +16,6 @@ decides (``scan_silence_timeout``).
 
 from __future__ import annotations
 
-import collections
 import dataclasses
 import math
 import sys
@@ -27,19 +27,18 @@ from geometry_msgs.msg import Twist
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, qos_profile_sensor_data
-from rclpy.serialization import deserialize_message
 from rclpy.time import Time
 from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
 
 from simplebot_navigation.geometry import quaternion_to_rotation_matrix, transform_points
 from simplebot_navigation.parameters.spec import Param, ParameterError
+from simplebot_navigation.ros.conversions import transform_to_xyyaw
+from simplebot_navigation.ros.move_base.obstacle_msgs import RefusedMessage, read_obstacle_array
 from simplebot_navigation.ros.node_main import SetUpNode, run_node
 from simplebot_navigation.ros.params import descriptor, refuse_unknown_parameters
 from simplebot_navigation.ros.publishers import create_publisher, drop_event_handlers_of_best_effort_subscriptions
-from simplebot_navigation.ros.move_base.obstacle_msgs import RefusedMessage, read_obstacle_array
-from simplebot_navigation.ros.conversions import transform_to_xyyaw
-from simplebot_navigation.ros.tf import TF_QOS, TF_STATIC_LISTENER_QOS, Buffer, TransformException, strip_frame
+from simplebot_navigation.ros.tf import TF_STATIC_LISTENER_QOS, Buffer, TransformException, strip_frame
 from simplebot_navigation.safety.collision_monitor import (PARAMETERS, Action, CollisionMonitor,
                                                            CollisionMonitorConfig, moved_by, track_velocities)
 from simplebot_navigation.safety.command_limits import Ramp, RateLimit, brakes, clamp
@@ -53,8 +52,9 @@ AT_START = {
     "cmd_vel_out_topic": Param(str, "simplebot_controller/cmd_vel", "", "the base's commands", dynamic=False),
     "scan_topics": Param(list, ["front_laser/front_scan", "back_laser/back_scan"], "",
                          "the LaserScan topics to watch (at most 8)", dynamic=False),
-    "obstacle_tracks_topic": Param(str, "move_base/obstacle_tracks", "", "move_base's moving tracks: their "
-                                   "returns are judged as moving (empty: every return stands still)",
+    "obstacle_tracks_topic": Param(str, "move_base/obstacle_tracks/robot_frame", "", "move_base's moving tracks "
+                                   "in the robot's frame: their returns are judged as moving (empty: every "
+                                   "return stands still)",
                                    dynamic=False),
     "scan_silence_timeout": Param(float, 1.0, "s", "wall time without any scan, while commands come, that stops "
                                   "the robot (0: off, as in lockstep, where wall time means nothing)",
@@ -67,10 +67,6 @@ MAX_COMMAND = 100.0
 TIME_JUMP_BACK_S = 1.0
 #: one line per kind of trouble (a source's scans, the commands, a zone) this often at most
 LOG_PERIOD_S = 2.0
-#: /tf messages kept unread between two looks (1 s of the simulator's 50 Hz odometry transforms)
-TF_PENDING = 50
-#: a /tf message longer than this is not kept (about 600 transforms)
-TF_MAX_BYTES = 65536
 
 
 @dataclasses.dataclass
@@ -122,9 +118,7 @@ class CollisionMonitorNode(SetUpNode):
         self._tracks = None                # (frame, stamp, rows [x, y, vx, vy, radius]) of the last message
         self._tracks_topic = self.resolve_topic_name(tracks_topic) if tracks_topic else ""
         self._tracks_trusted = True        # no node but move_base publishes them (_check_publishers)
-        self._tf_pending: collections.deque[bytes] = collections.deque(maxlen=TF_PENDING)   # /tf, not yet read
         if tracks_topic:
-            self.create_subscription(TFMessage, "/tf", self._on_tf_raw, TF_QOS, raw=True)
             self.create_subscription(ObstacleArrayMsg, tracks_topic, self._on_tracks, QoSProfile(depth=1), raw=True)
         for source in self.sources:
             self.create_subscription(LaserScan, source.topic, lambda msg, s=source: self._on_scan(s, msg),
@@ -186,42 +180,6 @@ class CollisionMonitorNode(SetUpNode):
         for source in self.sources:
             source.sensor.clear()     # looked up again with what is known now
 
-    def _on_tf_raw(self, raw: bytes) -> None:
-        if len(raw) > TF_MAX_BYTES:
-            self._warn("tf size", f"/tf: message of {len(raw)} bytes dropped: more than {TF_MAX_BYTES}")
-            return
-        self._tf_pending.append(raw)
-
-    def _robot_in(self, frame: str) -> tuple[float, float, float]:
-        """The pose of ``frame`` in base_frame by the latest transforms, read from the /tf messages that came since
-        the last look, newest first, until the chain is known (the rest are dropped): a message costs a third of
-        a millisecond to read, and the simulator sends 50 a second, of which the monitor needs one per command."""
-        while self._tf_pending:
-            self._tf_read(self._tf_pending.pop())
-            try:
-                pose = transform_to_xyyaw(self.tf.lookup_transform(self.base_frame, frame, Time()))
-            except (TransformException, ValueError):
-                continue
-            self._tf_pending.clear()
-            return pose
-        return transform_to_xyyaw(self.tf.lookup_transform(self.base_frame, frame, Time()))
-
-    def _tf_read(self, raw: bytes) -> None:
-        try:
-            msg = deserialize_message(raw, TFMessage)
-        except Exception as err:   # noqa: BLE001 -- malformed bytes are dropped, with the reason
-            self._warn("tf", f"/tf: message of {len(raw)} bytes dropped: {err}")
-            return
-        self._on_tf(msg)
-
-    def _on_tf(self, msg: TFMessage) -> None:
-        """The robot's pose in the tracks' frame (only needed with obstacle_tracks_topic)."""
-        for tf in msg.transforms:
-            try:
-                self.tf.set_transform(tf, "/tf")
-            except Exception as err:   # noqa: BLE001 -- a hostile transform is dropped, with its reason
-                self._warn("tf", f"/tf: transform dropped: {err}")
-
     def _on_tracks(self, raw: bytes) -> None:
         """move_base's moving tracks; refused whole (with the reason) when beyond the caps or malformed."""
         try:
@@ -235,7 +193,8 @@ class CollisionMonitorNode(SetUpNode):
 
     def _tracks_now(self, now: float) -> np.ndarray:
         """(M, 5) the tracks at ``now`` in the robot frame: x, y, radius, vx, vy; none when they are older (or
-        newer) than source_timeout or cannot be placed, and then every return stands still."""
+        newer) than source_timeout or not in a frame fixed to the robot, and then every return stands still.
+        Like the scans' points, they are moved on by what the robot was told to do since their stamp."""
         if self._tracks is None or not len(self._tracks[2]) or not self._tracks_trusted:
             return np.empty((0, 5))
         frame, stamp, rows = self._tracks
@@ -244,14 +203,17 @@ class CollisionMonitorNode(SetUpNode):
             self._warn("stale tracks", f"{self._tracks_topic}: the last tracks are {age:.2f} s old: every return "
                                        "is judged standing")
             return np.empty((0, 5))
-        try:
-            pose = self._robot_in(frame)
+        try:       # the robot's frame, or one the static transforms fix to it
+            placed = transform_to_xyyaw(self.tf.lookup_transform(self.base_frame, frame, Time()))
         except (TransformException, ValueError) as err:
-            self._warn("tracks frame", f"{self._tracks_topic}: no transform {self.base_frame} <- '{frame}' "
-                                       f"({err}): every return is judged standing")
+            self._warn("tracks frame", f"{self._tracks_topic}: tracks in '{frame}', not in a frame fixed to "
+                                       f"{self.base_frame} ({err}): every return is judged standing")
             return np.empty((0, 5))
-        centres = transform_points(pose, rows[:, :2] + age * rows[:, 2:4])
-        velocities = transform_points((0.0, 0.0, pose[2]), rows[:, 2:4])
+        centres = transform_points(placed, rows[:, :2] + age * rows[:, 2:4])
+        velocities = transform_points((0.0, 0.0, placed[2]), rows[:, 2:4])
+        if age > 0:
+            centres = moved_by(centres, *self._out, age)
+            velocities = moved_by(velocities, 0.0, self._out[1], age)      # turned only
         return np.column_stack([centres, rows[:, 4], velocities])
 
     def _sensor(self, source: _Source, frame: str) -> np.ndarray | None:

@@ -352,10 +352,10 @@ def person_scan(frame: str, stamp: float, centre: float, radius: float = 0.25) -
     return msg
 
 
-def tracks_message(stamp: float, rows) -> bytes:
-    """An ObstacleArrayMsg in odom of (x, y, radius, vx, vy) rows, serialized as the subscription takes it."""
+def tracks_message(stamp: float, rows, frame: str = "base_link") -> bytes:
+    """An ObstacleArrayMsg of (x, y, radius, vx, vy) rows, serialized as the subscription takes it."""
     msg = ObstacleArrayMsg()
-    msg.header.frame_id = "odom"
+    msg.header.frame_id = frame
     msg.header.stamp.sec, msg.header.stamp.nanosec = int(stamp), int(round((stamp % 1) * 1e9))
     for x, y, radius, vx, vy in rows:
         obstacle = ObstacleMsg()
@@ -368,14 +368,9 @@ def tracks_message(stamp: float, rows) -> bytes:
 
 def test_a_person_walking_away_on_the_tracks_topic_does_not_stop_the_robot(bare_monitor, capfd):
     """The person's returns 1.5 cm ahead of the face: standing, they stop a command; tracked walking away at
-    1 m/s (move_base's obstacle_tracks, placed by /tf), they do not. Stale, too wide or malformed tracks leave
-    the returns standing."""
+    1 m/s (move_base's obstacle_tracks/robot_frame), they do not. Stale, too wide, malformed tracks, or tracks in
+    a frame not fixed to the robot, leave the returns standing."""
     monitor, _, command = bare_monitor
-    odom = TransformStamped()
-    odom.header.frame_id, odom.child_frame_id = "odom", "base_link"
-    odom.header.stamp.sec, odom.transform.translation.x, odom.transform.rotation.w = 5, 1.0, 1.0
-    for raw in (serialize_message(TFMessage(transforms=[odom])), b"\x00" * 100_000, b"\x00\x01\x00\x00" + b"\xff" * 8):
-        monitor._on_tf_raw(raw)
 
     def scans(stamp: float) -> None:
         monitor._on_scan(monitor.sources[0], person_scan("front_laser_link", stamp, 0.3 + 0.015 + 0.25 - 0.2))
@@ -383,41 +378,39 @@ def test_a_person_walking_away_on_the_tracks_topic_does_not_stop_the_robot(bare_
 
     scans(5.0)
     assert command(0.4) == 0.0
-    monitor._on_tracks(tracks_message(5.0, [(1.565, 0.0, 0.25, 1.0, 0.0)]))    # odom: the robot is at x = 1
+    monitor._on_tracks(tracks_message(5.0, [(0.565, 0.0, 0.25, 1.0, 0.0)]))
     scans(5.05)                                  # (a new scan: the drive's ramp counts scan time)
     assert command(0.4) == pytest.approx(0.4)
     monitor._on_tracks(b"\x00\x01\x00\x00" + b"\xff" * 12)                   # malformed: refused, kept
-    err = capfd.readouterr().err
-    assert "obstacle_tracks: message of 16 bytes refused" in err and "/tf: message of 12 bytes dropped" in err
-    assert "/tf: message of 100000 bytes dropped: more than 65536" in err
+    assert "obstacle_tracks/robot_frame: message of 16 bytes refused" in capfd.readouterr().err
     scans(5.1)
     assert command(0.4) == pytest.approx(0.4)
-    monitor._on_tracks(tracks_message(5.1, [(1.565, 0.0, 2.0, 1.0, 0.0)]))     # a wall, not a person
+    monitor._on_tracks(tracks_message(5.1, [(0.565, 0.0, 2.0, 1.0, 0.0)]))     # a wall, not a person
     scans(5.15)
     assert command(0.4) == 0.0
-    monitor._on_tracks(tracks_message(4.0, [(0.565, 0.0, 0.25, 1.0, 0.0)]))    # as of a second ago
+    monitor._on_tracks(tracks_message(5.15, [(0.565, 0.0, 0.25, 1.0, 0.0)], frame="odom"))
     scans(5.2)
     assert command(0.4) == 0.0
-    assert "the last tracks are 1.20 s old: every return is judged standing" in capfd.readouterr().err
+    assert "tracks in 'odom', not in a frame fixed to base_link" in capfd.readouterr().err
+    monitor._on_tracks(tracks_message(4.0, [(0.565, 0.0, 0.25, 1.0, 0.0)]))    # as of a second ago
+    scans(5.25)
+    assert command(0.4) == 0.0
+    assert "the last tracks are 1.25 s old: every return is judged standing" in capfd.readouterr().err
 
 
 def test_tracks_are_not_believed_while_another_node_publishes_them(bare_monitor, context, capfd):
     """A node that is not move_base could make a wall walk away: while one publishes on the tracks topic, every
     return stands."""
     monitor, _, command = bare_monitor
-    odom = TransformStamped()
-    odom.header.frame_id, odom.child_frame_id = "odom", "base_link"
-    odom.header.stamp.sec, odom.transform.rotation.w = 5, 1.0
-    monitor._on_tf(TFMessage(transforms=[odom]))
     rogue = Node("rogue_tracker", context=context)
-    rogue.create_publisher(ObstacleArrayMsg, "/move_base/obstacle_tracks", 1)
+    rogue.create_publisher(ObstacleArrayMsg, "/move_base/obstacle_tracks/robot_frame", 1)
     for stamp in (5.0, 5.05):
         monitor._on_scan(monitor.sources[0], person_scan("front_laser_link", stamp, 0.3 + 0.015 + 0.25 - 0.2))
         monitor._on_scan(monitor.sources[1], scan_message("back_laser_link", stamp))
         monitor._on_tracks(tracks_message(stamp, [(0.565, 0.0, 0.25, 1.0, 0.0)]))
         monitor._check_publishers()
     assert command(0.4) == 0.0
-    assert "/rogue_tracker publish(es) on /move_base/obstacle_tracks: the tracks are not believed" \
+    assert "/rogue_tracker publish(es) on /move_base/obstacle_tracks/robot_frame: the tracks are not believed" \
         in capfd.readouterr().err
     rogue.destroy_node()
     monitor._check_publishers()

@@ -11,6 +11,7 @@ import time
 import numpy as np
 import pytest
 import rclpy
+from builtin_interfaces.msg import Time as TimeMsg
 from costmap_converter_msgs.msg import ObstacleArrayMsg, ObstacleMsg
 from geometry_msgs.msg import Point32
 from nav_msgs.msg import OccupancyGrid
@@ -23,6 +24,8 @@ from sensor_msgs.msg import LaserScan
 
 from simplebot_navigation.costmap.cost_values import LETHAL_OBSTACLE
 from simplebot_navigation.launch.loader import load_launch
+from simplebot_navigation.perception.tracker import Track
+from simplebot_navigation.ros.move_base.obstacle_msgs import obstacle_array_msg
 from simplebot_navigation.ros.move_base.move_base_node import MoveBaseNode
 from simplebot_navigation.ros.qos import LATCHED
 from simplebot_navigation.ros.tf import StaticTransformBroadcaster, TransformBroadcaster
@@ -88,6 +91,8 @@ def lab():
     listener = Node("listener", context=context)
     received: list[ObstacleArrayMsg] = []
     listener.create_subscription(ObstacleArrayMsg, TRACKS, received.append, 10)
+    listener.in_robot_frame = []      # the collision monitor's copy (obstacle_tracks/robot_frame)
+    listener.create_subscription(ObstacleArrayMsg, f"{TRACKS}/robot_frame", listener.in_robot_frame.append, 10)
     executor = SingleThreadedExecutor(context=context)
     for node in (move_base, robot, listener):
         executor.add_node(node)
@@ -105,10 +110,15 @@ def spin_until(executor, done, timeout: float) -> None:
 
 
 def test_a_person_walking_past_is_published_with_one_id_and_its_marks_cleared(lab):
-    move_base, robot, _listener, received, executor = lab
+    move_base, robot, listener, received, executor = lab
     spin_until(executor, lambda: robot.elapsed() > 4.0, 30.0)
     moving = [(msg, o) for msg in received for o in msg.obstacles]
     assert moving, f"no moving obstacle in {len(received)} messages on {TRACKS}"
+    by_stamp = {(m.header.stamp.sec, m.header.stamp.nanosec): m for m in listener.in_robot_frame}
+    copy = by_stamp[(moving[-1][0].header.stamp.sec, moving[-1][0].header.stamp.nanosec)]
+    assert copy.header.frame_id == "base_link"      # the robot stands at odom's origin: the same numbers
+    assert [c for o in copy.obstacles for p in o.polygon.points for c in (p.x, p.y)] == pytest.approx(
+        [c for o in moving[-1][0].obstacles for p in o.polygon.points for c in (p.x, p.y)])
     assert {o.id for _, o in moving} == {moving[0][1].id}
     msg, last = moving[-1]
     assert msg.header.frame_id == "odom"
@@ -192,3 +202,18 @@ def test_a_hostile_map_is_refused_with_a_reason_and_tracking_goes_on(lab):
         assert reason in said, said
     spin_until(executor, lambda: robot.elapsed() > 4.0, 30.0)
     assert any(msg.obstacles for msg in received), "no moving track after the hostile maps"
+
+
+def test_tracks_given_in_another_frame_are_moved_and_turned():
+    """The robot-frame copy: a track 1 m ahead in odom, walking left, as seen from a frame whose pose in it is
+    (2, 0, 90 degrees): positions moved, velocities and their covariance turned."""
+    track = Track(id=3, position=np.array([1.0, 0.0]), velocity=np.array([0.0, 1.0]),
+                  covariance=np.diag([0.1, 0.1, 0.04, 0.01]), radius=0.3, age=1.0, confirmed=True, moving=True,
+                  stamp=0.0)
+    msg = obstacle_array_msg([track], "base_link", TimeMsg(), into=(2.0, 0.0, math.pi / 2))
+    (obstacle,) = msg.obstacles
+    point, velocity = obstacle.polygon.points[0], obstacle.velocities.twist.linear
+    assert (point.x, point.y, velocity.x, velocity.y) == pytest.approx((2.0, 1.0, -1.0, 0.0), abs=1e-6)
+    covariance = np.reshape(obstacle.velocities.covariance, (6, 6))[:2, :2]
+    assert covariance == pytest.approx(np.diag([0.01, 0.04]), abs=1e-12)
+    assert msg.header.frame_id == "base_link" and obstacle.radius == pytest.approx(0.3)

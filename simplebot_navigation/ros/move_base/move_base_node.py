@@ -85,6 +85,7 @@ class MoveBaseNode(Node):
         self.global_costmap = Costmap2DROS(self, "global_costmap", self.tf, obstacle_feed=self.obstacle_feed)
         self.local_costmap = Costmap2DROS(self, "local_costmap", self.tf, obstacle_feed=self.obstacle_feed,
                                           scan_observer=self.obstacle_tracking.on_scan)
+        self.obstacle_tracking.robot_frame = self.local_costmap.robot_base_frame
         self.external_obstacles = ExternalObstacles(
             self, f"~/{plugin_namespace(self.cfg.base_local_planner)}/obstacles", self.local_costmap.global_frame,
             self.tf, self.obstacle_tracking.params.external_timeout)

@@ -27,22 +27,27 @@ MAX_POINTS = 1000
 MAX_FRAME_ID_BYTES = 256
 
 
-def obstacle_array_msg(tracks: list[Track], frame: str, stamp: TimeMsg) -> ObstacleArrayMsg:
+def obstacle_array_msg(tracks: list[Track], frame: str, stamp: TimeMsg,
+                       into: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> ObstacleArrayMsg:
     """Tracks as point obstacles: the centre as a one-point polygon, the radius, the id, the velocity in the
-    header frame with its 2x2 covariance in the linear x, y entries."""
+    header frame with its 2x2 covariance in the linear x, y entries. ``into``: the pose of the tracks' frame in
+    ``frame`` (positions moved, velocities and covariances turned)."""
     msg = ObstacleArrayMsg()
     msg.header.frame_id, msg.header.stamp = frame, stamp
+    turn = np.array([[math.cos(into[2]), -math.sin(into[2])], [math.sin(into[2]), math.cos(into[2])]])
     for track in tracks:
+        position = turn @ track.position + into[:2]
+        velocity = turn @ track.velocity
         obstacle = ObstacleMsg()
         obstacle.header = msg.header
-        obstacle.polygon.points = [Point32(x=float(track.position[0]), y=float(track.position[1]))]
+        obstacle.polygon.points = [Point32(x=float(position[0]), y=float(position[1]))]
         obstacle.radius = float(track.radius)
         obstacle.id = int(track.id)
-        heading = math.atan2(track.velocity[1], track.velocity[0])
+        heading = math.atan2(velocity[1], velocity[0])
         obstacle.orientation = Quaternion(z=math.sin(heading / 2), w=math.cos(heading / 2))
-        obstacle.velocities.twist.linear.x, obstacle.velocities.twist.linear.y = (float(v) for v in track.velocity)
+        obstacle.velocities.twist.linear.x, obstacle.velocities.twist.linear.y = (float(v) for v in velocity)
         covariance = np.zeros((6, 6))
-        covariance[:2, :2] = track.covariance[2:, 2:]
+        covariance[:2, :2] = turn @ track.covariance[2:, 2:] @ turn.T
         obstacle.velocities.covariance = covariance.reshape(-1).tolist()
         msg.obstacles.append(obstacle)
     return msg

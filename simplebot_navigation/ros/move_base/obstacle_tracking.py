@@ -56,6 +56,9 @@ class ObstacleTracking:
         tracking_kernels.warm_up()     # loaded now, not at the first scan
         self.throttle = Throttle()
         self.tracks_pub = create_publisher(node, ObstacleArrayMsg, TRACKS_TOPIC, 10)
+        self.robot_tracks_pub = create_publisher(node, ObstacleArrayMsg, f"{TRACKS_TOPIC}/robot_frame", 10)
+        #: the robot's frame, for the tracks in it (the collision monitor's; move_base sets it from its costmap)
+        self.robot_frame = ""
         self.markers_pub = create_publisher(node, MarkerArray, f"{TRACKS_TOPIC}/markers", 1)
         self.tf = tf_buffer
         if self.params.static_map_topic:
@@ -133,6 +136,13 @@ class ObstacleTracking:
         """The moving tracks, as the feed gives them (the markers show the others too)."""
         moving = [track for track in self.tracker.tracks() if track.moving]
         self.tracks_pub.publish(obstacle_array_msg(moving, self.frame, stamp))
+        if self.robot_frame and self.robot_tracks_pub.get_subscription_count():
+            try:       # the scan was just placed at its stamp: so is the robot
+                robot = transform_to_xyyaw(self.tf.lookup_transform(self.robot_frame, self.frame, Time.from_msg(stamp)))
+            except TransformException as err:
+                self._warn(("robot frame",), f"obstacle tracking: tracks not published in {self.robot_frame}: {err}")
+            else:
+                self.robot_tracks_pub.publish(obstacle_array_msg(moving, self.robot_frame, stamp, robot))
         if self.markers_pub.get_subscription_count():
             self.markers_pub.publish(track_markers(self.tracker.tracks(), self.frame, stamp))
 
