@@ -26,7 +26,8 @@ from simplebot_navigation.move_base.plugins import plugin_namespace
 from simplebot_navigation.teb.plugin import TEB_LOCAL_PLANNER
 from simplebot_navigation.sim.world import Pose2D
 from simplebot_navigation.sim.world_loader import load_world
-from simplebot_navigation.scenarios.session import ScenarioClient, _Session, launch_args
+from simplebot_navigation.scenarios.launch_args import launch_args
+from simplebot_navigation.scenarios.session import ScenarioClient, _Session
 
 WRAPPER_LAUNCH = """\
 # Written by the scenario runner: the navigation launch file plus the simulator's seed and noise.

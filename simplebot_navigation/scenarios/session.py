@@ -45,7 +45,8 @@ from simplebot_navigation.ros.conversions import quaternion_msg, yaw_of
 from simplebot_navigation.ros.qos import LATCHED, SERVICE_QOS
 from simplebot_navigation.ros.simulator.lockstep import LockstepDriver
 from simplebot_navigation.ros.simulator.simulator_node import SimulatorNode
-from simplebot_navigation.scenarios.true_obstacles import TrueObstacles
+from simplebot_navigation.scenarios.launch_args import launch_args
+from simplebot_navigation.scenarios.true_obstacles import use_true_obstacles
 from simplebot_navigation.sim.world import Pose2D, World
 from simplebot_navigation.sim.world_loader import load_world
 
@@ -275,33 +276,6 @@ class _Session(abc.ABC):
         self.close()
 
 
-def launch_args(world: str, robot: str, radius: float, rtf: float, tight: bool,
-                respawn: bool = False, foxglove_port: int | None = None,
-                collision_monitor: bool = True, map_name: str = "", max_speed: float | None = None,
-                moving_obstacles: bool = True, slam: bool = False, explore: bool = False) -> dict[str, str]:
-    """The navigation launch file's arguments for a session; by default a node that dies is not respawned,
-    so a scenario shows the crash instead of hiding it. With a foxglove_port (0: a free one) the run is
-    also served to the Foxglove app on 127.0.0.1. With a map_name (a map YAML or a world) it runs on a map. With a
-    max_speed the drive and move_base's speed parameters follow it (docs/reference.md §10). Without
-    moving_obstacles nothing is tracked or predicted (every obstacle is a costmap mark). With slam the map is built
-    while driving, and with explore (slam implied) the robot drives to its frontiers too (docs/reference.md §13)."""
-    args = {"world": str(world), "robot": robot, "radius": str(radius), "rtf": str(rtf),
-            "tight": "true" if tight else "false", "respawn": "true" if respawn else "false",
-            "collision_monitor": "true" if collision_monitor else "false",
-            "moving_obstacles": "true" if moving_obstacles else "false"}
-    if map_name:
-        args["map"] = map_name
-    if slam or explore:
-        args["slam"] = "true"
-    if explore:
-        args["explore"] = "true"
-    if max_speed is not None:
-        args["max_speed"] = repr(float(max_speed))
-    if foxglove_port is not None:
-        args.update(foxglove="true", foxglove_port=str(foxglove_port))
-    return args
-
-
 class NavigationSession(_Session):
     """Simulator + move_base + ScenarioClient in one process; goals and poses in the world frame."""
 
@@ -348,7 +322,7 @@ class NavigationSession(_Session):
             self.sim = next(n for n in self.nodes if isinstance(n, SimulatorNode))
             self.move_base = next(n for n in self.nodes if n.get_name() == "move_base")
             if true_obstacles:
-                self._use_true_obstacles()
+                use_true_obstacles(self.move_base, self.sim.sim)
             self.client = ScenarioClient(self.context)
             others = [n for n in self.nodes if n is not self.sim] + [self.client]
             if rtf == 0:
@@ -360,15 +334,6 @@ class NavigationSession(_Session):
         except BaseException:
             self.close()
             raise
-
-    def _use_true_obstacles(self) -> None:
-        """The simulator's moving obstacles take the tracker's place in move_base's obstacle feed."""
-        move_base = self.move_base
-        if not move_base.obstacle_tracking.params.enabled:
-            raise ValueError("true_obstacles needs moving obstacles on (it replaces what the tracker hands on)")
-        feed = move_base.obstacle_feed
-        truth = TrueObstacles(self.sim.sim, move_base.local_costmap.global_frame)
-        feed.sources = [truth if source is move_base.obstacle_tracking else source for source in feed.sources]
 
     @property
     def time(self) -> float:

@@ -55,3 +55,12 @@ class TrueObstacles:
         self._history = [(t, c) for t, c in self._history if now - CLEARING_TIME_S <= t <= now]
         self._history.append((now, np.column_stack([rows[:, :2], rows[:, 4] + CLEARING_MARGIN_M])))
         return np.concatenate([c for _, c in self._history])
+
+
+def use_true_obstacles(move_base, sim) -> None:
+    """The simulator's moving obstacles take the tracker's place in move_base's obstacle feed."""
+    if not move_base.obstacle_tracking.params.enabled:
+        raise ValueError("true_obstacles needs moving obstacles on (it replaces what the tracker hands on)")
+    feed = move_base.obstacle_feed
+    truth = TrueObstacles(sim, move_base.local_costmap.global_frame)
+    feed.sources = [truth if source is move_base.obstacle_tracking else source for source in feed.sources]

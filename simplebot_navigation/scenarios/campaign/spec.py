@@ -25,7 +25,7 @@ from simplebot_navigation.move_base.speed_profile import check_speed
 from simplebot_navigation.sim.crowd import crowd_level
 from simplebot_navigation.sim.world_loader import load_world
 from simplebot_navigation.scenarios.runner import parse_goals
-from simplebot_navigation.scenarios.session import launch_args
+from simplebot_navigation.scenarios.launch_args import launch_args
 
 ROBOT_BODY = re.compile(r"^(?P<name>box|round)(?::(?P<radius>\d+(?:\.\d+)?))?$")
 ROUND_RADIUS_RANGE = (0.1, 1.0)
