@@ -88,7 +88,13 @@ class Stack:
 def stack():
     with ProcessSession("lab", rtf=1.0, respawn=True) as session:
         session.wait_ready(wall_timeout_s=240.0)
-        yield Stack(session)
+        stack = Stack(session)
+        # a message published before its subscriber is matched is lost (volatile QoS): on a loaded machine
+        # discovery of the new publishers takes a while, and the first bad goal went unheard
+        publishers = (stack.goal_pub, stack.cancel_pub, stack.cmd_pub, stack.scan_pub)
+        assert session.spin_wall(30.0, lambda: all(p.get_subscription_count() for p in publishers)), \
+            "the stack's subscribers never matched the test's publishers"
+        yield stack
 
 
 def pose(frame="odom", x=2.0, y=0.0, q=(0.0, 0.0, 0.0, 1.0)) -> PoseStamped:
