@@ -151,7 +151,7 @@ def rogue_tracks(session, nav) -> tuple[str, str, str, bool]:
     obstacle.polygon.points = [Point32(x=0.9, y=0.0)]
     obstacle.radius, obstacle.velocities.twist.linear.x = 0.9, 10.0
     msg.obstacles = [obstacle]
-    tracks = session.client.create_publisher(ObstacleArrayMsg, "/move_base/obstacle_tracks", 10)
+    tracks = session.client.create_publisher(ObstacleArrayMsg, "/move_base/obstacle_tracks/robot_frame", 10)
     drive(session, [(nav, -SPEED, 0.0)], BACK_OFF_S)
     collisions = session.client.collisions
     try:
@@ -159,7 +159,7 @@ def rogue_tracks(session, nav) -> tuple[str, str, str, bool]:
     finally:
         session.client.destroy_publisher(tracks)
     new = session.client.collisions - collisions
-    return ("rogue /move_base/obstacle_tracks, then 0.3 m/s at a wall", "the wall walking away at 10 m/s",
+    return ("rogue obstacle_tracks/robot_frame, then 0.3 m/s at a wall", "the wall walking away at 10 m/s",
             f"drove {driven:.2f} m, {last:.3f} m in the last second, {new} collisions",
             new == 0 and last < STANDING)
 
