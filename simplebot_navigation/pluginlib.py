@@ -120,9 +120,10 @@ class PluginSpec:
     #: builds its configuration from its namespace (ROS 1 form, None when absent): (config, warnings);
     #: planners only, the ROS wrapper builds its own from the same namespace
     config: Callable[[dict | None], tuple[Any, list[str]]] | None = None
-    #: a local planner's values of its namespace that follow move_base's one speed setting (max_speed, m/s), by
-    #: name within the namespace (move_base/speed_profile.py); None: none follow it
-    speed_parameters: Callable[[float], dict[str, float]] | None = None
+    #: a local planner's values of its namespace that follow move_base's one speed setting (max_speed, m/s) and
+    #: the robot's drive (its wheel separation in m, None when the launch does not know the robot), by name within
+    #: the namespace (move_base/speed_profile.py); None: none follow them
+    speed_parameters: Callable[[float, float | None], dict[str, float]] | None = None
 
     def load(self) -> Any:
         if not isinstance(self.implementation, str):

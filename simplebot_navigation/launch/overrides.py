@@ -9,6 +9,8 @@ tree is checked as move_base would build it. Later assignments win.
 
 from __future__ import annotations
 
+from simplebot_description import robot_description
+
 from simplebot_navigation.move_base.parameter_tree import apply_move_base_overrides
 from simplebot_navigation.move_base.speed_profile import speed_parameters
 from simplebot_navigation.parameters import ParameterError
@@ -58,7 +60,8 @@ def speed_assignments(config: LaunchConfig, explicit: list[str]) -> tuple[list[s
     selected = replaced.get(LOCAL_PLANNER_KEY)
     planner = selected if selected is not None else (tree.get(LOCAL_PLANNER_KEY) if isinstance(tree, dict) else None)
     try:
-        derived = speed_parameters(speed, viapoints_on, *([str(planner)] if planner else []))
+        derived = speed_parameters(speed, viapoints_on, *([str(planner)] if planner else []),
+                                   wheel_separation=_wheel_separation(config))
     except ValueError as err:       # ParameterError too: an unknown planner type
         raise LaunchError(str(err)) from None
     report = [f"max_speed {speed:g} m/s: " + ", ".join(f"{name}={_shown(v)}" for name, v in derived.items())]
@@ -67,6 +70,16 @@ def speed_assignments(config: LaunchConfig, explicit: list[str]) -> tuple[list[s
     # a planner chosen by --set is chosen first, so that its derived parameters exist when they are set
     chosen = [f"{LOCAL_PLANNER_KEY}={selected}"] if selected is not None else []
     return chosen + [f"{name}={v!r}" for name, v in derived.items()], report
+
+
+def _wheel_separation(config: LaunchConfig) -> float | None:
+    """The wheel separation of the body the launch's robot:= and radius:= describe; None for a launch without
+    them or with values the simulator refuses (it says why)."""
+    try:
+        return robot_description(config.args.get("robot", "box"),
+                                 float(config.args.get("radius", "0.3"))).wheel_separation
+    except ValueError:
+        return None
 
 
 def _shown(value) -> str:

@@ -46,13 +46,13 @@ def check_speed(speed: float) -> str | None:
     return None
 
 
-def speed_parameters(speed: float, viapoints_on: bool,
-                     local_planner: str = TEB_LOCAL_PLANNER) -> dict[str, float | int]:
+def speed_parameters(speed: float, viapoints_on: bool, local_planner: str = TEB_LOCAL_PLANNER,
+                     wheel_separation: float | None = None) -> dict[str, float | int]:
     """move_base's parameters (ROS 2 names, as ``--set`` takes them) for a top speed of ``speed`` m/s.
     ``viapoints_on``: the parameter files use TEB's via-points (global_plan_viapoint_sep > 0), whose spacing then
     follows the speed too. TEB's own are derived below; another ``local_planner``'s come from its registration's
-    ``speed_parameters`` (none if it has none). ValueError for a speed outside [MIN_SPEED, MAX_SPEED],
-    ParameterError for an unknown planner."""
+    ``speed_parameters`` (none if it has none), which also get the robot's ``wheel_separation`` (m; None: not
+    known). ValueError for a speed outside [MIN_SPEED, MAX_SPEED], ParameterError for an unknown planner."""
     problem = check_speed(speed)
     if problem is not None:
         raise ValueError(problem)
@@ -78,7 +78,7 @@ def speed_parameters(speed: float, viapoints_on: bool,
         teb["global_plan_viapoint_sep"] = round(max(0.1, speed * dt_ref), 3)
     if local_planner != TEB_LOCAL_PLANNER:
         hook = LOCAL_PLANNERS.spec(local_planner).speed_parameters
-        teb = hook(speed) if hook is not None else {}
+        teb = hook(speed, wheel_separation) if hook is not None else {}
     out: dict[str, float | int] = {f"{plugin_namespace(local_planner)}.{key}": value for key, value in teb.items()}
     out["local_costmap.width"] = out["local_costmap.height"] = window
     for laser in ("front_laser", "back_laser"):

@@ -56,6 +56,9 @@ class Limits:
     wheel_speed_max: float = param(1.05, "m/s", "Here: the drive's top wheel speed at the rim; a velocity whose "
                                    "wheel speeds exceed it is scaled down along its curvature, as the drive does",
                                    gt=0, le=MAX_DRIVE_SPEED)
+    wheel_accel_max: float = param(1.75, "m/s^2", "Here: the drive's wheel acceleration at the rim; a step whose "
+                                   "wheel speeds would change faster is scaled down, turn and speed together, as the "
+                                   "drive ramps its wheels", gt=0, le=MAX_DRIVE_ACCEL)
     wheel_separation: float = param(0.46, "m", "Here: distance between the driven wheels (the lab's box and the "
                                     "0.3 m round body; a larger value plans turns more cautiously)", gt=0, le=2.0)
 

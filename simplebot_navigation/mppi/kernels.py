@@ -14,7 +14,7 @@ import numpy as np
 from numba import njit
 
 #: columns of the limits vector the motion model takes (MotionLimits.vector in motion.py)
-VX_MIN, VX_MAX, WZ_MAX, AX_MAX, AX_MIN, AZ_MAX, WHEEL_MAX, HALF_SEPARATION = range(8)
+VX_MIN, VX_MAX, WZ_MAX, AX_MAX, AX_MIN, AZ_MAX, WHEEL_MAX, HALF_SEPARATION, WHEEL_ACCEL = range(9)
 #: costmap values (costmap/cost_values.py): inscribed and lethal cells are infeasible, unknown costs nothing
 INSCRIBED, LETHAL, UNKNOWN = 253, 254, 255
 #: columns of path_terms: PathAlign, PathFollow, PathAngle, Goal, reverse travel, smoothness
@@ -26,15 +26,23 @@ STRIDE = 3
 @njit(cache=True, nogil=True)
 def step_velocity(v, w, vc, wc, limits, dt):
     """The velocity after one step towards the command (vc, wc): the command held to the velocity limits, the
-    change to the acceleration limits (ax_max away from standstill, ax_min towards it), then the wheel speeds to
-    wheel_speed_max along the curvature, as the drive saturates."""
+    change to the acceleration limits (ax_max away from standstill, ax_min towards it, az_max), both changes scaled
+    by one factor so that no wheel changes speed faster than wheel_accel_max (the drive ramps its wheels so), then
+    the wheel speeds to wheel_speed_max along the curvature, as the drive saturates."""
     vc = min(max(vc, limits[VX_MIN]), limits[VX_MAX])
     wc = min(max(wc, -limits[WZ_MAX]), limits[WZ_MAX])
     dv = vc - v
     step = limits[AX_MAX] * dt if (v * dv > 0.0 or v == 0.0) else -limits[AX_MIN] * dt
-    v += min(max(dv, -step), step)
+    dv = min(max(dv, -step), step)
     turn = limits[AZ_MAX] * dt
-    w += min(max(wc - w, -turn), turn)
+    dw = min(max(wc - w, -turn), turn)
+    wheel_change = abs(dv) + abs(dw) * limits[HALF_SEPARATION]
+    if wheel_change > limits[WHEEL_ACCEL] * dt:
+        scale = limits[WHEEL_ACCEL] * dt / wheel_change
+        dv *= scale
+        dw *= scale
+    v += dv
+    w += dw
     wheel = abs(v) + abs(w) * limits[HALF_SEPARATION]
     if wheel > limits[WHEEL_MAX]:
         scale = limits[WHEEL_MAX] / wheel

@@ -31,7 +31,7 @@ def limits_vector(cfg: MppiConfig) -> np.ndarray:
     """The motion model's limits in the kernels' order (kernels.VX_MIN ...)."""
     lim = cfg.limits
     return np.array([lim.vx_min, lim.vx_max, lim.wz_max, lim.ax_max, lim.ax_min, lim.az_max, lim.wheel_speed_max,
-                     0.5 * lim.wheel_separation])
+                     0.5 * lim.wheel_separation, lim.wheel_accel_max])
 
 
 def fan_targets(cfg: MppiConfig) -> np.ndarray:

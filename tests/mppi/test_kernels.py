@@ -47,6 +47,28 @@ def test_rollouts_match_the_reference(seed):
 
 
 @pytest.mark.parametrize("seed", range(4))
+def test_the_wheels_ramp_no_faster_than_the_drive(seed):
+    """With turn and speed limits above what the wheels can do together (the round body's 9.7 rad/s^2 comes from
+    1.75 m/s^2 at the rim), each step's wheel speed change stays within wheel_accel_max x dt, and the rollouts
+    match the reference."""
+    _, state, sequence, noise, _ = scene(seed)
+    cfg = MppiConfig.from_params({"vx_max": 1.0, "wheel_separation": 0.36, "ax_max": 1.5, "az_max": 9.0,
+                                  "wz_max": 5.0, "wheel_accel_max": 1.75})
+    limits = limits_vector(cfg)
+    controls, poses = kernels.rollout(state, sequence, noise, limits, 0.05)
+    expected = reference.rollout(state, sequence, noise, limits, 0.05)
+    np.testing.assert_allclose(controls, expected[0], atol=TOLERANCE, rtol=0)
+    np.testing.assert_allclose(poses, expected[1], atol=TOLERANCE, rtol=0)
+    before = np.concatenate([np.broadcast_to(state[3:5], (len(controls), 1, 2)), controls[:, :-1]], axis=1)
+    change = np.abs(controls - before)
+    wheel_change = change[..., 0] + change[..., 1] * 0.18
+    # the wheel speed limit may slow a step further (it scales a velocity down), never speed it up past the ramp
+    saturated = np.abs(controls[..., 0]) + np.abs(controls[..., 1]) * 0.18 >= limits[kernels.WHEEL_MAX] - 1e-9
+    assert wheel_change[~saturated].max() <= 1.75 * 0.05 + 1e-12
+    assert wheel_change[~saturated].max() >= 1.75 * 0.05 - 1e-9        # the ramp binds in these scenes
+
+
+@pytest.mark.parametrize("seed", range(4))
 @pytest.mark.parametrize("footprint", [BOX, ROUND], ids=["box", "round"])
 def test_costmap_terms_match_the_reference(seed, footprint):
     rng, state, sequence, noise, limits = scene(seed)

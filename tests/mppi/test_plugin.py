@@ -2,8 +2,12 @@
 max_speed, selectable from a campaign's parameter set, and driving a goal."""
 
 import math
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
+import pytest
 
 from simplebot_navigation.move_base.parameter_tree import parameter_table
 from simplebot_navigation.move_base.plugins import LOCAL_PLANNERS
@@ -15,6 +19,7 @@ from simplebot_navigation.scenarios.session import NavigationSession
 from simplebot_navigation.sim.world import Pose2D
 
 SELECT = f"base_local_planner={MPPI_LOCAL_PLANNER}"
+REPO = Path(__file__).resolve().parents[2]
 
 
 def test_its_namespace_is_in_the_parameter_tree_only_when_selected():
@@ -30,6 +35,26 @@ def test_max_speed_sets_its_limits_and_leaves_teb_alone():
     assert derived["MPPILocalPlannerROS.vx_max"] == 1.0 and derived["MPPILocalPlannerROS.ax_min"] < 0
     assert not any(name.startswith("TebLocalPlannerROS.") for name in derived)
     assert derived["controller_frequency"] == speed_parameters(1.0, False)["controller_frequency"]
+
+
+def test_its_turn_limits_follow_the_drive():
+    """The round body of radius 0.25 m has its wheels 0.36 m apart: at 1 m/s (the lab's drive, 1.05 m/s and
+    1.75 m/s^2 at the rim) it can turn at 5.8 rad/s and spin up at 9.7 rad/s^2; at 2 m/s the Jackal drive's own yaw
+    limits (4 rad/s, 8 rad/s^2) bind. The launch reads the separation from the robot's description."""
+    lab = speed_parameters(1.0, False, MPPI_LOCAL_PLANNER, wheel_separation=0.36)
+    assert lab["MPPILocalPlannerROS.wz_max"] == pytest.approx(5.833, abs=1e-3)
+    assert lab["MPPILocalPlannerROS.az_max"] == pytest.approx(9.722, abs=1e-3)
+    assert lab["MPPILocalPlannerROS.wheel_accel_max"] == 1.75 and lab["MPPILocalPlannerROS.wheel_separation"] == 0.36
+    jackal = speed_parameters(2.0, False, MPPI_LOCAL_PLANNER, wheel_separation=0.36)
+    assert (jackal["MPPILocalPlannerROS.wz_max"], jackal["MPPILocalPlannerROS.az_max"]) == (4.0, 8.0)
+    assert jackal["MPPILocalPlannerROS.wheel_accel_max"] == 2.5
+    unknown = speed_parameters(1.0, False, MPPI_LOCAL_PLANNER)
+    assert "MPPILocalPlannerROS.az_max" not in unknown and "MPPILocalPlannerROS.wheel_separation" not in unknown
+    done = subprocess.run([sys.executable, "-m", "simplebot_navigation.launch", "navigation", "robot:=round",
+                           "radius:=0.25", "max_speed:=1.0", f"--set={SELECT}", "--print-params"],
+                          cwd=REPO, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert "MPPILocalPlannerROS.wheel_separation: 0.36" in done.stdout.splitlines(), done.stdout[-2000:]
 
 
 def test_a_campaign_parameter_set_selects_it():
