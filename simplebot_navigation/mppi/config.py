@@ -58,7 +58,7 @@ class Limits:
                                    gt=0, le=MAX_DRIVE_SPEED)
     wheel_accel_max: float = param(1.75, "m/s^2", "Here: the drive's wheel acceleration at the rim; a step whose "
                                    "wheel speeds would change faster is scaled down, turn and speed together, as the "
-                                   "drive ramps its wheels", gt=0, le=MAX_DRIVE_ACCEL)
+                                   "drive ramps its wheels", ge=0.05, le=MAX_DRIVE_ACCEL)
     wheel_separation: float = param(0.46, "m", "Here: distance between the driven wheels (the lab's box and the "
                                     "0.3 m round body; a larger value plans turns more cautiously)", gt=0, le=2.0)
 
