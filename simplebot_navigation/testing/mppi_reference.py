@@ -23,8 +23,8 @@ def rollout(state, sequence, noise, limits, dt):
         step = np.where((v * dv > 0) | (v == 0), limits[k.AX_MAX] * dt, -limits[k.AX_MIN] * dt)
         dv = np.clip(dv, -step, step)
         dw = np.clip(wc - w, -limits[k.AZ_MAX] * dt, limits[k.AZ_MAX] * dt)
-        ramp = np.minimum(1.0, limits[k.WHEEL_ACCEL] * dt / np.maximum(np.abs(dv) + np.abs(dw) * limits[k.HALF_SEPARATION],
-                                                                      1e-300))
+        wheel_change = np.abs(dv) + np.abs(dw) * limits[k.HALF_SEPARATION]
+        ramp = np.minimum(1.0, limits[k.WHEEL_ACCEL] * dt / np.maximum(wheel_change, 1e-300))
         v, w = v + dv * ramp, w + dw * ramp
         scale = np.minimum(1.0, limits[k.WHEEL_MAX] / np.maximum(np.abs(v) + np.abs(w) * limits[k.HALF_SEPARATION],
                                                                  1e-300))
