@@ -75,6 +75,9 @@ class MppiController:
         self.last_kind = ""
         self._notices: list[tuple[str, str]] = []
         self._dropped_reported = False
+        #: the cycle's prediction from its settings (MotionPrediction: constant velocity). A benchmark hands in one
+        #: that knows the obstacles' true future (testing/crowd_drive.py), to measure what prediction costs.
+        self.prediction_for = lambda settings: settings
 
     # -- run-time changes ---------------------------------------------------------------------------
     def reconfigure(self, cfg: MppiConfig) -> None:
@@ -230,8 +233,9 @@ class MppiController:
         moving = cfg.moving_obstacles
         rows, covariance = self._with_lost_tracks(state)
         rows = prediction_rows(rows, covariance, moving.dynamic_obstacle_uncertainty_sigmas)
-        prediction = MotionPrediction(moving.dynamic_obstacle_prediction_horizon or math.inf,
-                                      moving.dynamic_obstacle_max_uncertainty, moving.dynamic_obstacle_radius_growth)
+        prediction = self.prediction_for(MotionPrediction(moving.dynamic_obstacle_prediction_horizon or math.inf,
+                                                          moving.dynamic_obstacle_max_uncertainty,
+                                                          moving.dynamic_obstacle_radius_growth))
         guide = self._guide_ahead(state, costmap, rows, prediction)
         if len(guide):
             path = guide[:, 1:]
@@ -242,7 +246,7 @@ class MppiController:
                      costmap.costmap, self._lethal_distance(costmap),
                      (costmap.origin_x, costmap.origin_y, costmap.resolution),
                      self._outline(costmap.resolution), self.circles, np.ascontiguousarray(rows), prediction,
-                     guide)
+                     prediction.table(rows, cfg.sampling.model_dt, cfg.sampling.time_steps), guide)
 
     def _guide_ahead(self, state: np.ndarray, costmap, rows: np.ndarray, prediction: MotionPrediction) -> np.ndarray:
         """The space-time guide from this cycle's time: planned again once guide_period has passed, else the last

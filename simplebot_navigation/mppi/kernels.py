@@ -116,13 +116,6 @@ def costmap_terms(poses, grid, origin_x, origin_y, resolution, outline):
 
 
 @njit(cache=True, nogil=True)
-def keep_out_radius(row, t, horizon, max_uncertainty, radius_growth):
-    """perception/prediction.py MotionPrediction.radii for one prediction row at one time."""
-    t = min(t, horizon)
-    return row[4] + min(math.hypot(row[5], t * row[6]), max_uncertainty) + radius_growth * t
-
-
-@njit(cache=True, nogil=True)
 def body_clearance(x, y, c, s, ox, oy, circles):
     """Distance from the body's circles (C, 3: cx, cy, r in the robot frame) at pose (x, y, cos, sin) to a point."""
     best = np.inf
@@ -134,18 +127,18 @@ def body_clearance(x, y, c, s, ox, oy, circles):
 
 
 @njit(cache=True, nogil=True)
-def moving_terms(start, poses, dt, obstacles, circles, margin, closing, clearance, horizon, max_uncertainty,
-                 radius_growth):
-    """Per rollout (B, T, 3; pose t at time (t + 1) dt) against moving obstacles (K, 7 prediction rows,
-    perception/prediction.py) where they will be: the index of the first pose within ``margin`` of a keep-out
-    circle (T: none), or ``closing`` nearer than the body at ``start`` (x, y, yaw at time 0) is to it, if that is
-    less (one that cut in close can still be left); and the mean shortfall of the clearance below ``clearance``
-    over the poses before it.
+def moving_terms(start, poses, centres, radii, circles, margin, closing, clearance):
+    """Per rollout (B, T, 3; pose t at time (t + 1) dt) against moving obstacles where they are predicted to be:
+    ``centres`` (T + 1, K, 2) and keep-out ``radii`` (T + 1, K) at times 0, dt, ... T dt (the prediction's
+    table, Prediction.table). Returns the index of the first pose within ``margin`` of a keep-out circle (T: none),
+    or ``closing`` nearer than the body at ``start`` (x, y, yaw at time 0) is to it, if that is less (one that cut
+    in close can still be left); and the mean shortfall of the clearance below ``clearance`` over the poses before
+    it.
 
     Only the obstacles that can come within ``clearance`` of some rollout at step t are looked at then: those near
     the box round all the rollouts' poses of that step (most of a crowd is out of reach for most of the
     horizon), and of those only the ones whose bounding circle comes that near the pose."""
-    n_batch, n_steps, n_obst = poses.shape[0], poses.shape[1], obstacles.shape[0]
+    n_batch, n_steps, n_obst = poses.shape[0], poses.shape[1], centres.shape[1]
     first = np.full(n_batch, n_steps, dtype=np.int64)
     shortfall = np.zeros(n_batch)
     if n_obst == 0:
@@ -154,8 +147,7 @@ def moving_terms(start, poses, dt, obstacles, circles, margin, closing, clearanc
     for i in range(circles.shape[0]):
         reach = max(reach, math.hypot(circles[i, 0], circles[i, 1]) + circles[i, 2])
     far = max(clearance, margin)
-    # per step: where each obstacle is, its keep-out radius, and which obstacles may matter to any rollout
-    ox, oy, radius = np.empty((n_steps, n_obst)), np.empty((n_steps, n_obst)), np.empty((n_steps, n_obst))
+    # per step: which obstacles may matter to any rollout
     near2 = np.empty((n_steps, n_obst))
     candidates, counts = np.empty((n_steps, n_obst), dtype=np.int64), np.zeros(n_steps, dtype=np.int64)
     for t in range(n_steps):
@@ -165,20 +157,17 @@ def moving_terms(start, poses, dt, obstacles, circles, margin, closing, clearanc
             x_lo, x_hi = min(x_lo, poses[b, t, 0]), max(x_hi, poses[b, t, 0])
             y_lo, y_hi = min(y_lo, poses[b, t, 1]), max(y_hi, poses[b, t, 1])
         for k in range(n_obst):
-            ox[t, k] = obstacles[k, 0] + (t + 1) * dt * obstacles[k, 2]
-            oy[t, k] = obstacles[k, 1] + (t + 1) * dt * obstacles[k, 3]
-            radius[t, k] = keep_out_radius(obstacles[k], (t + 1) * dt, horizon, max_uncertainty, radius_growth)
-            near2[t, k] = (far + reach + radius[t, k]) ** 2
-            gap_x = max(x_lo - ox[t, k], ox[t, k] - x_hi, 0.0)
-            gap_y = max(y_lo - oy[t, k], oy[t, k] - y_hi, 0.0)
+            ox, oy = centres[t + 1, k, 0], centres[t + 1, k, 1]
+            near2[t, k] = (far + reach + radii[t + 1, k]) ** 2
+            gap_x = max(x_lo - ox, ox - x_hi, 0.0)
+            gap_y = max(y_lo - oy, oy - y_hi, 0.0)
             if gap_x * gap_x + gap_y * gap_y < near2[t, k]:
                 candidates[t, counts[t]] = k
                 counts[t] += 1
     limit = np.empty(n_obst)
     c0, s0 = math.cos(start[2]), math.sin(start[2])
     for k in range(n_obst):
-        now = body_clearance(start[0], start[1], c0, s0, obstacles[k, 0], obstacles[k, 1], circles) \
-            - keep_out_radius(obstacles[k], 0.0, horizon, max_uncertainty, radius_growth)
+        now = body_clearance(start[0], start[1], c0, s0, centres[0, k, 0], centres[0, k, 1], circles) - radii[0, k]
         limit[k] = min(margin, now - closing)
     for b in range(n_batch):
         total = 0.0
@@ -189,10 +178,11 @@ def moving_terms(start, poses, dt, obstacles, circles, margin, closing, clearanc
                 c, s = math.cos(th), math.sin(th)
                 for j in range(counts[t]):
                     k = candidates[t, j]
-                    dx, dy = ox[t, k] - x, oy[t, k] - y
+                    ox, oy = centres[t + 1, k, 0], centres[t + 1, k, 1]
+                    dx, dy = ox - x, oy - y
                     if dx * dx + dy * dy >= near2[t, k]:
                         continue
-                    d = body_clearance(x, y, c, s, ox[t, k], oy[t, k], circles) - radius[t, k]
+                    d = body_clearance(x, y, c, s, ox, oy, circles) - radii[t + 1, k]
                     nearest = min(nearest, d)
                     if d < limit[k]:
                         hit = True

@@ -58,6 +58,7 @@ class Scene:
     circles: np.ndarray         # (C, 3) covering circles of the body
     obstacles: np.ndarray       # (K, 7) prediction rows of the moving obstacles
     prediction: MotionPrediction
+    keep_out: tuple[np.ndarray, np.ndarray]   # the prediction's table over the horizon: centres, radii
     guide: np.ndarray           # (G, 3) t, x, y: the space-time guide from this cycle's time (G = 0: none)
 
 
@@ -100,9 +101,8 @@ class MppiOptimizer:
         cfg, crit, mov = self.cfg, self.cfg.critics, self.cfg.moving_obstacles
         dt, steps = cfg.sampling.model_dt, controls.shape[1]
         static_first, mean_cost = kernels.costmap_terms(poses, scene.grid, *scene.origin, scene.outline)
-        moving_first, shortfall = kernels.moving_terms(scene.state[:3], poses, dt, scene.obstacles, scene.circles,
-                                                       mov.contact_margin, CLOSING_M, mov.moving_obstacle_clearance,
-                                                       *scene.prediction.kernel_arguments)
+        moving_first, shortfall = kernels.moving_terms(scene.state[:3], poses, *scene.keep_out, scene.circles,
+                                                       mov.contact_margin, CLOSING_M, mov.moving_obstacle_clearance)
         terms = kernels.path_terms(poses, controls, scene.state[3:5], dt, scene.path, scene.target, scene.goal)
         if scene.near_goal:
             costs = crit.goal_weight * terms[:, kernels.GOAL]

@@ -109,6 +109,13 @@ class MotionPrediction:
         spread = np.hypot(rows[:, POSITION_SPREAD, None], t * rows[:, VELOCITY_SPREAD, None])
         return rows[:, RADIUS, None] + np.minimum(spread, self.max_uncertainty) + self.radius_growth * t
 
+    def table(self, rows: np.ndarray, dt: float, steps: int) -> tuple[np.ndarray, np.ndarray]:
+        """Centres (steps + 1, K, 2) and radii (steps + 1, K) at times 0, dt, ... steps dt: what a compiled loop
+        over a horizon of time steps reads, whatever the prediction (a subclass's centres and radii)."""
+        times = np.arange(steps + 1) * dt
+        return (np.ascontiguousarray(self.centres(rows, times).transpose(1, 0, 2), dtype=float),
+                np.ascontiguousarray(self.radii(rows, times).T, dtype=float))
+
     @property
     def kernel_arguments(self) -> tuple[float, float, float]:
         """(horizon, max_uncertainty, radius_growth) for a compiled loop."""

@@ -57,6 +57,7 @@ class _Grid:
         occupied = np.zeros(self.shape, dtype=bool)
         for _, shape in world.obstacles():
             self._rasterise(shape, occupied)
+        self.occupied = occupied
         # Distance from each cell centre to the nearest occupied centre, which lies up to half a
         # cell inside the obstacle's surface.
         self.clearance = ndimage.distance_transform_edt(~occupied) * resolution - resolution / 2
@@ -84,6 +85,13 @@ class _Grid:
             local = np.abs(inverse_transform_points((cx, cy, shape.yaw), centres))
             inside = (local[..., 0] <= shape.size[0] / 2) & (local[..., 1] <= shape.size[1] / 2)
         occupied[r0:r1 + 1, c0:c1 + 1] |= inside
+
+
+def occupancy(world: World, resolution: float = DEFAULT_RESOLUTION) -> tuple[np.ndarray, tuple]:
+    """(occupied, origin): the cells (rows = y) whose centre lies inside a static obstacle, and the (x, y) of cell
+    (0, 0)'s corner."""
+    grid = _Grid(world, resolution)
+    return grid.occupied, grid.origin
 
 
 def static_free(world: World, inflation: float, resolution: float = DEFAULT_RESOLUTION) -> tuple[np.ndarray, tuple]:

@@ -6,7 +6,6 @@ from __future__ import annotations
 import numpy as np
 
 from simplebot_navigation.mppi import kernels as k
-from simplebot_navigation.perception.prediction import MotionPrediction
 
 
 def rollout(state, sequence, noise, limits, dt):
@@ -74,18 +73,13 @@ def _clearances(poses, centres, radii, circles):
     return d.min(axis=-1) - radii
 
 
-def moving_terms(start, poses, dt, obstacles, circles, margin, closing, clearance, horizon, max_uncertainty,
-                 radius_growth):
+def moving_terms(start, poses, centres, radii, circles, margin, closing, clearance):
     """kernels.moving_terms: every pose against every obstacle at once (no bounding-circle shortcut)."""
     n_batch, n_steps = poses.shape[:2]
-    if len(obstacles) == 0:
+    if centres.shape[1] == 0:
         return np.full(n_batch, n_steps), np.zeros(n_batch)
-    prediction = MotionPrediction(horizon, max_uncertainty, radius_growth)
-    times = (np.arange(n_steps) + 1) * dt
-    centres = prediction.centres(obstacles, times).transpose(1, 0, 2)[None]                   # 1, T, K, 2
-    d = _clearances(poses, centres, prediction.radii(obstacles, times).T[None], circles)      # B, T, K
-    now = _clearances(np.asarray(start, float)[None, None], obstacles[None, None, :, :2],
-                      prediction.radii(obstacles, [0.0]).T[None], circles)[0, 0]
+    d = _clearances(poses, centres[None, 1:], radii[None, 1:], circles)                    # B, T, K
+    now = _clearances(np.asarray(start, float)[None, None], centres[None, :1], radii[None, :1], circles)[0, 0]
     first = _first((d < np.minimum(margin, now - closing)).any(axis=2))
     before = np.arange(n_steps)[None] < first[:, None]
     nearest = np.minimum(d.min(axis=2), max(clearance, margin))

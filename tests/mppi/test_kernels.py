@@ -13,7 +13,7 @@ from simplebot_navigation.costmap.cost_values import INSCRIBED_INFLATED_OBSTACLE
 from simplebot_navigation.mppi import MppiConfig, kernels
 from simplebot_navigation.mppi.body import body_circles, outline_points
 from simplebot_navigation.mppi.optimizer import limits_vector
-from simplebot_navigation.perception.prediction import prediction_rows
+from simplebot_navigation.perception.prediction import MotionPrediction, prediction_rows
 from simplebot_navigation.testing import mppi_reference as reference
 
 TOLERANCE = 1e-9
@@ -100,7 +100,8 @@ def test_moving_terms_match_the_reference(seed, footprint):
     cov = np.zeros((k, 4, 4))
     cov[:, [0, 1, 2, 3], [0, 1, 2, 3]] = rng.uniform(0.0, 0.05, (k, 4))
     obstacles = prediction_rows(rows, cov, 2.0)
-    args = (state[:3], poses, 0.05, obstacles, body_circles(footprint), 0.1, 0.05, 0.4, 4.0, 0.1, 0.05)
+    table = MotionPrediction(4.0, 0.1, 0.05).table(obstacles, 0.05, poses.shape[1])
+    args = (state[:3], poses, *table, body_circles(footprint), 0.1, 0.05, 0.4)
     first, shortfall = kernels.moving_terms(*args)
     want_first, want_shortfall = reference.moving_terms(*args)
     np.testing.assert_array_equal(first, want_first)
