@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from simplebot_description import robot_description
 
+from simplebot_navigation.move_base.config import MoveBaseConfig
 from simplebot_navigation.move_base.parameter_tree import apply_move_base_overrides
 from simplebot_navigation.move_base.speed_profile import speed_parameters
 from simplebot_navigation.parameters import ParameterError
@@ -18,7 +19,7 @@ from simplebot_navigation.parameters.ros2 import to_ros2_overrides
 from simplebot_navigation.launch.loader import LaunchConfig, LaunchError
 
 NODE = "move_base"
-LOCAL_PLANNER_KEY = "base_local_planner"
+LOCAL_PLANNER_KEY, CROWD_PLANNER_KEY = "base_local_planner", "crowd_local_planner"
 
 
 def apply_set(config: LaunchConfig, assignments: list[str]) -> None:
@@ -59,16 +60,18 @@ def speed_assignments(config: LaunchConfig, explicit: list[str]) -> tuple[list[s
     replaced = {a.partition("=")[0].strip(): a.partition("=")[2].strip() for a in explicit}
     selected = replaced.get(LOCAL_PLANNER_KEY)
     planner = selected if selected is not None else (tree.get(LOCAL_PLANNER_KEY) if isinstance(tree, dict) else None)
+    crowd = replaced.get(CROWD_PLANNER_KEY, tree.get(CROWD_PLANNER_KEY, MoveBaseConfig().crowd_local_planner)
+                         if isinstance(tree, dict) else None)
     try:
         derived = speed_parameters(speed, viapoints_on, *([str(planner)] if planner else []),
-                                   wheel_separation=_wheel_separation(config))
+                                   wheel_separation=_wheel_separation(config), crowd_planner=str(crowd or ""))
     except ValueError as err:       # ParameterError too: an unknown planner type
         raise LaunchError(str(err)) from None
     report = [f"max_speed {speed:g} m/s: " + ", ".join(f"{name}={_shown(v)}" for name, v in derived.items())]
     report += [f"--set {name}={replaced[name]} replaces max_speed's {_shown(derived[name])}"
                for name in derived if name in replaced]
     # a planner chosen by --set is chosen first, so that its derived parameters exist when they are set
-    chosen = [f"{LOCAL_PLANNER_KEY}={selected}"] if selected is not None else []
+    chosen = [f"{key}={replaced[key]}" for key in (LOCAL_PLANNER_KEY, CROWD_PLANNER_KEY) if key in replaced]
     return chosen + [f"{name}={v!r}" for name, v in derived.items()], report
 
 

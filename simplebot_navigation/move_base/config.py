@@ -11,6 +11,7 @@ from simplebot_navigation.parameters import ParameterError, build, param
 from simplebot_navigation.move_base.plugins import RECOVERY_BEHAVIORS
 from simplebot_navigation.move_base.recovery.clear_costmap import CLEAR_COSTMAP_RECOVERY
 from simplebot_navigation.move_base.recovery.rotate import ROTATE_RECOVERY
+from simplebot_navigation.mppi.plugin import MPPI_LOCAL_PLANNER
 from simplebot_navigation.planning.config import NAVFN
 from simplebot_navigation.teb.plugin import TEB_LOCAL_PLANNER
 
@@ -27,6 +28,17 @@ class MoveBaseConfig:
     # ROS 1's default, base_local_planner/TrajectoryPlannerROS, does not exist here: TEB is the default.
     base_local_planner: str = param(TEB_LOCAL_PLANNER, "", "local planner plugin",
                                     restart=True)
+    # ours, not ROS 1: who drives when (move_base/planner_switch.py)
+    crowd_local_planner: str = param(MPPI_LOCAL_PLANNER, "", "Here: the local planner that drives while moving "
+                                     "obstacles are near (empty, or base_local_planner's type: that one always)",
+                                     restart=True)
+    crowd_distance: float = param(1.5, "m", "Here: the crowd planner drives while a moving obstacle is, or at its "
+                                  "velocity within crowd_lookahead will be, this near the robot's body", ge=0,
+                                  le=20.0)
+    crowd_lookahead: float = param(3.0, "s", "Here: how far ahead moving obstacles' paths count for "
+                                   "crowd_distance", ge=0, le=20.0)
+    crowd_release_time: float = param(2.0, "s", "Here: the base planner drives again once no moving obstacle has "
+                                      "been near for this long", ge=0, le=60.0)
     planner_frequency: float = param(0.0, "Hz", "replanning rate while driving (0: only when needed)", ge=0,
                                      le=100.0)
     controller_frequency: float = param(20.0, "Hz", "control loop rate", ge=0.5, le=100.0)

@@ -17,7 +17,7 @@ EVENT_HISTORY = 32
 @dataclass(frozen=True)
 class NavigationEvent:
     stamp: float     # node clock, seconds
-    kind: str        # "goal", "plan", "recovery" or a goal outcome ("succeeded", "aborted", "preempted")
+    kind: str        # "goal", "plan", "recovery", "handover" or a goal outcome ("succeeded", "aborted", "preempted")
     detail: str = ""
 
 
@@ -30,6 +30,12 @@ class MoveBaseStats:
     recoveries_by_name: dict[str, int] = field(default_factory=dict)
     outcomes: dict[str, int] = field(default_factory=dict)
     recent: tuple[NavigationEvent, ...] = ()
+    handovers: dict[str, int] = field(default_factory=dict)   # local planner type -> times it took over
+
+    def handovers_since(self, before: MoveBaseStats) -> dict[str, int]:
+        """Local planner type -> how often it took over after ``before``."""
+        return {key: n - before.handovers.get(key, 0) for key, n in self.handovers.items()
+                if n > before.handovers.get(key, 0)}
 
     def last(self, kind: str) -> NavigationEvent | None:
         """The newest kept event of a kind."""
@@ -44,6 +50,7 @@ class MoveBaseEvents:
         self.replans = 0
         self.recoveries: Counter[str] = Counter()     # by behaviour name
         self.outcomes: Counter[str] = Counter()
+        self.handovers: Counter[str] = Counter()      # by the local planner that took over (planner_switch.py)
         self.recent: deque[NavigationEvent] = deque(maxlen=history)
 
     def goal(self, now: float, detail: str = "") -> None:
@@ -58,10 +65,14 @@ class MoveBaseEvents:
         self.recoveries[name] += 1
         self.recent.append(NavigationEvent(now, "recovery", detail or name))
 
+    def handover(self, now: float, planner: str, detail: str = "") -> None:
+        self.handovers[planner] += 1
+        self.recent.append(NavigationEvent(now, "handover", detail or planner))
+
     def outcome(self, now: float, outcome: str, detail: str = "") -> None:
         self.outcomes[outcome] += 1
         self.recent.append(NavigationEvent(now, outcome, detail))
 
     def snapshot(self) -> MoveBaseStats:
         return MoveBaseStats(self.goals, self.replans, sum(self.recoveries.values()), dict(self.recoveries),
-                             dict(self.outcomes), tuple(self.recent))
+                             dict(self.outcomes), tuple(self.recent), dict(self.handovers))

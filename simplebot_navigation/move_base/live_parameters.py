@@ -24,12 +24,12 @@ from simplebot_navigation.parameters import ParameterError, fields_of
 from simplebot_navigation.parameters.overrides import ParameterTable, lookup, set_in_tree
 from simplebot_navigation.move_base.config import MoveBaseConfig
 from simplebot_navigation.move_base.parameter_tree import (BEHAVIOR_SERVER, COSTMAPS, OBSTACLE_TRACKING, NodeConfigs,
-                                                           apply_move_base_overrides, build_configs,
+                                                           apply_move_base_overrides, build_configs, crowd_planner,
                                                            live_parameter_table)
 from simplebot_navigation.move_base.plugins import plugin_namespace
 
 #: the parts of a node a change can reach, besides each costmap (by name) and each recovery (by name)
-MOVE_BASE, GLOBAL_PLANNER, LOCAL_PLANNER = "move_base", "global_planner", "local_planner"
+MOVE_BASE, GLOBAL_PLANNER, LOCAL_PLANNER, CROWD_PLANNER = "move_base", "global_planner", "local_planner", "crowd_planner"
 
 
 @dataclass
@@ -139,6 +139,8 @@ class LiveParameters:
             return GLOBAL_PLANNER
         if first == plugin_namespace(cfg.base_local_planner):
             return LOCAL_PLANNER
+        if crowd_planner(cfg) and first == plugin_namespace(crowd_planner(cfg)):
+            return CROWD_PLANNER
         return MOVE_BASE
 
 

@@ -28,6 +28,18 @@ OBSTACLE_TRACKING = "obstacle_tracking"
 BEHAVIOR_SERVER = "behavior_server"
 
 
+def crowd_planner(cfg: MoveBaseConfig) -> str | None:
+    """The type of the planner that drives while moving obstacles are near, when it is not the base planner."""
+    crowd = cfg.crowd_local_planner
+    return crowd if crowd and crowd != cfg.base_local_planner else None
+
+
+def planner_types(cfg: MoveBaseConfig) -> list[tuple]:
+    """(registry, type) of every planner plugin the node builds: the global, the local and the crowd planner."""
+    types = [(GLOBAL_PLANNERS, cfg.base_global_planner), (LOCAL_PLANNERS, cfg.base_local_planner)]
+    return types + ([(LOCAL_PLANNERS, crowd_planner(cfg))] if crowd_planner(cfg) else [])
+
+
 def _prefixed(prefix: str, cls) -> ParameterTable:
     return {f"{prefix}{name}": spec for name, spec in fields_of(cls).items()}
 
@@ -38,7 +50,7 @@ def parameter_table(tree: dict) -> ParameterTable:
              **_prefixed(f"{OBSTACLE_TRACKING}.", TrackerParams),
              **_prefixed(f"{BEHAVIOR_SERVER}.", BehaviorServerParams)}
     cfg = MoveBaseConfig.from_params(tree)
-    for registry, plugin_type in ((GLOBAL_PLANNERS, cfg.base_global_planner), (LOCAL_PLANNERS, cfg.base_local_planner)):
+    for registry, plugin_type in planner_types(cfg):
         params = registry.spec(plugin_type).params
         if params is not None:
             table.update(_prefixed(f"{plugin_namespace(plugin_type)}.", params))
@@ -78,6 +90,7 @@ class NodeConfigs:
     costmaps: dict[str, CostmapConfig]
     global_planner: object | None          # its registration's config (None: a planner without parameters)
     local_planner: object | None
+    crowd_planner: object | None           # the crowd planner's config (None: none, or one without parameters)
     recoveries: dict[str, dict] = field(default_factory=dict)   # behaviour name -> its (checked) namespace
     warnings: list[str] = field(default_factory=list)
     obstacle_tracking: TrackerParams = field(default_factory=TrackerParams)
@@ -93,7 +106,7 @@ def build_configs(tree: dict) -> NodeConfigs:
         costmaps[name] = resolve_costmap_params(tree.get(name, {}), name, [("move_base", tree)])
         warnings += costmaps[name].warnings
     planners = []
-    for registry, plugin_type in ((GLOBAL_PLANNERS, cfg.base_global_planner), (LOCAL_PLANNERS, cfg.base_local_planner)):
+    for registry, plugin_type in planner_types(cfg):
         spec = registry.spec(plugin_type)
         planner, planner_warnings = (None, []) if spec.config is None else spec.config(
             tree.get(plugin_namespace(plugin_type)))
@@ -108,6 +121,7 @@ def build_configs(tree: dict) -> NodeConfigs:
         recoveries[behavior["name"]] = dict(given) if isinstance(given, dict) else {}
     tracking = TrackerParams.from_params(tree.get(OBSTACLE_TRACKING, {}), f"move_base/{OBSTACLE_TRACKING}")
     behavior_server = BehaviorServerParams.from_params(tree.get(BEHAVIOR_SERVER, {}), f"move_base/{BEHAVIOR_SERVER}")
+    planners += [None] * (3 - len(planners))
     return NodeConfigs(cfg, costmaps, *planners, recoveries, warnings + tracking.warnings + behavior_server.warnings,
                        tracking, behavior_server)
 

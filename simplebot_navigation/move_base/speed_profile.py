@@ -39,6 +39,12 @@ def stopping_distance(speed: float, decel: float) -> float:
     return speed * REACTION_S + speed * speed / (2.0 * decel) + STOP_MARGIN_M
 
 
+def _hooked(planner: str, speed: float, wheel_separation: float | None) -> dict[str, float | int]:
+    """A local planner's own speed parameters, from its registration's hook (none without one)."""
+    hook = LOCAL_PLANNERS.spec(planner).speed_parameters
+    return hook(speed, wheel_separation) if hook is not None else {}
+
+
 def check_speed(speed: float) -> str | None:
     if isinstance(speed, bool) or not isinstance(speed, (int, float)) or not math.isfinite(speed) \
             or not MIN_SPEED <= speed <= MAX_SPEED:
@@ -47,12 +53,13 @@ def check_speed(speed: float) -> str | None:
 
 
 def speed_parameters(speed: float, viapoints_on: bool, local_planner: str = TEB_LOCAL_PLANNER,
-                     wheel_separation: float | None = None) -> dict[str, float | int]:
+                     wheel_separation: float | None = None, crowd_planner: str | None = None) -> dict[str, float | int]:
     """move_base's parameters (ROS 2 names, as ``--set`` takes them) for a top speed of ``speed`` m/s.
     ``viapoints_on``: the parameter files use TEB's via-points (global_plan_viapoint_sep > 0), whose spacing then
     follows the speed too. TEB's own are derived below; another ``local_planner``'s come from its registration's
     ``speed_parameters`` (none if it has none), which also get the robot's ``wheel_separation`` (m; None: not
-    known). ValueError for a speed outside [MIN_SPEED, MAX_SPEED], ParameterError for an unknown planner."""
+    known), and so do the crowd planner's (``crowd_planner``, the one that drives among moving obstacles; None: none).
+    ValueError for a speed outside [MIN_SPEED, MAX_SPEED], ParameterError for an unknown planner."""
     problem = check_speed(speed)
     if problem is not None:
         raise ValueError(problem)
@@ -77,9 +84,11 @@ def speed_parameters(speed: float, viapoints_on: bool, local_planner: str = TEB_
     if viapoints_on:
         teb["global_plan_viapoint_sep"] = round(max(0.1, speed * dt_ref), 3)
     if local_planner != TEB_LOCAL_PLANNER:
-        hook = LOCAL_PLANNERS.spec(local_planner).speed_parameters
-        teb = hook(speed, wheel_separation) if hook is not None else {}
+        teb = _hooked(local_planner, speed, wheel_separation)
     out: dict[str, float | int] = {f"{plugin_namespace(local_planner)}.{key}": value for key, value in teb.items()}
+    if crowd_planner and crowd_planner != local_planner:
+        out.update({f"{plugin_namespace(crowd_planner)}.{key}": value
+                    for key, value in _hooked(crowd_planner, speed, wheel_separation).items()})
     out["local_costmap.width"] = out["local_costmap.height"] = window
     for laser in ("front_laser", "back_laser"):
         out[f"local_costmap.obstacles.{laser}.obstacle_range"] = sight

@@ -44,7 +44,7 @@ class Sampling:
 @dataclass(slots=True)
 class Limits:
     """The motion model: velocity and acceleration limits, and the drive's wheel limit."""
-    vx_max: float = param(0.5, "m/s", "maximum forward speed", gt=0, le=MAX_DRIVE_SPEED)
+    vx_max: float = param(0.4, "m/s", "maximum forward speed (the lab's TEB max_vel_x)", gt=0, le=MAX_DRIVE_SPEED)
     vx_min: float = param(-0.35, "m/s", "maximum reverse speed, negative (0: never reverse)", ge=-MAX_DRIVE_SPEED,
                           le=0)
     wz_max: float = param(4.0, "rad/s", "maximum turn rate (the wheel limit lowers it at speed)", gt=0,

@@ -62,6 +62,8 @@ class GoalResult:
     struck_standing: int = 0     # a moving obstacle ran into the standing robot: reported, not a failure
     localization: LocalizationError | None = None   # on a map: amcl's pose against ground truth during the goal
     reference_length: float = math.nan   # the shortest C-space path from the start to the goal (m)
+    #: local planner type -> times it took over during the goal (docs/design.md §7.1; None: another process)
+    handovers: dict[str, int] | None = None
 
     @property
     def time_ratio(self) -> float:
@@ -316,7 +318,8 @@ def run_goal(session: NavigationSession | RemoteSession, goal: Pose2D, budget_s:
         wall_s=time.monotonic() - wall_start, max_vel_x=session.controller_param("max_vel_x", 0.4),
         trajectory=_thinned(truth), struck_standing=struck_standing,
         localization=localization_error(session.client.localized, truth) if session.map_name else None,
-        reference_length=reference_length(session.world, start, goal))
+        reference_length=reference_length(session.world, start, goal),
+        handovers=stats.navigation.handovers_since(stats0.navigation) if stats else None)
 
 
 def _pose_failures(position_error, yaw_error, success_radius, xy_tol, yaw_tol) -> list[str]:

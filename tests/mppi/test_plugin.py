@@ -22,12 +22,12 @@ SELECT = f"base_local_planner={MPPI_LOCAL_PLANNER}"
 REPO = Path(__file__).resolve().parents[2]
 
 
-def test_its_namespace_is_in_the_parameter_tree_only_when_selected():
+def test_its_namespace_is_in_the_parameter_tree_when_it_drives_at_all():
     assert MPPI_LOCAL_PLANNER in LOCAL_PLANNERS.types
-    selected = parameter_table({"base_local_planner": MPPI_LOCAL_PLANNER})
-    assert {"MPPILocalPlannerROS.batch_size", "MPPILocalPlannerROS.vx_max",
-            "MPPILocalPlannerROS.ax_min"} <= set(selected)
-    assert not any(name.startswith("MPPILocalPlannerROS.") for name in parameter_table({}))
+    for tree in ({"base_local_planner": MPPI_LOCAL_PLANNER}, {}):      # selected, or the crowd planner (default)
+        assert {"MPPILocalPlannerROS.batch_size", "MPPILocalPlannerROS.vx_max",
+                "MPPILocalPlannerROS.ax_min"} <= set(parameter_table(tree))
+    assert not any(name.startswith("MPPILocalPlannerROS.") for name in parameter_table({"crowd_local_planner": ""}))
 
 
 def test_max_speed_sets_its_limits_and_leaves_teb_alone():
@@ -68,7 +68,7 @@ def test_move_base_loads_it_by_type_name_and_drives_a_goal():
         session.wait_ready(wall_timeout_s=120.0)
         move_base = session.move_base
         assert isinstance(move_base.controller, MPPILocalPlannerROS)
-        assert move_base.get_parameter("MPPILocalPlannerROS.vx_max").value == 0.5
+        assert move_base.get_parameter("MPPILocalPlannerROS.vx_max").value == 0.4
         start = session.pose()
         goal = Pose2D(start.x + 2.0, start.y + 1.0, math.pi / 2, "ahead")
         run = session.send_goal(goal)

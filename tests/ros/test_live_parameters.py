@@ -306,6 +306,8 @@ def _running_value(node, name: str):
         return getattr(node.cfg, first)
     if first == "TebLocalPlannerROS":
         return value_of(node.controller.planner.cfg, rest[0])
+    if first == "MPPILocalPlannerROS":            # the crowd planner (docs/design.md §7.1)
+        return value_of(node.crowd_controller.planner.cfg, rest[0])
     if first == "GlobalPlanner":
         return getattr(node.planner.planner.config, rest[0])
     if first == "obstacle_tracking":

@@ -25,7 +25,8 @@ from simplebot_navigation.move_base.behaviors import BehaviorServerParams
 from simplebot_navigation.move_base.config import MoveBaseConfig
 from simplebot_navigation.move_base.cycle_stats import ControlLoopStats
 from simplebot_navigation.move_base.events import MoveBaseEvents
-from simplebot_navigation.move_base.parameter_tree import BEHAVIOR_SERVER
+from simplebot_navigation.move_base.parameter_tree import BEHAVIOR_SERVER, crowd_planner
+from simplebot_navigation.move_base.planner_switch import LocalPlannerSwitch, feed_near
 from simplebot_navigation.move_base.plugins import GLOBAL_PLANNERS, LOCAL_PLANNERS, RECOVERY_BEHAVIORS, plugin_namespace
 from simplebot_navigation.move_base.recovery import PoseTrail
 from simplebot_navigation.move_base.state_machine import MoveBaseCore
@@ -92,9 +93,16 @@ class MoveBaseNode(Node):
         self.obstacle_feed.add(self.external_obstacles)
         self.planner = GLOBAL_PLANNERS.spec(self.cfg.base_global_planner).load()(
             self, self.cfg.base_global_planner, self.global_costmap)
-        self.controller = LOCAL_PLANNERS.spec(self.cfg.base_local_planner).load()(
-            self, self.cfg.base_local_planner, self.local_costmap, self.tf, self.cfg.controller_frequency,
-            self.global_costmap.global_frame, self.obstacle_feed)
+        self.controller, self.crowd_controller = (None if plugin_type is None else LOCAL_PLANNERS.spec(
+            plugin_type).load()(self, plugin_type, self.local_costmap, self.tf, self.cfg.controller_frequency,
+                                self.global_costmap.global_frame, self.obstacle_feed)
+            for plugin_type in (self.cfg.base_local_planner, crowd_planner(self.cfg)))
+        # who drives when: the base planner, or the crowd planner while moving obstacles are near
+        near = feed_near(self.obstacle_feed, self.local_costmap.global_frame, lambda: self.local_costmap.footprint,
+                         self.cfg, self.now_s)
+        self.local_planners = LocalPlannerSwitch(self.controller, self.crowd_controller, near, self.cfg, self.now_s,
+                                                 self._handed_over,
+                                                 (self.cfg.base_local_planner, self.cfg.crowd_local_planner))
 
         # The robot's pose, read once per control cycle, for everything that cycle runs.
         self.poses = CyclePoses(self.global_costmap, self.local_costmap)
@@ -102,7 +110,7 @@ class MoveBaseNode(Node):
         self.recovery_context = MoveBaseRecoveryContext(self.poses, self.trail, given_parameter_tree(self),
                                                         self.cfg.conservative_reset_dist)
         self.recovery_instances: dict = {}
-        self.core = MoveBaseCore(self.cfg, self._build_recoveries(), self._plan, self.controller,
+        self.core = MoveBaseCore(self.cfg, self._build_recoveries(), self._plan, self.local_planners,
                                  self.planner.blocked_poses, self.trail)
         self.cmd_vel_pub = create_publisher(self, Twist, "cmd_vel", 1)
         current_goal_pub = create_publisher(self, PoseStamped, "~/current_goal", 1)
@@ -112,7 +120,8 @@ class MoveBaseNode(Node):
         self._serve_front_doors(log)
         self._start_loops(log)
         self._take_live_parameters(log)
-        log.info(f"move_base ready: {self.cfg.base_global_planner} + {self.cfg.base_local_planner}, "
+        crowd = f" (among moving obstacles {self.cfg.crowd_local_planner})" if self.crowd_controller else ""
+        log.info(f"move_base ready: {self.cfg.base_global_planner} + {self.cfg.base_local_planner}{crowd}, "
                  f"controller {self.cfg.controller_frequency:g} Hz, {len(self.core.recoveries)} recovery behaviours "
                  f"(start-up {time.perf_counter() - started:.1f} s)")
 
@@ -154,7 +163,7 @@ class MoveBaseNode(Node):
         """Last: every part has declared its parameters."""
         self.live_parameters = MoveBaseLiveParameters(
             given_parameter_tree(self), log, cfg=self.cfg, global_costmap=self.global_costmap,
-            local_costmap=self.local_costmap, planner=self.planner, controller=self.controller,
+            local_costmap=self.local_costmap, planner=self.planner, controller=self.local_planners,
             recoveries=self.recovery_instances, tracking=self.obstacle_tracking, external=self.external_obstacles,
             set_controller_frequency=self.set_controller_frequency, set_behavior_server=self._set_behavior_server)
         describe_declared(self, self.live_parameters.table)
@@ -226,7 +235,11 @@ class MoveBaseNode(Node):
         for costmap in (self.global_costmap, self.local_costmap):
             costmap.forget_history()
         self.obstacle_tracking.reset()
-        self.controller.reset()
+        self.local_planners.reset()
+
+    def _handed_over(self, planner: str, why: str) -> None:
+        self.get_logger().info(f"local planner: {planner} drives ({why})")
+        self.core.events.handover(self.now_s(), planner, why)
 
     # -- planning ---------------------------------------------------------------------------------
     def _plan(self, start, goal_xyyaw):
@@ -271,7 +284,7 @@ class MoveBaseNode(Node):
         if goal.behavior is not None:
             self._behavior_cycle(goal, pose)
             return
-        self.controller.begin_cycle(self.poses.in_local)
+        self.local_planners.begin_cycle(self.poses.in_local)
         if goal.advance is not None:
             target = goal.advance(pose)
             if target is not None:
@@ -348,7 +361,7 @@ class MoveBaseNode(Node):
         self._control_timer.timer_period_ns = round(self.period * 1e9)
         self._control_timer.reset()          # the next cycle one new period from now
         self.cycle_stats.set_period(self.period)
-        self.controller.set_controller_frequency(hz)
+        self.local_planners.set_controller_frequency(hz)
 
     def _publish_cmd(self, v: float, omega: float) -> None:
         twist = Twist()

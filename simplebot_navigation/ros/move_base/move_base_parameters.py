@@ -17,7 +17,7 @@ import threading
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.parameter import Parameter
 
-from simplebot_navigation.move_base.live_parameters import (GLOBAL_PLANNER, LOCAL_PLANNER, MOVE_BASE,
+from simplebot_navigation.move_base.live_parameters import (CROWD_PLANNER, GLOBAL_PLANNER, LOCAL_PLANNER, MOVE_BASE,
                                                             LiveParameters, update_move_base_config)
 from simplebot_navigation.move_base.parameter_tree import BEHAVIOR_SERVER, OBSTACLE_TRACKING
 from simplebot_navigation.parameters import ParameterError
@@ -135,6 +135,8 @@ class MoveBaseLiveParameters:
             self.planner.reconfigure(configs.global_planner)
         if LOCAL_PLANNER in parts:
             self.controller.reconfigure(configs.local_planner)
+        if CROWD_PLANNER in parts:
+            self.controller.reconfigure_crowd(configs.crowd_planner)
         if OBSTACLE_TRACKING in parts:
             self.tracking.reconfigure(configs.obstacle_tracking)
             self.external.timeout = configs.obstacle_tracking.external_timeout
