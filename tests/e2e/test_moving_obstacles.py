@@ -1,6 +1,7 @@
-"""Moving obstacles end to end, in lockstep: a crowd world of each level and people walking in the lab's corridor.
+"""Moving obstacles end to end, in lockstep: a crowd world of each level and people walking in the lab's corridor, at
+both speed settings, with the defaults: TEB drives, MPPI while moving obstacles are near (docs/design.md §7.1).
 
-The round body r = 0.25 m at 1 m/s (max_speed) with the narrow-passage set and prediction on (the crowd
+The round body r = 0.25 m at 1 and 2 m/s (max_speed) with the narrow-passage set and prediction on (the crowd
 campaign's set, CROWD below), on worlds it crosses in the benchmark campaigns (BENCHMARKS.md). While the robot drives, the
 local costmap is checked every half second for stale marks: a lethal cell that neither a wall nor a moving
 obstacle's place during the last second explains.
@@ -12,6 +13,7 @@ import numpy as np
 import pytest
 
 from simplebot_navigation.costmap.cost_values import LETHAL_OBSTACLE
+from simplebot_navigation.mppi.plugin import MPPI_LOCAL_PLANNER
 from simplebot_navigation.scenarios import NavigationSession, run_goal
 from simplebot_navigation.scenarios.runner import time_budget
 from simplebot_navigation.sim.moving import MovingTracks
@@ -74,10 +76,10 @@ class StaleMarks:
         return int(unexplained.sum())
 
 
-def drive(world, overrides):
-    """The round body at 1 m/s (max_speed) with the narrow-passage set, as in the campaigns."""
+def drive(world, overrides, speed=1.0):
+    """The round body at ``speed`` (max_speed) with the narrow-passage set, as in the campaigns."""
     with NavigationSession(world, robot="round", radius=0.25, tight=True, overrides=overrides,
-                           max_speed=1.0) as session:
+                           max_speed=speed) as session:
         session.wait_ready(wall_timeout_s=120)
         goal = session.world.goal("goal")
         stale = StaleMarks(session)
@@ -102,10 +104,17 @@ def assert_crossed(world, result, stale, when):
     assert stale == 0, f"{stale} lethal cells at t = {when:.1f} s that no wall or recent obstacle explains"
 
 
-@pytest.mark.parametrize("world", ["crowd:0", "crowd:13", "crowd:11"], ids=["easy", "medium", "hard"])
-def test_the_round_robot_crosses_a_crowd(world):
-    assert_crossed(world, *drive(world, CROWD))
+CROSSED = [(1.0, "crowd:0", "easy"), (1.0, "crowd:13", "medium"), (1.0, "crowd:26", "hard"),
+           (2.0, "crowd:0", "easy"), (2.0, "crowd:4", "medium"), (2.0, "crowd:26", "hard")]
 
 
-def test_people_walk_past_in_the_lab():
-    assert_crossed("people:2", *drive("people:2", ()))
+@pytest.mark.parametrize("speed, world, level", CROSSED, ids=[f"{level}@{speed:g}" for speed, _, level in CROSSED])
+def test_the_round_robot_crosses_a_crowd(speed, world, level):
+    result, *stale = drive(world, CROWD, speed)
+    assert_crossed(world, result, *stale)
+    assert result.handovers.get(MPPI_LOCAL_PLANNER), f"the crowd planner never drove: {result.handovers}"
+
+
+@pytest.mark.parametrize("speed", [1.0, 2.0], ids=["1", "2"])
+def test_people_walk_past_in_the_lab(speed):
+    assert_crossed("people:3", *drive("people:3", (), speed))

@@ -71,14 +71,15 @@ def test_lab_three_rooms_through_their_doors(lab):
 def test_goal_inside_an_obstacle_is_refused_and_the_next_goal_works(lab):
     table = Pose2D(0.0, 5.5, 0.0, "inside the meeting table")
     # Grazing rays keep erasing the table's edges from the 0.2 m global costmap, so plans keep
-    # running into it: the progress timeout and four recoveries end the goal. 10 s instead of 30 s
-    # (a live change) saves two simulated minutes of the same story.
+    # running into it: the progress timeout and the four recoveries end the goal (more than four when the
+    # robot gets closer between them: progress starts the sequence again, as in move_base). 10 s instead
+    # of 30 s (a live change) saves two simulated minutes of the same story.
     assert lab.move_base.set_parameters([Parameter("progress_timeout", value=10.0)])[0].successful
     run = lab.send_goal(table)
     lab.run_until(lab.time + 300.0, lambda: run.done, wall_timeout_s=WALL_GUARD_S)
     assert run.status in ("ABORTED", "REJECTED"), f"after 300 s sim: {run.status}, {lab.move_base.state}"
     assert run.reason, "no reason in /move_base/status"
-    assert lab.move_base.recoveries == 4
+    assert lab.move_base.recoveries >= 4
     assert lab.client.collisions == 0
     corridor = Pose2D(-2.0, 0.0, math.pi, "corridor")
     result = run_goal(lab, corridor, 60.0, wall_timeout_s=WALL_GUARD_S)
