@@ -90,18 +90,20 @@ class CommandObserver:
 @pytest.mark.timeout(240)
 def test_move_base_stops_the_robot_while_its_executor_is_blocked_on_a_loaded_machine():
     """Nothing of move_base's executor runs (a callback that takes seconds), and two busy loops load the
-    machine: the watchdog's own thread still sends zero velocity within half a second."""
-    busy = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(2)]
+    machine: the watchdog's own thread still sends zero velocity within half a second. The load starts once the
+    robot drives: a real-time session on a starved core may not reach that at all, and the claim is about the
+    watchdog, not about the stack's speed under load."""
+    busy: list[subprocess.Popen] = []
     try:
         with NavigationSession("lab", rtf=1.0) as session:
             observer = CommandObserver(session.context)
             try:
                 session.wait_ready(wall_timeout_s=120.0)
                 session.send_goal(Pose2D(4.0, 0.0, 0.0, "corridor"))
-                # Under this load the simulator may fall behind the wall clock at first (transform timeouts): wait
-                # for the robot to drive rather than for a fixed time.
                 session.run_for(30.0, lambda: driving(observer.commands), wall_timeout_s=90.0)
                 assert driving(observer.commands), "the robot should be driving"
+                busy = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(2)]
+                session.run_for(1.0, wall_timeout_s=10.0)    # the loops are running when the executor blocks
                 blocked = time.monotonic()
                 time.sleep(1.5)   # the test's thread is the session's executor: every callback waits
                 stops = [t - blocked for t, v, w in observer.commands if t > blocked and v == 0.0 and w == 0.0]

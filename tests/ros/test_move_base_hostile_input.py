@@ -84,7 +84,11 @@ def test_obstacle_messages_beyond_the_caps_are_refused_and_the_robot_still_drive
     assert run.status == "SUCCEEDED", run.reason
     window = session.move_base.cycle_stats.snapshot().since(cycles_before)
     expected = (run.finished_at - before) * session.move_base.cfg.controller_frequency
-    assert window.cycles >= 0.8 * expected and window.missed == 0
+    assert window.cycles >= 0.8 * expected
+    # Refusing the message every 0.2 s costs the loop nothing: a message that froze it would make every fourth
+    # cycle late and the median slow. One late cycle is the loaded machine's (a CI run saw 1 of 114, 0.107 s).
+    assert window.missed <= 0.05 * window.cycles, window
+    assert window.percentile_s(50) < 1.0 / session.move_base.cfg.controller_frequency, window
 
 
 def test_fifty_cancels_at_once_on_navigate_to_pose_are_all_answered(session):
