@@ -96,10 +96,11 @@ def rclpy_differences() -> tuple[str, ...]:
     return tuple(found)
 
 
-class _Entities:
-    """What the executor waits on, gathered once per change of the nodes' entities."""
+class WaitSetEntities:
+    """What an executor waits on, gathered once per change of the nodes' entities, with one wait set sized for
+    all of them (also the lockstep driver's, ros/simulator/lockstep.py)."""
 
-    def __init__(self, executor: "LeanExecutor"):
+    def __init__(self, executor: Executor):
         nodes = executor.get_nodes()
         self.subscriptions = [(s.handle, s, n) for n in nodes for s in n.subscriptions]
         self.timers = [(t.handle, t, n) for n in nodes for t in n.timers]
@@ -150,7 +151,7 @@ class LeanExecutor(SingleThreadedExecutor):
 
     def __init__(self, *, context=None):
         super().__init__(context=context)
-        self._entities: _Entities | None = None
+        self._entities: WaitSetEntities | None = None
 
     def wake(self) -> None:
         self._entities = None
@@ -169,7 +170,7 @@ class LeanExecutor(SingleThreadedExecutor):
             return
         self._run_tasks()
         if self._entities is None:
-            self._entities = _Entities(self)
+            self._entities = WaitSetEntities(self)
         entities = self._entities
         entities.fill()
         if isinstance(timeout_sec, rclpy.executors.TimeoutObject):

@@ -1,6 +1,6 @@
 """Lockstep: the simulator advances only while every other node of the process is idle (docs/design.md §3).
 
-One SingleThreadedExecutor holds the simulator (``real_time_factor: 0``) and the nodes it drives.
+One single-threaded executor holds the simulator (``real_time_factor: 0``) and the nodes it drives.
 Each round advances the physics to the next event and then runs callbacks until the graph is idle.
 An event is a step at which the simulator publishes more than /clock (odometry, TF, scans) or at
 which a sim-time timer of some node falls due; the steps in between would only update the nodes'
@@ -16,19 +16,30 @@ progress, and a pass with nothing else ends the round.
 
 The executor visits nodes in the order they were added (rclpy keeps them in a set, whose order
 changes from run to run), so with the same seed a run repeats callback for callback.
+
+Each pass is rclpy's own (``Executor._wait_for_ready_callbacks``: the pending tasks, one zero-timeout wait
+on every entity that can execute, then the ready callbacks node by node in the same order), except that the
+wait set is built once and kept until a node adds or removes an entity, and plain subscription and timer
+callbacks run directly instead of in a coroutine Task, as ``ros/executor.py``'s lean executor does both.
+The wait-set builds were about half of a lockstep run's time. Where the installed rclpy differs from what
+that relies on (``rclpy_differences``), rclpy's own pass runs.
 """
 
 from __future__ import annotations
 
+import functools
+import inspect
 import math
 import time
 from collections import Counter
 from typing import Callable, Iterable, Iterator
 
 from rclpy.clock import ClockType
-from rclpy.executors import SingleThreadedExecutor, TimeoutException
+from rclpy.executors import ExternalShutdownException, ShutdownException, SingleThreadedExecutor, TimeoutException
 from rclpy.node import Node
+from rclpy.task import Task
 
+from simplebot_navigation.ros.executor import LeanExecutor, WaitSetEntities, rclpy_differences
 from simplebot_navigation.ros.simulator.simulator_node import SimulatorNode
 
 MAX_CALLBACKS_PER_ROUND = 20000
@@ -41,8 +52,13 @@ class LockstepError(TimeoutError):
     The message says at which sim time and, for a busy graph, which callbacks kept it busy."""
 
 
-class _OrderedExecutor(SingleThreadedExecutor):
-    """A SingleThreadedExecutor that visits its nodes in the order they were added."""
+class _OrderedExecutor(LeanExecutor):
+    """An executor that visits its nodes in the order they were added, for the driver's passes (it never spins).
+    The lean executor's wait set, kept until an entity is added or removed, and its direct callbacks serve
+    ``ready_callbacks``; where rclpy differs from what they rely on, the driver uses rclpy's own pass."""
+
+    def __new__(cls, *, context=None):
+        return SingleThreadedExecutor.__new__(cls)
 
     def __init__(self, *, context=None):
         super().__init__(context=context)
@@ -62,6 +78,94 @@ class _OrderedExecutor(SingleThreadedExecutor):
     def get_nodes(self) -> list[Node]:
         with self._nodes_lock:
             return [node for node in self._order if node in self._nodes]
+
+    def _wait_once(self) -> tuple[dict, set]:
+        """The kept wait set filled with every entity that can execute, one zero-timeout wait: the ready
+        entities' pointers by kind, and the waitables it waited on."""
+        if self._entities is None:
+            self._entities = WaitSetEntities(self)
+        ws = self._entities.wait_set
+        ws.clear_entities()
+        can_execute = self.can_execute
+        for handle, entity, _ in self._entities.subscriptions:
+            if can_execute(entity):
+                ws.add_subscription(handle)
+        for handle, entity, _ in self._entities.clients:
+            if can_execute(entity):
+                ws.add_client(handle)
+        for handle, entity, _ in self._entities.services:
+            if can_execute(entity):
+                ws.add_service(handle)
+        for handle, entity, _ in self._entities.timers:
+            if can_execute(entity):
+                ws.add_timer(handle)
+        guards = []
+        for handle, guard, _ in self._entities.guards:
+            if guard is None or can_execute(guard):
+                if guard is not None:
+                    if guard._executor_triggered:     # triggered but not handled: trigger again, as rclpy does
+                        guard.trigger()
+                    guards.append(guard)
+                ws.add_guard_condition(handle)
+        waitables = {waitable for waitable, _ in self._entities.waitables if can_execute(waitable)}
+        for waitable, _ in self._entities.waitables:
+            if waitable in waitables:
+                waitable.add_to_wait_set(ws)
+        ws.wait(0)
+        if self._is_shutdown:
+            raise ShutdownException()
+        if not self._context.ok():
+            raise ExternalShutdownException()
+        ready = {kind: set(ws.get_ready_entities(kind))
+                 for kind in ("subscription", "guard_condition", "timer", "client", "service")}
+        for guard in guards:
+            if guard.handle.pointer in ready["guard_condition"]:
+                guard._executor_triggered = True
+        return ready, waitables
+
+    def ready_callbacks(self) -> Iterator[tuple]:
+        """One pass as rclpy's ``_wait_for_ready_callbacks(timeout_sec=0)`` makes it, on a kept wait set: the
+        pending tasks, then whatever one zero-timeout wait found ready, as (handler, entity, node); a handler is
+        a Task, or for a plain subscription or timer callback a function that runs it."""
+        nodes = self.get_nodes()
+        with self._tasks_lock:
+            tasks = list(self._tasks)
+        for task, entity, node in reversed(tasks):
+            if not task.executing() and not task.done() and (node is None or node in nodes):
+                yield task, entity, node
+        with self._tasks_lock:
+            self._tasks = [t for t in self._tasks if not t[0].done() and not t[0].cancelled()]
+        ready, waitables = self._wait_once()
+        ws = self._entities.wait_set            # kept: a callback below may add an entity and drop the cache
+        subscriptions_ready, timers_ready = ready["subscription"], ready["timer"]
+        clients_ready, services_ready = ready["client"], ready["service"]
+        for node in nodes:
+            for waitable in node.waitables:
+                if waitable in waitables and waitable.is_ready(ws) and waitable.callback_group.can_execute(waitable):
+                    yield self._make_handler(waitable, node, self._take_waitable), waitable, node
+        for node in nodes:
+            for timer in node.timers:
+                if (timer.handle.pointer in timers_ready and timer.handle.is_timer_ready()
+                        and timer.callback_group.can_execute(timer)):
+                    if inspect.iscoroutinefunction(timer.callback):
+                        yield self._make_handler(timer, node, self._take_timer), timer, node
+                    else:
+                        yield functools.partial(self._run_timer, timer, node), timer, node
+            for sub in node.subscriptions:
+                if sub.handle.pointer in subscriptions_ready and sub.callback_group.can_execute(sub):
+                    if inspect.iscoroutinefunction(sub.callback):
+                        yield self._make_handler(sub, node, self._take_subscription), sub, node
+                    else:
+                        yield functools.partial(self._run_subscription, sub, node), sub, node
+            for guard in node.guards:
+                if guard._executor_triggered and guard.callback_group.can_execute(guard):
+                    yield self._make_handler(guard, node, self._take_guard_condition), guard, node
+            for client in node.clients:
+                if client.handle.pointer in clients_ready and client.callback_group.can_execute(client):
+                    yield self._make_handler(client, node, self._take_client), client, node
+            for service in node.services:
+                if service.handle.pointer in services_ready and service.callback_group.can_execute(service):
+                    yield self._make_handler(service, node, self._take_service), service, node
 
 
 class LockstepDriver:
@@ -190,17 +294,18 @@ class LockstepDriver:
             progressed = False
             for handler, entity, node in self._one_pass():
                 before = self._pending.get(handler, _NEW)
-                handler()
-                if handler.exception() is not None:
-                    raise handler.exception()
+                handler()           # a plain callback run directly raises here
                 ran += 1
-                if handler.done():
-                    self._pending.pop(handler, None)
-                else:
-                    where = _suspended_at(handler)
-                    self._pending[handler] = where
-                    if where == before:
-                        continue  # resumed, still waiting at the same await
+                if isinstance(handler, Task):
+                    if handler.exception() is not None:
+                        raise handler.exception()
+                    if handler.done():
+                        self._pending.pop(handler, None)
+                    else:
+                        where = _suspended_at(handler)
+                        self._pending[handler] = where
+                        if where == before:
+                            continue  # resumed, still waiting at the same await
                 progressed = True
                 busy[_describe(entity, node)] += 1
                 if ran > self.max_callbacks_per_round:
@@ -213,6 +318,9 @@ class LockstepDriver:
 
     def _one_pass(self) -> Iterator[tuple]:
         """Everything ready at one zero-timeout wait (plus the pending tasks rclpy resumes first)."""
+        if not rclpy_differences():
+            yield from self.executor.ready_callbacks()
+            return
         while True:
             try:
                 yield self.executor.wait_for_ready_callbacks(timeout_sec=0.0)
