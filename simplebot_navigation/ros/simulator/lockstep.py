@@ -87,18 +87,12 @@ class _OrderedExecutor(LeanExecutor):
         ws = self._entities.wait_set
         ws.clear_entities()
         can_execute = self.can_execute
-        for handle, entity, _ in self._entities.subscriptions:
-            if can_execute(entity):
-                ws.add_subscription(handle)
-        for handle, entity, _ in self._entities.clients:
-            if can_execute(entity):
-                ws.add_client(handle)
-        for handle, entity, _ in self._entities.services:
-            if can_execute(entity):
-                ws.add_service(handle)
-        for handle, entity, _ in self._entities.timers:
-            if can_execute(entity):
-                ws.add_timer(handle)
+        kept = self._entities
+        for entities, add in ((kept.subscriptions, ws.add_subscription), (kept.clients, ws.add_client),
+                              (kept.services, ws.add_service), (kept.timers, ws.add_timer)):
+            for handle, entity, _ in entities:
+                if can_execute(entity):
+                    add(handle)
         guards = []
         for handle, guard, _ in self._entities.guards:
             if guard is None or can_execute(guard):
